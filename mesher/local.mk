@@ -1,0 +1,20 @@
+# mesher/: libpdrmesh (geometry, meshes, refinement; a convenience library)
+# and the pdr program.
+noinst_LTLIBRARIES += libpdrmesh.la
+noinst_HEADERS += \
+	mesher/pdr_error.h \
+	mesher/pdr_cli.h
+
+libpdrmesh_la_SOURCES = \
+	mesher/pdr_error.c
+libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
+libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
+
+bin_PROGRAMS += pdr
+pdr_SOURCES = \
+	mesher/pdr.c \
+	mesher/cmd_info.c
+pdr_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
+pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
+	$(EVENT_LIBS) -lm
+pdr_LDFLAGS = $(AM_LDFLAGS) -static

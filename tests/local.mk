@@ -1,0 +1,20 @@
+# tests/: shared test infrastructure. Each library's tests are in
+# tests/runtime.mk, tests/proto.mk and tests/mesher.mk.
+noinst_HEADERS += tests/unit.h
+UNIT_CFLAGS = $(AM_CFLAGS) $(CHECK_CFLAGS)
+UNIT_LIBS = $(CHECK_LIBS)
+
+TESTS += tests/pdr-cli.sh
+dist_check_SCRIPTS += tests/pdr-cli.sh
+
+# 'make installcheck' (run by distcheck) compiles and runs a program against
+# the installed libam using nothing but pkg-config.
+EXTRA_DIST += tests/installcheck.c
+installcheck-local:
+	PKG_CONFIG_PATH='$(DESTDIR)$(pkgconfigdir)'$${PKG_CONFIG_PATH:+:$$PKG_CONFIG_PATH}; \
+	export PKG_CONFIG_PATH; \
+	flags=`$(PKG_CONFIG) --cflags --libs libam` || exit 1; \
+	echo "pkg-config --cflags --libs libam: $$flags"; \
+	$(CC) -o am-installcheck$(EXEEXT) $(srcdir)/tests/installcheck.c $$flags \
+		-Wl,-rpath,'$(DESTDIR)$(libdir)' && ./am-installcheck$(EXEEXT); \
+	rc=$$?; rm -f am-installcheck$(EXEEXT); exit $$rc

@@ -1,0 +1,6 @@
+# Tests of libpdrmesh and the pdr program.
+check_PROGRAMS += tests/test_pdr_error
+TESTS += tests/test_pdr_error
+tests_test_pdr_error_SOURCES = tests/test_pdr_error.c
+tests_test_pdr_error_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pdr_error_LDADD = libpdrmesh.la $(UNIT_LIBS)

@@ -1,0 +1,2 @@
+# tools/: set-up script, launch helpers, domain generators, benchmarks.
+dist_noinst_SCRIPTS += tools/bootstrap
