@@ -3,10 +3,16 @@
 noinst_LTLIBRARIES += libpdrmesh.la
 noinst_HEADERS += \
 	mesher/pdr_error.h \
-	mesher/pdr_cli.h
+	mesher/pdr_cli.h \
+	mesher/pdr_util.h \
+	mesher/textin.h \
+	mesher/outfile.h
 
 libpdrmesh_la_SOURCES = \
-	mesher/pdr_error.c
+	mesher/pdr_error.c \
+	mesher/pdr_util.c \
+	mesher/textin.c \
+	mesher/outfile.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 

@@ -4,3 +4,9 @@ TESTS += tests/test_pdr_error
 tests_test_pdr_error_SOURCES = tests/test_pdr_error.c
 tests_test_pdr_error_CFLAGS = $(UNIT_CFLAGS)
 tests_test_pdr_error_LDADD = libpdrmesh.la $(UNIT_LIBS)
+
+check_PROGRAMS += tests/test_textin
+TESTS += tests/test_textin
+tests_test_textin_SOURCES = tests/test_textin.c
+tests_test_textin_CFLAGS = $(UNIT_CFLAGS)
+tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
