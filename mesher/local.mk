@@ -7,12 +7,24 @@ noinst_HEADERS += \
 	mesher/pdr_util.h \
 	mesher/textin.h \
 	mesher/outfile.h
+# PLC input, validation and output formats (issue 4, meshio branch).
+noinst_HEADERS += \
+	mesher/plc.h \
+	mesher/plc_internal.h \
+	mesher/plc_pred.h \
+	mesher/plc_tri.h
 
 libpdrmesh_la_SOURCES = \
 	mesher/pdr_error.c \
 	mesher/pdr_util.c \
 	mesher/textin.c \
 	mesher/outfile.c
+libpdrmesh_la_SOURCES += \
+	mesher/plc.c \
+	mesher/plc_read.c \
+	mesher/plc_pred.c \
+	mesher/plc_tri.c \
+	mesher/plc_check.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 

@@ -10,3 +10,8 @@ TESTS += tests/test_textin
 tests_test_textin_SOURCES = tests/test_textin.c
 tests_test_textin_CFLAGS = $(UNIT_CFLAGS)
 tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
+
+# PLC input, validation, domains, quality and output formats (meshio).
+check_PROGRAMS += tests/plc_tool
+tests_plc_tool_SOURCES = tests/plc_tool.c
+tests_plc_tool_LDADD = libpdrmesh.la -lm
