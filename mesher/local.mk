@@ -12,7 +12,8 @@ noinst_HEADERS += \
 	mesher/plc.h \
 	mesher/plc_internal.h \
 	mesher/plc_pred.h \
-	mesher/plc_tri.h
+	mesher/plc_tri.h \
+	mesher/domain.h
 
 libpdrmesh_la_SOURCES = \
 	mesher/pdr_error.c \
@@ -24,7 +25,8 @@ libpdrmesh_la_SOURCES += \
 	mesher/plc_read.c \
 	mesher/plc_pred.c \
 	mesher/plc_tri.c \
-	mesher/plc_check.c
+	mesher/plc_check.c \
+	mesher/domain.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 
@@ -32,6 +34,7 @@ bin_PROGRAMS += pdr
 pdr_SOURCES = \
 	mesher/pdr.c \
 	mesher/cmd_info.c
+pdr_SOURCES += mesher/cmd_domain.c
 pdr_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
 pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 	$(EVENT_LIBS) -lm

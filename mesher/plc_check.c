@@ -8,7 +8,7 @@
  *  2. planarity of every facet against planar_tol * bounding-box diagonal;
  *  3. a constrained Delaunay triangulation of every facet (plc_tri.c),
  *     which finds crossing edges and vertices on edges inside a facet;
- *  4. open boundaries: an edge of the facet triangulations that only one
+ *  4. open boundaries (stage 5 runs even when this one fails): an edge of the facet triangulations that only one
  *     triangle of all facets has lies on the rim of one facet and of no
  *     other, so the surface is not closed there;
  *  5. intersections between facets (their triangles) and free segments: a
@@ -788,15 +788,13 @@ int plc_validate(plc *p, pdr_diag *diag)
         goto nomem;
     if (rc)
         return rc;
-    rc = check_closed(p, diag);
+    /* Stages 4 and 5 both run: a vertex on another facet's edge shows up
+     * as an open edge and as an intersection, and the second says why. */
+    int closed = check_closed(p, diag);
+    rc = closed == PDR_ENOMEM ? closed : check_intersections(p, diag);
     if (rc == PDR_ENOMEM)
         goto nomem;
-    if (rc)
-        return rc;
-    rc = check_intersections(p, diag);
-    if (rc == PDR_ENOMEM)
-        goto nomem;
-    return rc;
+    return rc ? rc : closed;
 nomem:
     pdr_diag_add(diag, p->path, 0, "out of memory while validating");
     return PDR_ENOMEM;
