@@ -13,7 +13,11 @@ noinst_HEADERS += \
 	mesher/plc_internal.h \
 	mesher/plc_pred.h \
 	mesher/plc_tri.h \
-	mesher/domain.h
+	mesher/domain.h \
+	mesher/mesh_export.h \
+	mesher/quality.h \
+	mesher/io_vtu.h \
+	mesher/io_msh.h
 
 libpdrmesh_la_SOURCES = \
 	mesher/pdr_error.c \
@@ -26,7 +30,10 @@ libpdrmesh_la_SOURCES += \
 	mesher/plc_pred.c \
 	mesher/plc_tri.c \
 	mesher/plc_check.c \
-	mesher/domain.c
+	mesher/domain.c \
+	mesher/quality.c \
+	mesher/io_vtu.c \
+	mesher/io_msh.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 

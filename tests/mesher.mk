@@ -15,3 +15,6 @@ tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
 check_PROGRAMS += tests/plc_tool
 tests_plc_tool_SOURCES = tests/plc_tool.c
 tests_plc_tool_LDADD = libpdrmesh.la -lm
+check_PROGRAMS += tests/mesh_out_tool
+tests_mesh_out_tool_SOURCES = tests/mesh_out_tool.c
+tests_mesh_out_tool_LDADD = libpdrmesh.la -lm
