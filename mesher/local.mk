@@ -11,7 +11,6 @@ noinst_HEADERS += \
 noinst_HEADERS += \
 	mesher/plc.h \
 	mesher/plc_internal.h \
-	mesher/plc_pred.h \
 	mesher/plc_tri.h \
 	mesher/domain.h \
 	mesher/mesh_export.h \
@@ -27,7 +26,6 @@ libpdrmesh_la_SOURCES = \
 libpdrmesh_la_SOURCES += \
 	mesher/plc.c \
 	mesher/plc_read.c \
-	mesher/plc_pred.c \
 	mesher/plc_tri.c \
 	mesher/plc_check.c \
 	mesher/domain.c \

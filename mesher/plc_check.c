@@ -25,7 +25,7 @@
 
 #include "plc.h"
 #include "plc_internal.h"
-#include "plc_pred.h"
+#include "pred.h"
 #include "plc_tri.h"
 
 /* ---------------------------------------------------------- stage 1 */
@@ -88,7 +88,7 @@ static int collinear3(const double *a, const double *b, const double *c)
         proj(a, k, pa);
         proj(b, k, pb);
         proj(c, k, pc);
-        if (plc_orient2d(pa, pb, pc) != 0)
+        if (pred_orient2d(pa, pb, pc) != 0)
             return 0;
     }
     return 1;
@@ -343,7 +343,7 @@ static int tri_axis(const double *a, const double *b, const double *c)
         proj(a, order[i], pa);
         proj(b, order[i], pb);
         proj(c, order[i], pc);
-        if (plc_orient2d(pa, pb, pc) != 0)
+        if (pred_orient2d(pa, pb, pc) != 0)
             return order[i];
     }
     return order[0]; /* degenerate triangle: cannot happen after stage 1 */
@@ -357,16 +357,16 @@ static int sgn(double x)
 /* Closed point-in-triangle in 2D, triangle of either orientation. */
 static int in_tri2(const double *a, const double *b, const double *c, const double *x)
 {
-    int s = sgn(plc_orient2d(a, b, c));
-    return s * sgn(plc_orient2d(a, b, x)) >= 0 && s * sgn(plc_orient2d(b, c, x)) >= 0 &&
-           s * sgn(plc_orient2d(c, a, x)) >= 0;
+    int s = sgn(pred_orient2d(a, b, c));
+    return s * sgn(pred_orient2d(a, b, x)) >= 0 && s * sgn(pred_orient2d(b, c, x)) >= 0 &&
+           s * sgn(pred_orient2d(c, a, x)) >= 0;
 }
 
 /* Closed segment-segment intersection in 2D. */
 static int seg_seg2(const double *p, const double *q, const double *r, const double *s)
 {
-    int o1 = sgn(plc_orient2d(p, q, r)), o2 = sgn(plc_orient2d(p, q, s));
-    int o3 = sgn(plc_orient2d(r, s, p)), o4 = sgn(plc_orient2d(r, s, q));
+    int o1 = sgn(pred_orient2d(p, q, r)), o2 = sgn(pred_orient2d(p, q, s));
+    int o3 = sgn(pred_orient2d(r, s, p)), o4 = sgn(pred_orient2d(r, s, q));
     if (o1 * o2 > 0 || o3 * o4 > 0)
         return 0;
     if (o1 || o2 || o3 || o4)
@@ -385,7 +385,7 @@ static int seg_seg2(const double *p, const double *q, const double *r, const dou
 static int seg_tri(const double *p, const double *q, const double *a, const double *b,
                    const double *c)
 {
-    int op = sgn(plc_orient3d(a, b, c, p)), oq = sgn(plc_orient3d(a, b, c, q));
+    int op = sgn(pred_orient3d(a, b, c, p)), oq = sgn(pred_orient3d(a, b, c, q));
     if (op * oq > 0)
         return 0;
     int ax = -1;
@@ -406,8 +406,8 @@ static int seg_tri(const double *p, const double *q, const double *a, const doub
         return in_tri2(pa, pb, pc, pp);
     if (oq == 0)
         return in_tri2(pa, pb, pc, pq);
-    int s1 = sgn(plc_orient3d(p, q, a, b)), s2 = sgn(plc_orient3d(p, q, b, c));
-    int s3 = sgn(plc_orient3d(p, q, c, a));
+    int s1 = sgn(pred_orient3d(p, q, a, b)), s2 = sgn(pred_orient3d(p, q, b, c));
+    int s3 = sgn(pred_orient3d(p, q, c, a));
     return (s1 >= 0 && s2 >= 0 && s3 >= 0) || (s1 <= 0 && s2 <= 0 && s3 <= 0);
 }
 
@@ -417,7 +417,7 @@ static int seg_tri(const double *p, const double *q, const double *a, const doub
 static int ray_in_corner(const double *v, const double *x, const double *e,
                          const double *f)
 {
-    if (plc_orient3d(v, e, f, x) != 0)
+    if (pred_orient3d(v, e, f, x) != 0)
         return 0;
     int ax = tri_axis(v, e, f);
     double pv[2], px[2], pe[2], pf[2];
@@ -425,8 +425,8 @@ static int ray_in_corner(const double *v, const double *x, const double *e,
     proj(x, ax, px);
     proj(e, ax, pe);
     proj(f, ax, pf);
-    int s = sgn(plc_orient2d(pv, pe, pf));
-    return s * sgn(plc_orient2d(pv, pe, px)) >= 0 && -s * sgn(plc_orient2d(pv, pf, px)) >= 0;
+    int s = sgn(pred_orient2d(pv, pe, pf));
+    return s * sgn(pred_orient2d(pv, pe, px)) >= 0 && -s * sgn(pred_orient2d(pv, pf, px)) >= 0;
 }
 
 static int tri_tri(const plc *p, const uint32_t *t1, const uint32_t *t2)
@@ -448,7 +448,7 @@ static int tri_tri(const plc *p, const uint32_t *t1, const uint32_t *t2)
             d++;
         const double *u = X[t1[(c + 1) % 3]], *w = X[t1[(c + 2) % 3]];
         const double *pc = X[t1[c]], *pd = X[t2[d]];
-        if (plc_orient3d(u, w, pc, pd) != 0)
+        if (pred_orient3d(u, w, pc, pd) != 0)
             return 0;
         int ax = tri_axis(u, w, pc);
         double a2[2], b2[2], c2[2], d2[2];
@@ -456,7 +456,7 @@ static int tri_tri(const plc *p, const uint32_t *t1, const uint32_t *t2)
         proj(w, ax, b2);
         proj(pc, ax, c2);
         proj(pd, ax, d2);
-        return sgn(plc_orient2d(a2, b2, c2)) == sgn(plc_orient2d(a2, b2, d2));
+        return sgn(pred_orient2d(a2, b2, c2)) == sgn(pred_orient2d(a2, b2, d2));
     }
     if (shared == 1) {
         int i = i1[0] >= 0 ? 0 : i1[1] >= 0 ? 1 : 2, j = i1[i];
@@ -512,7 +512,7 @@ static int seg_seg(const plc *p, const uint32_t *s, const uint32_t *r)
         return 0;
     }
     const double *a = X[s[0]], *b = X[s[1]], *c = X[r[0]], *d = X[r[1]];
-    if (plc_orient3d(a, b, c, d) != 0)
+    if (pred_orient3d(a, b, c, d) != 0)
         return 0;
     for (int k = 0; k < 3; k++) {
         double a2[2], b2[2], c2[2], d2[2];

@@ -31,7 +31,7 @@
 #include <string.h>
 
 #include "plc_internal.h"
-#include "plc_pred.h"
+#include "pred.h"
 #include "plc_tri.h"
 
 #define NONE UINT32_MAX
@@ -171,7 +171,7 @@ static int legalize(plc_cdt *w, uint32_t p, size_t n)
             continue;
         int j = nb_index(&w->t[ui], ti);
         uint32_t d = w->t[ui].v[j];
-        if (plc_incircle(w->pt[t->v[0]], w->pt[t->v[1]], w->pt[t->v[2]], w->pt[d]) <= 0)
+        if (pred_incircle(w->pt[t->v[0]], w->pt[t->v[1]], w->pt[t->v[2]], w->pt[d]) <= 0)
             continue;
         flip(w, ti, i);
         if (push(w, &n, ti) || push(w, &n, ui))
@@ -192,7 +192,7 @@ static uint32_t locate(plc_cdt *w, const double q[2], uint32_t start)
         int k0 = (int)(rng_next(w) % 3), moved = 0;
         for (int k = 0; k < 3 && !moved; k++) {
             int e = (k0 + k) % 3;
-            if (plc_orient2d(w->pt[t->v[NEXT(e)]], w->pt[t->v[PREV(e)]], q) < 0 &&
+            if (pred_orient2d(w->pt[t->v[NEXT(e)]], w->pt[t->v[PREV(e)]], q) < 0 &&
                 t->nb[e] != NONE) {
                 ti = t->nb[e];
                 moved = 1;
@@ -205,9 +205,9 @@ static uint32_t locate(plc_cdt *w, const double q[2], uint32_t start)
     }
     for (uint32_t s = 0; s < w->nt; s++) {
         const tri *t = &w->t[s];
-        if (plc_orient2d(w->pt[t->v[0]], w->pt[t->v[1]], q) >= 0 &&
-            plc_orient2d(w->pt[t->v[1]], w->pt[t->v[2]], q) >= 0 &&
-            plc_orient2d(w->pt[t->v[2]], w->pt[t->v[0]], q) >= 0)
+        if (pred_orient2d(w->pt[t->v[0]], w->pt[t->v[1]], q) >= 0 &&
+            pred_orient2d(w->pt[t->v[1]], w->pt[t->v[2]], q) >= 0 &&
+            pred_orient2d(w->pt[t->v[2]], w->pt[t->v[0]], q) >= 0)
             return s;
     }
     return NONE;
@@ -229,7 +229,7 @@ static int insert_point(plc_cdt *w, uint32_t p, uint32_t *hint, plc_cdt_fail *fa
             fail->v[1] = w->gid[p];
             return PDR_EGEOMETRY;
         }
-        if (plc_orient2d(w->pt[t->v[NEXT(e)]], w->pt[t->v[PREV(e)]], q) == 0)
+        if (pred_orient2d(w->pt[t->v[NEXT(e)]], w->pt[t->v[PREV(e)]], q) == 0)
             on = e;
     }
     size_t n = 0;
@@ -337,8 +337,8 @@ static int crossed_edges(plc_cdt *w, uint32_t a, uint32_t b, plc_cdt_fail *fail)
         const tri *t = &w->t[ti];
         int i = index_of(t, a);
         uint32_t x = t->v[NEXT(i)], y = t->v[PREV(i)];
-        double ox = plc_orient2d(pa, pb, w->pt[x]);
-        double oy = plc_orient2d(pa, pb, w->pt[y]);
+        double ox = pred_orient2d(pa, pb, w->pt[x]);
+        double oy = pred_orient2d(pa, pb, w->pt[y]);
         if (ox == 0 && between(pa, pb, w->pt[x]))
             return on_segment(fail, w, a, b, x);
         if (oy == 0 && between(pa, pb, w->pt[y]))
@@ -370,7 +370,7 @@ static int crossed_edges(plc_cdt *w, uint32_t a, uint32_t b, plc_cdt_fail *fail)
         uint32_t z = u->v[j];
         if (z == b)
             return 0;
-        double oz = plc_orient2d(pa, pb, w->pt[z]);
+        double oz = pred_orient2d(pa, pb, w->pt[z]);
         if (oz == 0)
             return on_segment(fail, w, a, b, z);
         /* x is right of a->b and y left; the segment leaves u through the
@@ -393,7 +393,7 @@ static int delaunay_flips(plc_cdt *w, size_t n)
         tri *t = &w->t[ti];
         uint32_t ui = t->nb[e];
         uint32_t d = w->t[ui].v[nb_index(&w->t[ui], ti)];
-        if (plc_incircle(w->pt[t->v[0]], w->pt[t->v[1]], w->pt[t->v[2]], w->pt[d]) <= 0)
+        if (pred_incircle(w->pt[t->v[0]], w->pt[t->v[1]], w->pt[t->v[2]], w->pt[d]) <= 0)
             continue;
         flip(w, ti, e); /* ti = (c, x, d), ui = (c, d, y) */
         const tri *t2 = &w->t[ti], *u2 = &w->t[ui];
@@ -439,14 +439,14 @@ static int insert_segment(plc_cdt *w, uint32_t a, uint32_t b, plc_cdt_fail *fail
         uint32_t c = t->v[e];
         uint32_t ui = t->nb[e];
         uint32_t d = w->t[ui].v[nb_index(&w->t[ui], ti)];
-        double o1 = plc_orient2d(w->pt[c], w->pt[d], w->pt[x]);
-        double o2 = plc_orient2d(w->pt[c], w->pt[d], w->pt[y]);
+        double o1 = pred_orient2d(w->pt[c], w->pt[d], w->pt[x]);
+        double o2 = pred_orient2d(w->pt[c], w->pt[d], w->pt[y]);
         int convex = (o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0);
         uint64_t back = ed;
         if (convex) {
             flip(w, ti, e);
-            double oc = plc_orient2d(pa, pb, w->pt[c]);
-            double od = plc_orient2d(pa, pb, w->pt[d]);
+            double oc = pred_orient2d(pa, pb, w->pt[c]);
+            double od = pred_orient2d(pa, pb, w->pt[d]);
             if ((oc > 0 && od < 0) || (oc < 0 && od > 0)) {
                 back = (uint64_t)c << 32 | d;
             } else {
@@ -606,9 +606,9 @@ int plc_cdt_facet(plc_cdt *w, const plc *p, size_t f, plc_cdt_fail *fail)
         double q[2] = {x[c0], x[c1]};
         for (uint32_t t = 0; t < w->nt; t++) {
             const tri *tt = &w->t[t];
-            if (!tt->out && plc_orient2d(w->pt[tt->v[0]], w->pt[tt->v[1]], q) >= 0 &&
-                plc_orient2d(w->pt[tt->v[1]], w->pt[tt->v[2]], q) >= 0 &&
-                plc_orient2d(w->pt[tt->v[2]], w->pt[tt->v[0]], q) >= 0) {
+            if (!tt->out && pred_orient2d(w->pt[tt->v[0]], w->pt[tt->v[1]], q) >= 0 &&
+                pred_orient2d(w->pt[tt->v[1]], w->pt[tt->v[2]], q) >= 0 &&
+                pred_orient2d(w->pt[tt->v[2]], w->pt[tt->v[0]], q) >= 0) {
                 rc = flood_out(w, t);
                 break;
             }

@@ -1,8 +1,7 @@
 /* Unit tests of the PLC module: building, derived data, readers, facet
- * triangulation, validation, and the exact predicates (against GMP). */
+ * triangulation, validation. */
 #include "config.h"
 
-#include <gmp.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -11,7 +10,6 @@
 
 #include "domain.h"
 #include "plc.h"
-#include "plc_pred.h"
 #include "unit.h"
 
 /* ------------------------------------------------------------- helpers */
@@ -423,155 +421,6 @@ START_TEST(shared_internal_facet_is_valid)
 }
 END_TEST
 
-/* ----------------------------------------------------------- predicates */
-
-static int sign_mpq(mpq_t x)
-{
-    return mpq_sgn(x);
-}
-
-static int sgn(double x)
-{
-    return (x > 0) - (x < 0);
-}
-
-static int exact_orient2d(const double *a, const double *b, const double *c)
-{
-    mpq_t t[6], l, r;
-    for (int i = 0; i < 6; i++)
-        mpq_init(t[i]);
-    mpq_inits(l, r, NULL);
-    mpq_set_d(t[0], a[0]);
-    mpq_set_d(t[1], a[1]);
-    mpq_set_d(t[2], b[0]);
-    mpq_set_d(t[3], b[1]);
-    mpq_set_d(t[4], c[0]);
-    mpq_set_d(t[5], c[1]);
-    mpq_sub(t[0], t[0], t[4]); /* acx */
-    mpq_sub(t[1], t[1], t[5]); /* acy */
-    mpq_sub(t[2], t[2], t[4]); /* bcx */
-    mpq_sub(t[3], t[3], t[5]); /* bcy */
-    mpq_mul(l, t[0], t[3]);
-    mpq_mul(r, t[1], t[2]);
-    mpq_sub(l, l, r);
-    int s = sign_mpq(l);
-    for (int i = 0; i < 6; i++)
-        mpq_clear(t[i]);
-    mpq_clears(l, r, NULL);
-    return s;
-}
-
-/* det of the 3x3 matrix rows r[i] - d (orient3d) via mpq. */
-static int exact_orient3d(const double *a, const double *b, const double *c,
-                          const double *d)
-{
-    mpq_t m[3][3], x, y, det;
-    const double *p[3] = {a, b, c};
-    mpq_inits(x, y, det, NULL);
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++) {
-            mpq_init(m[i][k]);
-            mpq_set_d(m[i][k], p[i][k]);
-            mpq_set_d(x, d[k]);
-            mpq_sub(m[i][k], m[i][k], x);
-        }
-    mpq_set_ui(det, 0, 1);
-    for (int k = 0; k < 3; k++) {
-        int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-        mpq_mul(x, m[1][k1], m[2][k2]);
-        mpq_mul(y, m[1][k2], m[2][k1]);
-        mpq_sub(x, x, y);
-        mpq_mul(x, x, m[0][k]);
-        mpq_add(det, det, x);
-    }
-    int s = mpq_sgn(det);
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++)
-            mpq_clear(m[i][k]);
-    mpq_clears(x, y, det, NULL);
-    return s;
-}
-
-static int exact_incircle(const double *a, const double *b, const double *c,
-                          const double *d)
-{
-    const double *p[3] = {a, b, c};
-    mpq_t m[3][3], x, y, det;
-    mpq_inits(x, y, det, NULL);
-    for (int i = 0; i < 3; i++) {
-        for (int k = 0; k < 3; k++)
-            mpq_init(m[i][k]);
-        for (int k = 0; k < 2; k++) {
-            mpq_set_d(m[i][k], p[i][k]);
-            mpq_set_d(x, d[k]);
-            mpq_sub(m[i][k], m[i][k], x);
-        }
-        mpq_mul(x, m[i][0], m[i][0]);
-        mpq_mul(y, m[i][1], m[i][1]);
-        mpq_add(m[i][2], x, y);
-    }
-    mpq_set_ui(det, 0, 1);
-    for (int k = 0; k < 3; k++) {
-        int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-        mpq_mul(x, m[1][k1], m[2][k2]);
-        mpq_mul(y, m[1][k2], m[2][k1]);
-        mpq_sub(x, x, y);
-        mpq_mul(x, x, m[0][k]);
-        mpq_add(det, det, x);
-    }
-    int s = mpq_sgn(det);
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++)
-            mpq_clear(m[i][k]);
-    mpq_clears(x, y, det, NULL);
-    return s;
-}
-
-static double rnd(unsigned *s)
-{
-    *s = *s * 1103515245u + 12345u;
-    return (double)(*s >> 8) / (double)(1u << 24);
-}
-
-START_TEST(predicates_agree_with_gmp_on_near_degenerate_input)
-{
-    unsigned seed = 12345;
-    int zeros = 0;
-    for (int it = 0; it < 3000; it++) {
-        /* Points on a line / plane / circle, rounded, plus an occasional
-         * ulp-sized nudge: the filters cannot decide these. */
-        double t = rnd(&seed), u = rnd(&seed);
-        double a[3] = {rnd(&seed), rnd(&seed), rnd(&seed)};
-        double b[3] = {a[0] + 1e3 * rnd(&seed), a[1] + rnd(&seed), a[2] + rnd(&seed)};
-        double c[3], d[3];
-        for (int k = 0; k < 3; k++)
-            c[k] = a[k] + t * (b[k] - a[k]);
-        if (it % 3 == 0)
-            c[1] = nextafter(c[1], 2.0);
-        ck_assert_int_eq(sgn(plc_orient2d(a, b, c)), exact_orient2d(a, b, c));
-        zeros += exact_orient2d(a, b, c) == 0;
-        double e[3] = {a[0] + rnd(&seed), a[1] + rnd(&seed), a[2] + rnd(&seed)};
-        for (int k = 0; k < 3; k++)
-            d[k] = a[k] + t * (b[k] - a[k]) + u * (e[k] - a[k]);
-        if (it % 3 == 1)
-            d[2] = nextafter(d[2], -2.0);
-        ck_assert_int_eq(sgn(plc_orient3d(a, b, e, d)), exact_orient3d(a, b, e, d));
-        double ang[4];
-        for (int k = 0; k < 4; k++)
-            ang[k] = 6.283185307179586 * rnd(&seed);
-        double q[4][2];
-        for (int k = 0; k < 4; k++) {
-            q[k][0] = 1e-3 + cos(ang[k]);
-            q[k][1] = 7 + sin(ang[k]);
-        }
-        ck_assert_int_eq(sgn(plc_incircle(q[0], q[1], q[2], q[3])),
-                         exact_incircle(q[0], q[1], q[2], q[3]));
-        ck_assert_int_eq(sgn(plc_incircle(q[0], q[1], q[2], q[0])), 0);
-    }
-    ck_assert_int_gt(zeros, 0); /* some cases were exactly degenerate */
-}
-END_TEST
-
 static Suite *plc_suite(void)
 {
     Suite *s = suite_create("plc");
@@ -588,10 +437,6 @@ static Suite *plc_suite(void)
     tc = tcase_create("validate");
     tcase_add_test(tc, coplanar_overlap_and_touching_vertex_are_intersections);
     tcase_add_test(tc, shared_internal_facet_is_valid);
-    suite_add_tcase(s, tc);
-    tc = tcase_create("pred");
-    tcase_set_timeout(tc, 60);
-    tcase_add_test(tc, predicates_agree_with_gmp_on_near_degenerate_input);
     suite_add_tcase(s, tc);
     return s;
 }
