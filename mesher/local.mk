@@ -16,7 +16,8 @@ noinst_HEADERS += \
 	mesher/mesh_export.h \
 	mesher/quality.h \
 	mesher/io_vtu.h \
-	mesher/io_msh.h
+	mesher/io_msh.h \
+	mesher/io_face.h
 
 libpdrmesh_la_SOURCES = \
 	mesher/pdr_error.c \
@@ -31,7 +32,8 @@ libpdrmesh_la_SOURCES += \
 	mesher/domain.c \
 	mesher/quality.c \
 	mesher/io_vtu.c \
-	mesher/io_msh.c
+	mesher/io_msh.c \
+	mesher/io_face.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 

@@ -7,7 +7,8 @@
  * and writes it with the output writers:
  *
  *   mesh_out_tool N OUT      writes OUT.vtu (binary), OUT-ascii.vtu,
- *                            OUT.msh, and prints counts and checksums
+ *                            OUT.msh, OUT.face (1-based), and prints
+ *                            counts and checksums
  *   mesh_out_tool N -q       prints the quality statistics and histograms
  *   mesh_out_tool N -p PNG   plots the dihedral distribution to PNG
  *
@@ -20,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "io_face.h"
 #include "io_msh.h"
 #include "io_vtu.h"
 #include "mesh_export.h"
@@ -125,6 +127,9 @@ int main(int argc, char **argv)
         snprintf(path, sizeof path, "%s.msh", argv[2]);
         if (!rc)
             rc = msh_write(&m, path, &d);
+        snprintf(path, sizeof path, "%s.face", argv[2]);
+        if (!rc)
+            rc = face_write(&m, path, 1, &d);
         /* Checksums a reader can recompute: coordinates weighted by axis,
          * and each tetrahedron's sorted corners hashed into a sum, so the
          * corner order written does not matter. */

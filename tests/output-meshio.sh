@@ -67,4 +67,12 @@ for k in triangles trisum markersum; do
     got=$(grep "^cube.msh " "$tmp/got" | field $k -)
     [ "$got" = "$want" ] || fail "cube.msh: $k $got, wrote $want"
 done
+# The .face file: header, 1-based numbering, the same triangles.
+sed -n 1p "$tmp/cube.face" | grep -qx '108 1' || fail "cube.face header: $(sed -n 1p "$tmp/cube.face")"
+fsum=$(awk 'NR > 1 && !/^#/ { a = $2 - 1; b = $3 - 1; c = $4 - 1;
+        if (a > b) { t = a; a = b; b = t } if (b > c) { t = b; b = c; c = t }
+        if (a > b) { t = a; a = b; b = t } s += a + 3 * b + 7 * c; m += $5 }
+        END { print s, m }' "$tmp/cube.face")
+[ "$fsum" = "$(field trisum "$tmp/want") $(field markersum "$tmp/want")" ] ||
+    fail "cube.face: trisum/markersum $fsum"
 echo "meshio read-back: ok"
