@@ -155,8 +155,9 @@ void plc_free(plc *p);
 /* Each returns 0 or PDR_ENOMEM (PDR_EINVAL on a bad index). Builders drop
  * the derived data. */
 
-/* Appends a vertex; marker is stored only if markers are enabled by
- * plc_enable_vmarkers. *index receives its index (may be NULL). */
+/* Appends a vertex (marker 0, attributes 0; set vmarker[]/vattr[] after
+ * plc_enable_vmarkers). *index receives its index (index may be NULL);
+ * PDR_ELIMIT beyond 2^32 - 2 vertices. */
 int plc_add_vertex(plc *p, const double xyz[3], long line, uint32_t *index);
 int plc_enable_vmarkers(plc *p);
 /* Starts a new facet; the following polygons and facet holes belong to it. */
