@@ -7,12 +7,33 @@ noinst_HEADERS += \
 	mesher/pdr_util.h \
 	mesher/textin.h \
 	mesher/outfile.h
+# PLC input, validation and output formats (issue 4, meshio branch).
+noinst_HEADERS += \
+	mesher/plc.h \
+	mesher/plc_internal.h \
+	mesher/plc_tri.h \
+	mesher/domain.h \
+	mesher/mesh_export.h \
+	mesher/quality.h \
+	mesher/io_vtu.h \
+	mesher/io_msh.h \
+	mesher/io_face.h
 
 libpdrmesh_la_SOURCES = \
 	mesher/pdr_error.c \
 	mesher/pdr_util.c \
 	mesher/textin.c \
 	mesher/outfile.c
+libpdrmesh_la_SOURCES += \
+	mesher/plc.c \
+	mesher/plc_read.c \
+	mesher/plc_tri.c \
+	mesher/plc_check.c \
+	mesher/domain.c \
+	mesher/quality.c \
+	mesher/io_vtu.c \
+	mesher/io_msh.c \
+	mesher/io_face.c
 libpdrmesh_la_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS)
 libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 
@@ -20,7 +41,12 @@ bin_PROGRAMS += pdr
 pdr_SOURCES = \
 	mesher/pdr.c \
 	mesher/cmd_info.c
+pdr_SOURCES += mesher/cmd_domain.c
 pdr_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
 pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 	$(EVENT_LIBS) -lm
 pdr_LDFLAGS = $(AM_LDFLAGS) -static
+
+# The Delaunay kernel: exact predicates.
+noinst_HEADERS += mesher/pred.h
+libpdrmesh_la_SOURCES += mesher/pred.c

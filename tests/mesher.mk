@@ -10,3 +10,52 @@ TESTS += tests/test_textin
 tests_test_textin_SOURCES = tests/test_textin.c
 tests_test_textin_CFLAGS = $(UNIT_CFLAGS)
 tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
+
+check_PROGRAMS += tests/test_pred
+TESTS += tests/test_pred
+tests_test_pred_SOURCES = tests/test_pred.c
+tests_test_pred_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pred_LDADD = libpdrmesh.la $(UNIT_LIBS) $(GMP_LIBS) -lm
+
+# PLC input, validation, domains, quality and output formats (meshio).
+check_PROGRAMS += tests/plc_tool
+tests_plc_tool_SOURCES = tests/plc_tool.c
+tests_plc_tool_LDADD = libpdrmesh.la -lm
+check_PROGRAMS += tests/mesh_out_tool
+tests_mesh_out_tool_SOURCES = tests/mesh_out_tool.c
+tests_mesh_out_tool_LDADD = libpdrmesh.la -lm
+
+check_PROGRAMS += tests/test_plc tests/test_quality
+TESTS += tests/test_plc tests/test_quality
+tests_test_plc_SOURCES = tests/test_plc.c
+tests_test_plc_CFLAGS = $(UNIT_CFLAGS)
+tests_test_plc_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_quality_SOURCES = tests/test_quality.c
+tests_test_quality_CFLAGS = $(UNIT_CFLAGS)
+tests_test_quality_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+
+MESHIO_TESTS = tests/plc-errors.sh tests/plc-example.sh tests/domain-cli.sh \
+	tests/domain-tetgen.sh tests/output-meshio.sh tests/output-plot.sh
+TESTS += $(MESHIO_TESTS)
+dist_check_SCRIPTS += $(MESHIO_TESTS)
+EXTRA_DIST += \
+	tests/data/plc/bad-number.poly \
+	tests/data/plc/colour.off \
+	tests/data/plc/crossing-segments.poly \
+	tests/data/plc/cube.smesh \
+	tests/data/plc/duplicate-vertex.poly \
+	tests/data/plc/gap-numbering.poly \
+	tests/data/plc/index-out-of-range.poly \
+	tests/data/plc/intersecting.poly \
+	tests/data/plc/missing-node.poly \
+	tests/data/plc/no-endloop.stl \
+	tests/data/plc/non-planar.poly \
+	tests/data/plc/open-box.poly \
+	tests/data/plc/open.off \
+	tests/data/plc/repeated-corner.poly \
+	tests/data/plc/t-junction.poly \
+	tests/data/plc/tet.off \
+	tests/data/plc/tet.stl \
+	tests/data/plc/truncated.poly \
+	tests/data/plc/unknown.xyz \
+	tests/data/plc/zero-area.poly

@@ -1,0 +1,444 @@
+/* Unit tests of the PLC module: building, derived data, readers, facet
+ * triangulation, validation. */
+#include "config.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "domain.h"
+#include "plc.h"
+#include "unit.h"
+
+/* ------------------------------------------------------------- helpers */
+
+static char tmpdir[64];
+
+static void make_tmpdir(void)
+{
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/pdr-test-plc-XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+}
+
+static void remove_tmpdir(void)
+{
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
+    ck_assert_int_eq(system(cmd), 0);
+}
+
+static const char *write_file(const char *name, const char *text)
+{
+    static char path[256];
+    snprintf(path, sizeof path, "%s/%s", tmpdir, name);
+    FILE *f = fopen(path, "w");
+    ck_assert_ptr_nonnull(f);
+    fputs(text, f);
+    fclose(f);
+    return path;
+}
+
+static double facet_area(const plc *p, size_t f)
+{
+    double a = 0;
+    for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++) {
+        const double *x = p->xyz[p->ftri[t][0]], *y = p->xyz[p->ftri[t][1]],
+                     *z = p->xyz[p->ftri[t][2]];
+        double u[3] = {y[0] - x[0], y[1] - x[1], y[2] - x[2]};
+        double v[3] = {z[0] - x[0], z[1] - x[1], z[2] - x[2]};
+        double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                       u[0] * v[1] - u[1] * v[0]};
+        /* signed along the facet normal: all triangles must be positive */
+        double s = c[0] * p->facets[f].normal[0] + c[1] * p->facets[f].normal[1] +
+                   c[2] * p->facets[f].normal[2];
+        ck_assert(s > 0);
+        a += 0.5 * s;
+    }
+    return a;
+}
+
+static void dump(const pdr_diag *d)
+{
+    for (size_t i = 0; i < d->nkept; i++)
+        fprintf(stderr, "  diag: %s\n", d->msgs[i]);
+}
+
+/* ------------------------------------------------------------- building */
+
+START_TEST(cube_in_cube_derived_data)
+{
+    plc p;
+    pdr_diag d = {0};
+    dom_cube_opts o;
+    dom_cube_defaults(&o);
+    ck_assert_int_eq(plc_init(&p, "cube"), 0);
+    ck_assert_int_eq(dom_cube_in_cube(&p, &o, &d), 0);
+    ck_assert_int_eq(plc_validate(&p, &d), 0);
+    ck_assert_uint_eq(p.nv, 16);
+    ck_assert_uint_eq(p.nfacet, 12);
+    ck_assert_uint_eq(p.nseg, 24);
+    for (size_t s = 0; s < p.nseg; s++) {
+        ck_assert_uint_lt(p.segs[s].v[0], p.segs[s].v[1]);
+        ck_assert_uint_eq(p.seg_fstart[s + 1] - p.seg_fstart[s], 2);
+    }
+    for (size_t v = 0; v < p.nv; v++) {
+        ck_assert_uint_eq(p.v_sstart[v + 1] - p.v_sstart[v], 3);
+        ck_assert_uint_eq(p.v_fstart[v + 1] - p.v_fstart[v], 3);
+    }
+    for (size_t f = 0; f < p.nfacet; f++) {
+        const double *n = p.facets[f].normal;
+        ck_assert(fabs(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1) < 1e-15);
+        ck_assert(fabs(n[p.facets[f].axis]) == 1.0);
+        double side = f < 6 ? 1.0 : 0.5;
+        ck_assert(fabs(facet_area(&p, f) - side * side) < 1e-15);
+    }
+    ck_assert_uint_eq(p.nhole, 1);
+    ck_assert_uint_eq(p.nregion, 1);
+    plc_free(&p);
+    plc_free(&p); /* idempotent */
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(tee_is_valid_and_has_acute_angles)
+{
+    plc p;
+    pdr_diag d = {0};
+    dom_tee_opts o;
+    dom_tee_defaults(&o);
+    ck_assert_int_eq(plc_init(&p, "tee"), 0);
+    ck_assert_int_eq(dom_tee(&p, &o, &d), 0);
+    int rc = plc_validate(&p, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    /* Find the dihedral angle between the underside (marker 3) and the
+     * bevel (4) and the mitred end (2): both 60 degrees inside. */
+    int under = -1, bevel = -1, mitre = -1;
+    for (size_t f = 0; f < p.nfacet; f++) {
+        if (p.facets[f].marker == 3)
+            under = (int)f;
+        if (p.facets[f].marker == 4)
+            bevel = (int)f;
+        if (p.facets[f].marker == 2)
+            mitre = (int)f;
+    }
+    ck_assert(under >= 0 && bevel >= 0 && mitre >= 0);
+    /* Outward normals at an edge of a convex corner of interior angle a
+     * make an angle of 180 - a. */
+    const double *nu = p.facets[under].normal;
+    for (int k = 0; k < 2; k++) {
+        const double *nb = p.facets[k ? mitre : bevel].normal;
+        double c = nu[0] * nb[0] + nu[1] * nb[1] + nu[2] * nb[2];
+        double interior = 180 - acos(c) * 180 / 3.14159265358979323846;
+        ck_assert_msg(fabs(interior - 60) < 1e-9, "angle %g", interior);
+    }
+    /* The bad parameter combinations are refused. */
+    plc q;
+    plc_init(&q, "tee");
+    o.web = 0.9;
+    ck_assert_int_eq(dom_tee(&q, &o, &d), PDR_EINVAL);
+    plc_free(&q);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+/* -------------------------------------------------------------- readers */
+
+/* A unit cube whose top facet has a square hole, filled by a second facet
+ * (like TetGen's example), a facet that is only a segment, volume holes
+ * and regions; vertex attributes and markers. */
+static const char poly_text[] =
+    "# cube with a window\n"
+    "12 3 1 1\n"
+    "1 0 0 0  0.5 7\n2 1 0 0 0.5 7\n3 0 1 0 0.5 7\n4 1 1 0 0.5 7\n"
+    "5 0 0 1 1 8\n6 1 0 1 1 8\n7 0 1 1 1 8\n8 1 1 1 1 8\n"
+    "9 0.25 0.25 1 2 9\n10 0.75 0.25 1 2 9\n11 0.75 0.75 1 2 9\n12 0.25 0.75 1 2 9\n"
+    "8 1\n"
+    "1 0 1\n4 1 5 7 3\n"
+    "1 0 2\n4 2 4 8 6\n"
+    "1 0 3\n4 1 2 6 5\n"
+    "1 0 4\n4 3 7 8 4\n"
+    "1 0 5\n4 1 3 4 2\n"
+    "2 1 6\n4 5 6 8\n 7\n4 9 10 11 12\n1 0.5 0.5 1\n"
+    "1 0 7\n4 9 10 11 12\n"
+    "1 0 8\n2 1 8\n"
+    "1\n1 0.5 0.5 0.5\n"
+    "2\n1 0.1 0.1 0.1 3 0.5\n2 0.9 0.9 0.9 4\n";
+
+START_TEST(poly_reader_full_format)
+{
+    make_tmpdir();
+    const char *path = write_file("window.poly", poly_text);
+    plc p;
+    pdr_diag d = {0};
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_int_eq(p.base, 1);
+    ck_assert_uint_eq(p.nv, 12);
+    ck_assert_uint_eq(p.nvattr, 1);
+    ck_assert(p.vattr[8] == 2.0);
+    ck_assert_int_eq(p.vmarker[0], 7);
+    ck_assert_int_eq(p.vmarker[11], 9);
+    ck_assert_uint_eq(p.nfacet, 7); /* the 8th is a free segment */
+    ck_assert_uint_eq(p.nsegin, 1);
+    ck_assert_int_eq(p.segin[0].marker, 8);
+    ck_assert_uint_eq(p.segin[0].v[0], 0);
+    ck_assert_uint_eq(p.segin[0].v[1], 7);
+    ck_assert_int_eq(p.facets[5].marker, 6);
+    ck_assert_uint_eq(p.facets[5].npoly, 2);
+    ck_assert_uint_eq(p.facets[5].nhole, 1);
+    ck_assert_int_eq(p.facets[5].line, 26);
+    ck_assert_uint_eq(p.nhole, 1);
+    ck_assert_uint_eq(p.nregion, 2);
+    ck_assert(p.regions[0].attr == 3 && p.regions[0].maxvol == 0.5);
+    ck_assert(p.regions[1].attr == 4 && p.regions[1].maxvol < 0);
+    /* The free segment is the cube's diagonal: it crosses the inside
+     * and meets the facets only at its ends, so the PLC is valid. */
+    int rc = plc_validate(&p, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert(fabs(facet_area(&p, 5) - 0.75) < 1e-15); /* 1 - 0.5^2 */
+    ck_assert(fabs(facet_area(&p, 6) - 0.25) < 1e-15);
+    /* Write it back and read it again: the same PLC. */
+    char out[256];
+    snprintf(out, sizeof out, "%s/again.poly", tmpdir);
+    ck_assert_int_eq(plc_write_poly(&p, out, &d), 0);
+    plc q;
+    plc_init(&q, NULL);
+    ck_assert_int_eq(plc_read(&q, out, &d), 0);
+    ck_assert_int_eq(plc_validate(&q, &d), 0);
+    ck_assert_uint_eq(q.nv, p.nv);
+    ck_assert_uint_eq(q.nfacet, p.nfacet);
+    ck_assert_uint_eq(q.ncorner, p.ncorner);
+    ck_assert_uint_eq(q.nsegin, 1);
+    ck_assert_uint_eq(q.nregion, 2);
+    for (size_t v = 0; v < p.nv; v++)
+        for (int k = 0; k < 3; k++)
+            ck_assert(q.xyz[v][k] == p.xyz[v][k]);
+    for (size_t c = 0; c < p.ncorner; c++)
+        ck_assert_uint_eq(q.corners[c], p.corners[c]);
+    plc_free(&q);
+    plc_free(&p);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
+START_TEST(poly_with_separate_zero_based_node_file)
+{
+    make_tmpdir();
+    write_file("tet.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n");
+    char path[256];
+    snprintf(path, sizeof path, "%s", write_file("tet.poly", "0 3 0 0\n4 0\n1\n3 0 2 1\n"
+                                                 "1\n3 0 1 3\n1\n3 0 3 2\n1\n3 1 2 3\n0\n"));
+    plc p;
+    pdr_diag d = {0};
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_int_eq(p.base, 0);
+    ck_assert_uint_eq(p.nv, 4);
+    ck_assert_ptr_nonnull(strstr(p.vfile, "tet.node"));
+    ck_assert_int_eq(plc_validate(&p, &d), 0);
+    plc_free(&p);
+    /* A vertex error in the .node file is reported against the .node. */
+    write_file("tet.node", "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 1 0 0\n");
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_int_eq(plc_validate(&p, &d), PDR_EGEOMETRY);
+    ck_assert_uint_ge(d.nkept, 1);
+    ck_assert_ptr_nonnull(strstr(d.msgs[0], "tet.node:5: vertex 3 duplicates vertex 1"));
+    plc_free(&p);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
+static void put_f32(FILE *f, float v)
+{
+    uint32_t b;
+    memcpy(&b, &v, 4);
+    unsigned char o[4] = {(unsigned char)b, (unsigned char)(b >> 8),
+                          (unsigned char)(b >> 16), (unsigned char)(b >> 24)};
+    fwrite(o, 1, 4, f);
+}
+
+START_TEST(binary_stl_merges_vertices)
+{
+    make_tmpdir();
+    char path[256];
+    snprintf(path, sizeof path, "%s/tet.stl", tmpdir);
+    FILE *f = fopen(path, "wb");
+    ck_assert_ptr_nonnull(f);
+    /* The header starts with "solid" on purpose: the size decides. */
+    char head[80] = "solid but binary";
+    fwrite(head, 1, 80, f);
+    unsigned char n[4] = {4, 0, 0, 0};
+    fwrite(n, 1, 4, f);
+    const float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const int tri[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    for (int t = 0; t < 4; t++) {
+        for (int k = 0; k < 3; k++)
+            put_f32(f, 0);
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < 3; k++) /* -0 must merge with +0 */
+                put_f32(f, t == 3 && v[tri[t][c]][k] == 0 ? -0.0f : v[tri[t][c]][k]);
+        fputc(0, f);
+        fputc(0, f);
+    }
+    fclose(f);
+    plc p;
+    pdr_diag d = {0};
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_uint_eq(p.nv, 4);
+    ck_assert_uint_eq(p.nfacet, 4);
+    ck_assert_int_eq(plc_validate(&p, &d), 0);
+    plc_free(&p);
+    /* Truncated: one triangle short. */
+    ck_assert_int_eq(truncate(path, 84 + 3 * 50), 0);
+    f = fopen(path, "r+b");
+    fseek(f, 80, SEEK_SET);
+    fputc(3, f); /* now consistent: 3 triangles, an open surface */
+    fclose(f);
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_int_eq(plc_validate(&p, &d), PDR_EGEOMETRY);
+    ck_assert_ptr_nonnull(strstr(d.msgs[0], "belongs to no other facet"));
+    plc_free(&p);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
+static const char *fixture(const char *name)
+{
+    static char path[4096];
+    const char *top = getenv("top_srcdir");
+    snprintf(path, sizeof path, "%s/tests/data/plc/%s", top ? top : ".", name);
+    return path;
+}
+
+START_TEST(smesh_off_stl_fixtures)
+{
+    const char *names[] = {"cube.smesh", "tet.off", "tet.stl"};
+    const size_t nv[] = {8, 4, 4}, nf[] = {6, 4, 4};
+    for (int i = 0; i < 3; i++) {
+        plc p;
+        pdr_diag d = {0};
+        plc_init(&p, NULL);
+        int rc = plc_read(&p, fixture(names[i]), &d);
+        if (!rc)
+            rc = plc_validate(&p, &d);
+        dump(&d);
+        ck_assert_int_eq(rc, 0);
+        ck_assert_uint_eq(p.nv, nv[i]);
+        ck_assert_uint_eq(p.nfacet, nf[i]);
+        if (i == 0) {
+            ck_assert_int_eq(p.facets[2].marker, 12); /* corners over 2 lines */
+            ck_assert_uint_eq(p.nregion, 1);
+            ck_assert(p.regions[0].maxvol == 0.01);
+        }
+        plc_free(&p);
+        pdr_diag_free(&d);
+    }
+}
+END_TEST
+
+/* ----------------------------------------------------------- validation */
+
+static int validate_text(const char *name, const char *text, pdr_diag *d)
+{
+    make_tmpdir();
+    const char *path = write_file(name, text);
+    plc p;
+    plc_init(&p, NULL);
+    int rc = plc_read(&p, path, d);
+    if (!rc)
+        rc = plc_validate(&p, d);
+    plc_free(&p);
+    remove_tmpdir();
+    return rc;
+}
+
+START_TEST(coplanar_overlap_and_touching_vertex_are_intersections)
+{
+    pdr_diag d = {0};
+    /* Two tetrahedra whose bottom faces overlap in the plane z = 0. */
+    const char *overlap =
+        "8 3 0 0\n1 0 0 0\n2 2 0 0\n3 0 2 0\n4 0 0 1\n"
+        "5 0.5 0.5 0\n6 3 0.5 0\n7 0.5 3 0\n8 0.5 0.5 -1\n"
+        "8 0\n1\n3 1 3 2\n1\n3 1 2 4\n1\n3 1 4 3\n1\n3 2 3 4\n"
+        "1\n3 5 6 7\n1\n3 5 8 6\n1\n3 5 7 8\n1\n3 6 8 7\n0\n";
+    ck_assert_int_eq(validate_text("o.poly", overlap, &d), PDR_EGEOMETRY);
+    ck_assert_ptr_nonnull(strstr(d.msgs[0], "facets 1 and 5"));
+    pdr_diag_free(&d);
+    /* A tetrahedron whose apex touches another's face from outside. */
+    const char *touch =
+        "8 3 0 0\n1 0 0 0\n2 2 0 0\n3 0 2 0\n4 0 0 1\n"
+        "5 0.5 0.5 0\n6 1 1 -1\n7 0 1 -1\n8 1 0 -1\n"
+        "8 0\n1\n3 1 3 2\n1\n3 1 2 4\n1\n3 1 4 3\n1\n3 2 3 4\n"
+        "1\n3 6 7 8\n1\n3 5 6 7\n1\n3 5 7 8\n1\n3 5 8 6\n0\n";
+    ck_assert_int_eq(validate_text("t.poly", touch, &d), PDR_EGEOMETRY);
+    ck_assert_uint_ge(d.nkept, 1);
+    ck_assert_ptr_nonnull(strstr(d.msgs[0], "intersect"));
+    pdr_diag_free(&d);
+    /* Two cubes sharing a face exactly, with the face listed once each:
+     * coplanar facets covering the same region overlap. */
+    const char *twin =
+        "12 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 1 0\n5 0 0 1\n6 1 0 1\n7 0 1 1\n"
+        "8 1 1 1\n9 2 0 0\n10 2 1 0\n11 2 0 1\n12 2 1 1\n"
+        "12 0\n1\n4 1 5 7 3\n1\n4 2 4 8 6\n1\n4 1 2 6 5\n1\n4 3 7 8 4\n1\n4 1 3 4 2\n"
+        "1\n4 5 6 8 7\n1\n4 2 6 8 4\n1\n4 9 10 12 11\n1\n4 2 9 11 6\n1\n4 4 8 12 10\n"
+        "1\n4 2 4 10 9\n1\n4 6 11 12 8\n0\n";
+    ck_assert_int_eq(validate_text("w.poly", twin, &d), PDR_EGEOMETRY);
+    int found = 0;
+    for (size_t i = 0; i < d.nkept; i++)
+        found |= strstr(d.msgs[i], "facets 2 and 7") != NULL;
+    ck_assert_msg(found, "no overlap reported for the doubled facet");
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(shared_internal_facet_is_valid)
+{
+    /* Two cubes glued along one facet, listed once (a material
+     * interface): four facets meet at each of its edges, and the PLC is
+     * valid. */
+    const char *glued =
+        "12 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 1 0\n5 0 0 1\n6 1 0 1\n7 0 1 1\n"
+        "8 1 1 1\n9 2 0 0\n10 2 1 0\n11 2 0 1\n12 2 1 1\n"
+        "11 0\n1\n4 1 5 7 3\n1\n4 2 4 8 6\n1\n4 1 2 6 5\n1\n4 3 7 8 4\n1\n4 1 3 4 2\n"
+        "1\n4 5 6 8 7\n1\n4 9 10 12 11\n1\n4 2 9 11 6\n1\n4 4 8 12 10\n"
+        "1\n4 2 4 10 9\n1\n4 6 11 12 8\n0\n";
+    pdr_diag d = {0};
+    int rc = validate_text("g.poly", glued, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+static Suite *plc_suite(void)
+{
+    Suite *s = suite_create("plc");
+    TCase *tc = tcase_create("build");
+    tcase_add_test(tc, cube_in_cube_derived_data);
+    tcase_add_test(tc, tee_is_valid_and_has_acute_angles);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("read");
+    tcase_add_test(tc, poly_reader_full_format);
+    tcase_add_test(tc, poly_with_separate_zero_based_node_file);
+    tcase_add_test(tc, binary_stl_merges_vertices);
+    tcase_add_test(tc, smesh_off_stl_fixtures);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("validate");
+    tcase_add_test(tc, coplanar_overlap_and_touching_vertex_are_intersections);
+    tcase_add_test(tc, shared_internal_facet_is_valid);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+UNIT_MAIN(plc_suite)
