@@ -187,27 +187,32 @@ int pr_face_keys_get(pr_reader *r, pr_face_key **keys, uint32_t *n)
 /* Bytes per tetrahedron: four indices, four markers, subsegment mask. */
 #define TTABLE_ELEM (16 + 16 + 1)
 
-static int vtable_error(const pr_vtable *t)
+/* The table checks below are shared by encoder and decoder: a decoder
+ * first copies the arrays out of the message (one memcpy each on a
+ * little-endian host) and then checks the copy. The loops accumulate
+ * failures with | instead of branching, so they run at a few cycles per
+ * element and the compiler may vectorise them; a table is either valid or
+ * refused as a whole, so knowing which element failed is not needed. */
+
+/* 0, PR_ERANGE (a gid is PR_GID_NONE, a coordinate is not finite) or
+ * PR_EDATA (gids not strictly ascending). */
+static int vtable_check(const uint64_t *gid, const double *xyz, uint32_t n)
 {
-    if (t->n > PR_MAX_VERTICES)
-        return PR_ERANGE;
-    for (uint32_t i = 0; i < t->n; i++) {
-        if (t->gid[i] == PR_GID_NONE)
-            return PR_ERANGE;
-        if (i && t->gid[i] <= t->gid[i - 1])
-            return PR_EDATA;
-    }
-    for (size_t i = 0; i < 3 * (size_t)t->n; i++)
-        if (!pr__finite_bits(pr__f64_bits(t->xyz[i])))
-            return PR_ERANGE;
-    return 0;
+    unsigned bad_range = 0, bad_order = 0;
+    for (uint32_t i = 0; i < n; i++)
+        bad_range |= gid[i] == PR_GID_NONE;
+    for (uint32_t i = 1; i < n; i++)
+        bad_order |= gid[i] <= gid[i - 1];
+    for (size_t i = 0; i < 3 * (size_t)n; i++)
+        bad_range |= !pr__finite_bits(pr__f64_bits(xyz[i]));
+    return bad_range ? PR_ERANGE : bad_order ? PR_EDATA : 0;
 }
 
 int pr_vtable_put(pr_buf *b, const pr_vtable *t)
 {
     if (b->err)
         return b->err;
-    if (vtable_error(t))
+    if (t->n > PR_MAX_VERTICES || vtable_check(t->gid, t->xyz, t->n))
         return pr__buf_fail(b, PR_EINVAL);
     if (pr_buf_reserve(b, 4 + (size_t)t->n * VTABLE_ELEM))
         return b->err;
@@ -243,34 +248,11 @@ int pr_vtable_get(pr_reader *r, pr_vtable *t)
     t->gid = (uint64_t *)mem;
     t->xyz = (double *)(mem + 8 * (size_t)n);
     t->flags = (uint32_t *)(mem + 32 * (size_t)n);
-
-    const uint8_t *p;
-    pr_get_view(r, &p, (size_t)n * VTABLE_ELEM); /* fits: checked */
-    /* Copy and check in one pass over each array; 'bad' accumulates
-     * without branches so the loops stay simple for the compiler. */
-    uint64_t prev = 0;
-    int bad_order = 0, bad_range = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        uint64_t g = pr__ld64(p + 8 * (size_t)i);
-        bad_range |= g == PR_GID_NONE;
-        bad_order |= i > 0 && g <= prev;
-        t->gid[i] = g;
-        prev = g;
-    }
-    p += 8 * (size_t)n;
-    for (size_t i = 0; i < 3 * (size_t)n; i++) {
-        uint64_t u = pr__ld64(p + 8 * i);
-        bad_range |= !pr__finite_bits(u);
-        t->xyz[i] = pr__bits_f64(u);
-    }
-    p += 24 * (size_t)n;
-#if PR__HOST_LE
-    memcpy(t->flags, p, 4 * (size_t)n);
-#else
-    for (uint32_t i = 0; i < n; i++)
-        t->flags[i] = pr__ld32(p + 4 * (size_t)i);
-#endif
-    int rc = bad_range ? PR_ERANGE : bad_order ? PR_EDATA : 0;
+    /* These reads fit: pr_get_count checked n * VTABLE_ELEM bytes. */
+    pr_get_u64_array(r, t->gid, n);
+    pr_get_f64_array(r, t->xyz, 3 * (size_t)n);
+    pr_get_u32_array(r, t->flags, n);
+    int rc = r->err ? r->err : vtable_check(t->gid, t->xyz, n);
     if (rc) {
         pr_vtable_clear(t);
         return pr_reader_fail(r, rc);
@@ -293,30 +275,75 @@ int64_t pr_vtable_find(const pr_vtable *t, uint64_t gid)
 
 /* ----------------------------------------------------- tetrahedron table */
 
-/* Marker m is allowed with n_facets facets: -1, or 0 <= m < n_facets. */
-static inline int marker_ok(int32_t m, uint32_t n_facets)
+#if PR__VECTOR
+/* Four u32 lanes; GCC and clang spell a lane permutation differently. */
+typedef uint32_t v4u __attribute__((vector_size(16)));
+#if defined(__clang__)
+#define V4_ROTATE(x, a, b, c, d) __builtin_shufflevector((x), (x), a, b, c, d)
+#else
+#define V4_ROTATE(x, a, b, c, d) __builtin_shuffle((x), (v4u){a, b, c, d})
+#endif
+#endif
+
+/* OR of the bytes p[0..n), eight at a time. */
+static unsigned or_bytes(const uint8_t *p, size_t n)
 {
-    return m >= PR_MARKER_NONE && (m < 0 || (uint32_t)m < n_facets);
+    uint64_t acc = 0;
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t w;
+        memcpy(&w, p + i, 8);
+        acc |= w;
+    }
+    for (; i < n; i++)
+        acc |= p[i];
+    for (int shift = 32; shift >= 8; shift /= 2)
+        acc |= acc >> shift;
+    return (unsigned)(acc & 0xff);
 }
 
-static int ttable_error(const pr_ttable *t, uint32_t nv, uint32_t n_facets)
+/* 0, PR_EDATA (a vertex index out of range, or repeated in a tetrahedron)
+ * or PR_ERANGE (a marker outside -1 .. n_facets - 1, subsegment bits 6 or
+ * 7 set). A marker m is allowed if -1 <= m < n_facets, that is, if m + 1,
+ * computed as an unsigned (no overflow), is at most n_facets; the limit is
+ * capped at 2^31 because a marker is an int32. Comparing a tetrahedron's
+ * (a, b, c, d) with its rotations by one and by two places covers all six
+ * pairs of vertices. */
+static int ttable_check(const uint32_t *v, const int32_t *marker,
+                        const uint8_t *subseg, uint32_t n, uint32_t nv,
+                        uint32_t n_facets)
 {
-    if (t->n > PR_MAX_TETS)
-        return PR_ERANGE;
-    for (uint32_t i = 0; i < t->n; i++) {
-        const uint32_t *v = t->v + 4 * (size_t)i;
-        if (v[0] >= nv || v[1] >= nv || v[2] >= nv || v[3] >= nv)
-            return PR_EDATA;
-        if (v[0] == v[1] || v[0] == v[2] || v[0] == v[3] || v[1] == v[2] ||
-            v[1] == v[3] || v[2] == v[3])
-            return PR_EDATA;
-        for (int k = 0; k < 4; k++)
-            if (!marker_ok(t->marker[4 * (size_t)i + k], n_facets))
-                return PR_ERANGE;
-        if (t->subseg[i] & ~PR_SUBSEG_MASK)
-            return PR_ERANGE;
+    uint32_t lim = n_facets < UINT32_C(0x80000000) ? n_facets : UINT32_C(0x80000000);
+    unsigned bad_ref = 0, bad_range = 0;
+#if PR__VECTOR
+    /* One tetrahedron per vector: its four indices, or its four markers. */
+    v4u ref = {0, 0, 0, 0}, range = {0, 0, 0, 0};
+    const v4u nvv = {nv, nv, nv, nv}, limv = {lim, lim, lim, lim};
+    const v4u one = {1, 1, 1, 1};
+    for (uint32_t t = 0; t < n; t++) {
+        v4u x, m;
+        memcpy(&x, v + 4 * (size_t)t, sizeof x);
+        memcpy(&m, marker + 4 * (size_t)t, sizeof m);
+        ref |= (v4u)(x >= nvv);
+        ref |= (v4u)(x == V4_ROTATE(x, 1, 2, 3, 0));
+        ref |= (v4u)(x == V4_ROTATE(x, 2, 3, 0, 1));
+        range |= (v4u)(m + one > limv);
     }
-    return 0;
+    bad_ref = (ref[0] | ref[1] | ref[2] | ref[3]) != 0;
+    bad_range = (range[0] | range[1] | range[2] | range[3]) != 0;
+#else
+    for (uint32_t t = 0; t < n; t++) {
+        const uint32_t *x = v + 4 * (size_t)t;
+        uint32_t a = x[0], b = x[1], c = x[2], d = x[3];
+        bad_ref |= (a >= nv) | (b >= nv) | (c >= nv) | (d >= nv);
+        bad_ref |= (a == b) | (b == c) | (c == d) | (d == a) | (a == c) |
+                   (b == d);
+    }
+    for (size_t i = 0; i < 4 * (size_t)n; i++)
+        bad_range |= (uint32_t)marker[i] + 1u > lim;
+#endif
+    bad_range |= (or_bytes(subseg, n) & ~PR_SUBSEG_MASK) != 0;
+    return bad_range ? PR_ERANGE : bad_ref ? PR_EDATA : 0;
 }
 
 int pr_ttable_put(pr_buf *b, const pr_ttable *t, uint32_t n_vertices,
@@ -324,7 +351,8 @@ int pr_ttable_put(pr_buf *b, const pr_ttable *t, uint32_t n_vertices,
 {
     if (b->err)
         return b->err;
-    if (ttable_error(t, n_vertices, n_facets))
+    if (t->n > PR_MAX_TETS ||
+        ttable_check(t->v, t->marker, t->subseg, t->n, n_vertices, n_facets))
         return pr__buf_fail(b, PR_EINVAL);
     if (pr_buf_reserve(b, 4 + (size_t)t->n * TTABLE_ELEM))
         return b->err;
@@ -357,34 +385,13 @@ int pr_ttable_get(pr_reader *r, pr_ttable *t, uint32_t n_vertices,
     t->v = (uint32_t *)mem;
     t->marker = (int32_t *)(mem + 16 * (size_t)n);
     t->subseg = mem + 32 * (size_t)n;
-
-    const uint8_t *p;
-    pr_get_view(r, &p, (size_t)n * TTABLE_ELEM); /* fits: checked */
-    int bad_ref = 0, bad_range = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        const uint8_t *q = p + 16 * (size_t)i;
-        uint32_t a = pr__ld32(q), b = pr__ld32(q + 4), c = pr__ld32(q + 8),
-                 d = pr__ld32(q + 12);
-        bad_ref |= a >= n_vertices || b >= n_vertices || c >= n_vertices ||
-                   d >= n_vertices;
-        bad_ref |= a == b || a == c || a == d || b == c || b == d || c == d;
-        uint32_t *v = t->v + 4 * (size_t)i;
-        v[0] = a, v[1] = b, v[2] = c, v[3] = d;
-    }
-    p += 16 * (size_t)n;
-    for (size_t i = 0; i < 4 * (size_t)n; i++) {
-        int32_t m = (int32_t)pr__ld32(p + 4 * i);
-        bad_range |= !marker_ok(m, n_facets);
-        t->marker[i] = m;
-    }
-    p += 16 * (size_t)n;
-    uint8_t any = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        any |= p[i];
-        t->subseg[i] = p[i];
-    }
-    bad_range |= (any & ~PR_SUBSEG_MASK) != 0;
-    int rc = bad_range ? PR_ERANGE : bad_ref ? PR_EDATA : 0;
+    /* These reads fit: pr_get_count checked n * TTABLE_ELEM bytes. */
+    pr_get_u32_array(r, t->v, 4 * (size_t)n);
+    pr_get_i32_array(r, t->marker, 4 * (size_t)n);
+    pr_get_bytes(r, t->subseg, n);
+    int rc = r->err ? r->err
+                    : ttable_check(t->v, t->marker, t->subseg, n, n_vertices,
+                                   n_facets);
     if (rc) {
         pr_ttable_clear(t);
         return pr_reader_fail(r, rc);

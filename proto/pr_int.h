@@ -8,16 +8,26 @@
 
 #include "pr.h"
 
-/* On a little-endian host the wire order is the host order, and bulk
- * arrays are copied with memcpy; elsewhere (or when the build defines
- * PR_PORTABLE_BYTE_ORDER, as one test does to check that both paths write
- * the same bytes) every value is assembled byte by byte. */
+/* Two host-specific fast paths, each with a plain C twin:
+ *   - on a little-endian host the wire order is the host order, and bulk
+ *     arrays are copied with memcpy; elsewhere every value is assembled
+ *     byte by byte;
+ *   - with GCC or clang, the table checks use 4-lane vector extensions
+ *     (SSE2 on x86-64, NEON on arm64); elsewhere they are scalar loops.
+ * A build that defines PR_PORTABLE takes the plain C twins everywhere; the
+ * *_portable tests are built that way, so both paths are tested to write the
+ * same bytes and refuse the same messages. */
 #if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) &&           \
-    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ &&                            \
-    !defined(PR_PORTABLE_BYTE_ORDER)
+    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && !defined(PR_PORTABLE)
 #define PR__HOST_LE 1
 #else
 #define PR__HOST_LE 0
+#endif
+
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(PR_PORTABLE)
+#define PR__VECTOR 1
+#else
+#define PR__VECTOR 0
 #endif
 
 /* Inline loads and stores for the hot loops; pr_load_u64 and friends in

@@ -46,7 +46,7 @@ check_PROGRAMS += tests/test_pr_golden_portable
 TESTS += tests/test_pr_golden_portable
 tests_test_pr_golden_portable_SOURCES = tests/test_pr_golden.c \
 	$(PR_SAMPLE_SOURCES) $(libpdrproto_la_SOURCES)
-tests_test_pr_golden_portable_CPPFLAGS = $(AM_CPPFLAGS) -DPR_PORTABLE_BYTE_ORDER
+tests_test_pr_golden_portable_CPPFLAGS = $(AM_CPPFLAGS) -DPR_PORTABLE
 
 # Fuzz targets (tests/fuzz/fuzz_<decoder>.c, one per decoder). libFuzzer
 # builds and runs them through tools/fuzz-proto; here each is linked with a
@@ -80,3 +80,26 @@ tests_fuzz_replay_tet_SOURCES = tests/fuzz/fuzz_tet.c $(PR_REPLAY_SOURCES)
 tests_fuzz_replay_tet_LDADD = libpdrproto.la
 tests_fuzz_replay_face_keys_SOURCES = tests/fuzz/fuzz_face_keys.c $(PR_REPLAY_SOURCES)
 tests_fuzz_replay_face_keys_LDADD = libpdrproto.la
+
+# Benchmark of the submesh codec against memcpy: tools/bench-proto builds
+# and runs tools/bench_proto (results in bench/proto.md).
+noinst_PROGRAMS += tools/bench_proto
+tools_bench_proto_SOURCES = tools/bench_proto.c $(PR_SAMPLE_SOURCES)
+tools_bench_proto_LDADD = libpdrproto.la libpdrmesh.la $(METIS_LIBS) -lm
+dist_noinst_SCRIPTS += tools/bench-proto
+
+# The refusal and property tests again, with proto built with PR_PORTABLE
+# (byte-by-byte order, scalar table checks), so the plain C twins of the
+# fast paths are held to the same results.
+check_PROGRAMS += tests/test_pr_messages_portable tests/test_pr_props_portable
+TESTS += tests/test_pr_messages_portable tests/test_pr_props_portable
+tests_test_pr_messages_portable_SOURCES = tests/test_pr_messages.c \
+	$(PR_SAMPLE_SOURCES) $(libpdrproto_la_SOURCES)
+tests_test_pr_messages_portable_CPPFLAGS = $(AM_CPPFLAGS) -DPR_PORTABLE
+tests_test_pr_messages_portable_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pr_messages_portable_LDADD = $(UNIT_LIBS)
+tests_test_pr_props_portable_SOURCES = tests/test_pr_props.c \
+	$(PR_SAMPLE_SOURCES) $(libpdrproto_la_SOURCES)
+tests_test_pr_props_portable_CPPFLAGS = $(AM_CPPFLAGS) -DPR_PORTABLE
+tests_test_pr_props_portable_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pr_props_portable_LDADD = $(UNIT_LIBS)
