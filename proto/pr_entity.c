@@ -275,15 +275,27 @@ int64_t pr_vtable_find(const pr_vtable *t, uint64_t gid)
 
 /* ----------------------------------------------------- tetrahedron table */
 
-#if PR__VECTOR
-/* Four u32 lanes; GCC and clang spell a lane permutation differently. */
-typedef uint32_t v4u __attribute__((vector_size(16)));
-#if defined(__clang__)
-#define V4_ROTATE(x, a, b, c, d) __builtin_shufflevector((x), (x), a, b, c, d)
-#else
-#define V4_ROTATE(x, a, b, c, d) __builtin_shuffle((x), (v4u){a, b, c, d})
-#endif
-#endif
+/* On a little-endian host a tetrahedron table has the same bytes in memory
+ * and on the wire, so encoding and decoding are the same copy, and with
+ * GCC or clang the check runs on the registers of that copy, one
+ * tetrahedron per 4-lane vector. That avoids a second pass over the arrays:
+ * bench_proto measured encode and decode at about 1.7 times the time of a
+ * memcpy of the same bytes with a separate check, 1.2 times fused. Other
+ * hosts and PR_PORTABLE builds convert the arrays and check them with
+ * plain loops (ttable_check). The rules are the same:
+ *   - every vertex index < nv, and a tetrahedron's four indices distinct
+ *     (else PR_EDATA); comparing (a, b, c, d) with its rotations by one and
+ *     by two places covers all six pairs;
+ *   - every marker m has -1 <= m < n_facets, that is, m + 1 computed as an
+ *     unsigned (no overflow) is at most the limit n_facets, capped at 2^31
+ *     because a marker is an int32; subsegment bits 6 and 7 are clear
+ *     (else PR_ERANGE). */
+#define PR__TTABLE_FUSED (PR__VECTOR && PR__HOST_LE)
+
+static uint32_t marker_limit(uint32_t n_facets)
+{
+    return n_facets < UINT32_C(0x80000000) ? n_facets : UINT32_C(0x80000000);
+}
 
 /* OR of the bytes p[0..n), eight at a time. */
 static unsigned or_bytes(const uint8_t *p, size_t n)
@@ -302,36 +314,52 @@ static unsigned or_bytes(const uint8_t *p, size_t n)
     return (unsigned)(acc & 0xff);
 }
 
-/* 0, PR_EDATA (a vertex index out of range, or repeated in a tetrahedron)
- * or PR_ERANGE (a marker outside -1 .. n_facets - 1, subsegment bits 6 or
- * 7 set). A marker m is allowed if -1 <= m < n_facets, that is, if m + 1,
- * computed as an unsigned (no overflow), is at most n_facets; the limit is
- * capped at 2^31 because a marker is an int32. Comparing a tetrahedron's
- * (a, b, c, d) with its rotations by one and by two places covers all six
- * pairs of vertices. */
-static int ttable_check(const uint32_t *v, const int32_t *marker,
-                        const uint8_t *subseg, uint32_t n, uint32_t nv,
-                        uint32_t n_facets)
+#if PR__TTABLE_FUSED
+/* Four u32 lanes; GCC and clang spell a lane permutation differently. */
+typedef uint32_t v4u __attribute__((vector_size(16)));
+#if defined(__clang__)
+#define V4_ROTATE(x, a, b, c, d) __builtin_shufflevector((x), (x), a, b, c, d)
+#else
+#define V4_ROTATE(x, a, b, c, d) __builtin_shuffle((x), (v4u){a, b, c, d})
+#endif
+
+/* Copies a table of n tetrahedra to dst, laid out like the wire (16n
+ * bytes of indices, 16n of markers, n of masks), from its three arrays,
+ * and checks it on the way. Returns 0, PR_EDATA or PR_ERANGE. */
+static int ttable_copy_check(uint8_t *dst, const uint8_t *src_v,
+                             const uint8_t *src_m, const uint8_t *src_s,
+                             uint32_t n, uint32_t nv, uint32_t n_facets)
 {
-    uint32_t lim = n_facets < UINT32_C(0x80000000) ? n_facets : UINT32_C(0x80000000);
-    unsigned bad_ref = 0, bad_range = 0;
-#if PR__VECTOR
-    /* One tetrahedron per vector: its four indices, or its four markers. */
+    uint32_t lim = marker_limit(n_facets);
     v4u ref = {0, 0, 0, 0}, range = {0, 0, 0, 0};
     const v4u nvv = {nv, nv, nv, nv}, limv = {lim, lim, lim, lim};
     const v4u one = {1, 1, 1, 1};
+    uint8_t *dst_v = dst, *dst_m = dst + 16 * (size_t)n;
     for (uint32_t t = 0; t < n; t++) {
         v4u x, m;
-        memcpy(&x, v + 4 * (size_t)t, sizeof x);
-        memcpy(&m, marker + 4 * (size_t)t, sizeof m);
+        memcpy(&x, src_v + 16 * (size_t)t, sizeof x);
+        memcpy(&m, src_m + 16 * (size_t)t, sizeof m);
+        memcpy(dst_v + 16 * (size_t)t, &x, sizeof x);
+        memcpy(dst_m + 16 * (size_t)t, &m, sizeof m);
         ref |= (v4u)(x >= nvv);
         ref |= (v4u)(x == V4_ROTATE(x, 1, 2, 3, 0));
         ref |= (v4u)(x == V4_ROTATE(x, 2, 3, 0, 1));
         range |= (v4u)(m + one > limv);
     }
-    bad_ref = (ref[0] | ref[1] | ref[2] | ref[3]) != 0;
-    bad_range = (range[0] | range[1] | range[2] | range[3]) != 0;
+    memcpy(dst + 32 * (size_t)n, src_s, n);
+    int bad_ref = (ref[0] | ref[1] | ref[2] | ref[3]) != 0;
+    int bad_range = (range[0] | range[1] | range[2] | range[3]) != 0;
+    bad_range |= (or_bytes(src_s, n) & ~PR_SUBSEG_MASK) != 0;
+    return bad_range ? PR_ERANGE : bad_ref ? PR_EDATA : 0;
+}
 #else
+/* Checks a table in memory; same rules and results as the fused copy. */
+static int ttable_check(const uint32_t *v, const int32_t *marker,
+                        const uint8_t *subseg, uint32_t n, uint32_t nv,
+                        uint32_t n_facets)
+{
+    uint32_t lim = marker_limit(n_facets);
+    unsigned bad_ref = 0, bad_range = 0;
     for (uint32_t t = 0; t < n; t++) {
         const uint32_t *x = v + 4 * (size_t)t;
         uint32_t a = x[0], b = x[1], c = x[2], d = x[3];
@@ -341,18 +369,32 @@ static int ttable_check(const uint32_t *v, const int32_t *marker,
     }
     for (size_t i = 0; i < 4 * (size_t)n; i++)
         bad_range |= (uint32_t)marker[i] + 1u > lim;
-#endif
     bad_range |= (or_bytes(subseg, n) & ~PR_SUBSEG_MASK) != 0;
     return bad_range ? PR_ERANGE : bad_ref ? PR_EDATA : 0;
 }
+#endif
 
 int pr_ttable_put(pr_buf *b, const pr_ttable *t, uint32_t n_vertices,
                   uint32_t n_facets)
 {
     if (b->err)
         return b->err;
-    if (t->n > PR_MAX_TETS ||
-        ttable_check(t->v, t->marker, t->subseg, t->n, n_vertices, n_facets))
+    if (t->n > PR_MAX_TETS)
+        return pr__buf_fail(b, PR_EINVAL);
+#if PR__TTABLE_FUSED
+    size_t start = b->len;
+    pr_put_u32(b, t->n);
+    uint8_t *p = pr__buf_claim(b, (size_t)t->n * TTABLE_ELEM);
+    if (!p)
+        return b->err;
+    if (t->n && ttable_copy_check(p, (const uint8_t *)t->v,
+                                  (const uint8_t *)t->marker, t->subseg, t->n,
+                                  n_vertices, n_facets)) {
+        b->len = start; /* a refused table leaves nothing behind */
+        return pr__buf_fail(b, PR_EINVAL);
+    }
+#else
+    if (ttable_check(t->v, t->marker, t->subseg, t->n, n_vertices, n_facets))
         return pr__buf_fail(b, PR_EINVAL);
     if (pr_buf_reserve(b, 4 + (size_t)t->n * TTABLE_ELEM))
         return b->err;
@@ -360,6 +402,7 @@ int pr_ttable_put(pr_buf *b, const pr_ttable *t, uint32_t n_vertices,
     pr_put_u32_array(b, t->v, 4 * (size_t)t->n);
     pr_put_i32_array(b, t->marker, 4 * (size_t)t->n);
     pr_put_bytes(b, t->subseg, t->n);
+#endif
     return b->err;
 }
 
@@ -386,12 +429,21 @@ int pr_ttable_get(pr_reader *r, pr_ttable *t, uint32_t n_vertices,
     t->marker = (int32_t *)(mem + 16 * (size_t)n);
     t->subseg = mem + 32 * (size_t)n;
     /* These reads fit: pr_get_count checked n * TTABLE_ELEM bytes. */
+#if PR__TTABLE_FUSED
+    const uint8_t *p;
+    pr_get_view(r, &p, (size_t)n * TTABLE_ELEM);
+    int rc = r->err ? r->err
+                    : ttable_copy_check(mem, p, p + 16 * (size_t)n,
+                                        p + 32 * (size_t)n, n, n_vertices,
+                                        n_facets);
+#else
     pr_get_u32_array(r, t->v, 4 * (size_t)n);
     pr_get_i32_array(r, t->marker, 4 * (size_t)n);
     pr_get_bytes(r, t->subseg, n);
     int rc = r->err ? r->err
                     : ttable_check(t->v, t->marker, t->subseg, n, n_vertices,
                                    n_facets);
+#endif
     if (rc) {
         pr_ttable_clear(t);
         return pr_reader_fail(r, rc);

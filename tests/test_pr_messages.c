@@ -302,7 +302,13 @@ START_TEST(submesh_refuses_bad_tetrahedra)
 {
     ck_assert_int_eq(submesh_with(OFF_TV + 4 * 3, NV, 0), PR_EDATA); /* no vertex 5 */
     ck_assert_int_eq(submesh_with(OFF_TV + 4 * 3, UINT32_MAX, 0), PR_EDATA);
-    ck_assert_int_eq(submesh_with(OFF_TV + 4 * 1, 0, 0), PR_EDATA); /* repeated */
+    /* Tetrahedron 0 is (0, 1, 2, 3): repeat each of its vertices in each
+     * later slot, so every one of the six pairs is tested. */
+    for (int i = 0; i < 4; i++)
+        for (int j = i + 1; j < 4; j++)
+            ck_assert_msg(submesh_with(OFF_TV + 4 * (size_t)j, (uint32_t)i, 0) ==
+                              PR_EDATA,
+                          "vertex %d repeated in slot %d", i, j);
     ck_assert_int_eq(submesh_with(OFF_MARKER, (uint32_t)-2, 0), PR_ERANGE);
     ck_assert_int_eq(submesh_with(OFF_MARKER, 4, 0), PR_ERANGE); /* n_facets 4 */
     ck_assert_int_eq(submesh_with(OFF_MARKER, 3, 0), 0);
