@@ -139,7 +139,8 @@ int pr_get_view(pr_reader *r, const uint8_t **out, size_t n);
 int pr_get_count(pr_reader *r, uint32_t max, size_t elem_size, uint32_t *out);
 int pr_get_i32(pr_reader *r, int32_t *out);
 /* Bulk arrays written by pr_put_*_array; n is a count the caller already
- * validated (typically with pr_get_count). */
+ * validated (typically with pr_get_count). On failure the contents of out
+ * are unspecified. */
 int pr_get_u32_array(pr_reader *r, uint32_t *out, size_t n);
 int pr_get_i32_array(pr_reader *r, int32_t *out, size_t n);
 int pr_get_u64_array(pr_reader *r, uint64_t *out, size_t n);
