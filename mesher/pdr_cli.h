@@ -11,7 +11,8 @@
 #define PDR_CLI_H
 
 #define PDR_COMMANDS(X)                                                      \
-    X(info, "print the version, build configuration and libraries")
+    X(info, "print the version, build configuration and libraries")         \
+    X(run, "start a program as a parallel libam job (like am-run)")
 
 #define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
 PDR_COMMANDS(PDR_CMD_DECLARE)
