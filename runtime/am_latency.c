@@ -32,14 +32,16 @@ static int parse_time(const char **s, double *out)
     double v = strtod(*s, &end);
     if (end == *s || !isfinite(v) || v < 0)
         return AM_EINVAL;
+    /* Divide by exact powers of ten: 200 / 1e6 is the double nearest to
+     * 200e-6, 200 * 1e-6 is not. */
     static const struct {
         const char *unit;
-        double scale;
-    } units[] = {{"ns", 1e-9}, {"us", 1e-6}, {"ms", 1e-3}, {"s", 1.0}};
+        double per_second;
+    } units[] = {{"ns", 1e9}, {"us", 1e6}, {"ms", 1e3}, {"s", 1.0}};
     for (size_t i = 0; i < sizeof units / sizeof units[0]; i++) {
         size_t n = strlen(units[i].unit);
         if (!strncmp(end, units[i].unit, n)) {
-            *out = v * units[i].scale;
+            *out = v / units[i].per_second;
             *s = end + n;
             return 0;
         }

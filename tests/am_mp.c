@@ -22,6 +22,8 @@
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
  *                          from a socket without the job's CURVE key got in
+ *   am_mp fake-peer EP V   (no libam) says hello to rank 0 at endpoint EP as
+ *                          PE 1 speaking wire protocol version V
  *
  * Exit status 0 if every check held, 1 otherwise; every wait is bounded.
  * Extra arguments of the form tag=... are ignored (the scripts use them to
@@ -655,9 +657,13 @@ static int run_kill(am_ctx_t *ctx, int victim)
 
 /* ------------------------------------------------------------ malformed */
 
-static void raw_send(void *zctx, const char *ep, const void *id, size_t idlen,
+/* Sends one message from a fresh DEALER socket. The ROUTER refuses a
+ * second connection with a routing id already in use, so each call gets
+ * its own id: id[1] is bumped every time. */
+static void raw_send(void *zctx, const char *ep, uint8_t *id, size_t idlen,
                      const void *frame, size_t len, int parts)
 {
+    id[1]++;
     void *s = zmq_socket(zctx, ZMQ_DEALER);
     int linger = 1000;
     zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
@@ -693,9 +699,9 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
         void *zctx = zmq_ctx_new();
         uint8_t f[64];
         uint8_t bad_id[5] = {'P', 99, 0, 0, 0}; /* rank 99: not in the job */
-        uint8_t other_id[2] = {'X', 'Y'};
+        uint8_t other_id[2] = {'X', 'A'};
         /* 1: truncated */
-        raw_send(zctx, ep, bad_id, 5, "abc", 3, 1);
+        raw_send(zctx, ep, bad_id, 5, (const uint8_t *)"abc", 3, 1);
         /* 2: bad magic */
         memset(f, 'z', sizeof f);
         raw_send(zctx, ep, bad_id, 5, f, 30, 1);
@@ -743,10 +749,32 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
     return 0;
 }
 
+/* Pretends to be PE 1 of a job speaking wire protocol VERSION: connects to
+ * rank 0's ENDPOINT and says hello. Runs without libam. */
+static int fake_peer(const char *endpoint, int version)
+{
+    void *zctx = zmq_ctx_new();
+    void *s = zmq_socket(zctx, ZMQ_DEALER);
+    uint8_t id[5] = {'P', 1, 0, 0, 0};
+    int linger = 2000;
+    zmq_setsockopt(s, ZMQ_ROUTING_ID, id, sizeof id);
+    zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(s, endpoint);
+    uint8_t f[24];
+    frame_header(f, (uint8_t)version, 1, 1, 0);
+    f[6] = 1; /* HELLO */
+    int rc = zmq_send(s, f, sizeof f, 0);
+    zmq_close(s);
+    zmq_ctx_term(zctx);
+    return rc == (int)sizeof f ? 0 : 1;
+}
+
 /* ----------------------------------------------------------------- main */
 
 int main(int argc, char **argv)
 {
+    if (argc == 4 && !strcmp(argv[1], "fake-peer"))
+        return fake_peer(argv[2], atoi(argv[3]));
     am_ctx_t *ctx;
     int rc = am_init(&argc, &argv, NULL, &ctx);
     if (rc) {
