@@ -18,7 +18,6 @@
 #include "config.h"
 
 #include <math.h>
-#include <stdlib.h>
 
 #include "am_int.h"
 
@@ -193,14 +192,6 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
     evtimer_add(ctx->wake_ev, &tv);
     double t0 = am__now();
     double h0 = ctx->st.handler_s;
-    if (getenv("AM_TRACE")) {
-        static double last;
-        if (t0 - last > 1) {
-            last = t0;
-            am__warn(ctx, "TRACE idle: count=%lld black=%d tok=%d probing=%d passive=%d declared=%d live=%zu utimers=%d timers=%d runq=%zu lb=%zu early=%zu def=%zu sendq=%zu lat=%zu",
-                     (long long)ctx->term.count, ctx->term.black, ctx->term.have_token, ctx->term.probing, ctx->term.passive, ctx->term.declared, ctx->sched.live, ctx->user_timers_armed, ctx->timers_armed, ctx->sched.runq_n, ctx->loopback.n, ctx->early.n, ctx->deferred.n, ctx->sendq_total, am__latency_pending(ctx));
-        }
-    }
     event_base_loop(ctx->base, EVLOOP_ONCE);
     ctx->st.idle_s += am__now() - t0 - (ctx->st.handler_s - h0);
     evtimer_del(ctx->wake_ev);

@@ -31,10 +31,14 @@
  */
 #include "config.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <netdb.h>
+#include <netinet/in.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "am_int.h"
 
@@ -111,6 +115,56 @@ static int set_int(void *sock, int opt, int v)
     return zmq_setsockopt(sock, opt, &v, sizeof v);
 }
 
+/* Where a tcp PE binds and what it tells the others. AM_BIND may be an
+ * address (bound and advertised as is), "*" (all interfaces, advertised as
+ * this host's name), or a host name: ZeroMQ binds only interfaces and
+ * addresses, so a name that resolves to loopback only ("localhost") binds
+ * that address, and any other name (a hostfile entry) binds all
+ * interfaces and is advertised as given, for the other hosts to resolve. */
+static void tcp_bind_plan(const char *want, char *bind, char *adv, size_t n)
+{
+    struct in6_addr a6;
+    struct in_addr a4;
+    if (inet_pton(AF_INET, want, &a4) == 1) {
+        snprintf(bind, n, "%s", want);
+        snprintf(adv, n, "%s", want);
+        return;
+    }
+    if (inet_pton(AF_INET6, want, &a6) == 1) {
+        snprintf(bind, n, "[%s]", want);
+        snprintf(adv, n, "[%s]", want);
+        return;
+    }
+    if (!strcmp(want, "*")) {
+        snprintf(bind, n, "*");
+        if (gethostname(adv, n) != 0)
+            snprintf(adv, n, "localhost");
+        adv[n - 1] = '\0';
+        return;
+    }
+    struct addrinfo hints, *res = NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_INET;
+    hints.ai_socktype = SOCK_STREAM;
+    int loopback_only = getaddrinfo(want, NULL, &hints, &res) == 0 && res;
+    char first[INET_ADDRSTRLEN] = "";
+    for (struct addrinfo *ai = res; ai && loopback_only; ai = ai->ai_next) {
+        const struct sockaddr_in *sin = (const struct sockaddr_in *)ai->ai_addr;
+        loopback_only = (ntohl(sin->sin_addr.s_addr) >> 24) == 127;
+        if (!first[0])
+            inet_ntop(AF_INET, &sin->sin_addr, first, sizeof first);
+    }
+    if (res)
+        freeaddrinfo(res);
+    if (loopback_only) {
+        snprintf(bind, n, "%s", first);
+        snprintf(adv, n, "%s", first);
+    } else {
+        snprintf(bind, n, "*");
+        snprintf(adv, n, "%s", want);
+    }
+}
+
 int am__transport_open(am_ctx_t *ctx)
 {
     ctx->zctx = zmq_ctx_new();
@@ -165,28 +219,29 @@ int am__transport_open(am_ctx_t *ctx)
         }
     }
 
-    char ep[AM__EP_MAX];
+    char ep[AM__EP_MAX], bind[256] = "", adv[256] = "";
+    if (tcp)
+        tcp_bind_plan(ctx->bind_addr, bind, adv, sizeof bind);
     if (ctx->rank == 0 && ctx->root_ep)
         snprintf(ep, sizeof ep, "%s", ctx->root_ep);
     else if (tcp)
-        snprintf(ep, sizeof ep, "tcp://%s:0", ctx->bind_addr);
+        snprintf(ep, sizeof ep, "tcp://%s:0", bind);
     else
         snprintf(ep, sizeof ep, "ipc://%s/%d.sock", ctx->ipc_dir, ctx->rank);
     if (zmq_bind(ctx->sock, ep) != 0) {
         am__warn(ctx, "cannot bind %s: %s", ep, zmq_strerror(errno));
         return AM_ETRANSPORT;
     }
-    char last[AM__EP_MAX];
-    size_t len = sizeof last;
+    char last[AM__EP_MAX + 300];
+    size_t len = AM__EP_MAX;
     if (zmq_getsockopt(ctx->sock, ZMQ_LAST_ENDPOINT, last, &len) != 0)
         return AM_ETRANSPORT;
     last[sizeof last - 1] = '\0';
     /* A tcp socket bound to a wildcard reports 0.0.0.0; others must be
-     * told an address they can reach. */
+     * told a name or address they can reach. */
     if (tcp && !strncmp(last, "tcp://0.0.0.0:", 14)) {
-        char fixed[AM__EP_MAX];
-        snprintf(fixed, sizeof fixed, "tcp://%s:%s", ctx->bind_addr, last + 14);
-        snprintf(last, sizeof last, "%s", fixed);
+        long port = strtol(last + 14, NULL, 10);
+        snprintf(last, sizeof last, "tcp://%s:%ld", adv, port);
     }
     ctx->peers[ctx->rank].endpoint = strdup(last);
     if (!ctx->peers[ctx->rank].endpoint)

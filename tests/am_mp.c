@@ -22,6 +22,7 @@
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
  *                          from a socket without the job's CURVE key got in
+ *   am_mp sleep S          (no libam) sleeps S seconds: a PE to stop
  *   am_mp fake-peer EP V   (no libam) says hello to rank 0 at endpoint EP as
  *                          PE 1 speaking wire protocol version V
  *
@@ -735,8 +736,9 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
             am_sleep(ctx, 1.0);
             am_stats_get(ctx, &st);
             printf("stranger: PE 1 counted %llu frames from sockets outside "
-                   "the job\n",
-                   (unsigned long long)st.rejected);
+                   "the job (curve %s)\n",
+                   (unsigned long long)st.rejected,
+                   getenv("AM_CURVE_SERVER_PUBLIC") ? "on" : "off");
         } else {
             CHECK(st.rejected == (uint64_t)expected,
                   "PE 1 rejected %llu frames, expected %d",
@@ -775,6 +777,10 @@ int main(int argc, char **argv)
 {
     if (argc == 4 && !strcmp(argv[1], "fake-peer"))
         return fake_peer(argv[2], atoi(argv[3]));
+    if (argc >= 3 && !strcmp(argv[1], "sleep")) {
+        sleep((unsigned)atoi(argv[2]));
+        return 0;
+    }
     am_ctx_t *ctx;
     int rc = am_init(&argc, &argv, NULL, &ctx);
     if (rc) {

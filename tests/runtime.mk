@@ -44,3 +44,17 @@ tests_test_am_stats_SOURCES = tests/test_am_stats.c
 tests_test_am_stats_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_stats_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_stats_LDFLAGS = $(AM_LDFLAGS) -static
+
+# Multi-process tests: am_mp under am-run, on loopback only.
+EXTRA_DIST += tests/am-lib.sh
+AM_MP_TESTS = \
+	tests/am-storm.sh \
+	tests/am-term.sh \
+	tests/am-rpc.sh \
+	tests/am-latency.sh \
+	tests/am-kill.sh \
+	tests/am-coll.sh \
+	tests/am-malformed.sh \
+	tests/am-launch.sh
+TESTS += $(AM_MP_TESTS)
+dist_check_SCRIPTS += $(AM_MP_TESTS)
