@@ -355,6 +355,8 @@ struct am_ctx_s {
     void *sock;            /* the ROUTER */
     void *mon;             /* PAIR receiving the socket's monitor events */
     int zfd;               /* ZMQ_FD of sock */
+    int events_stale;      /* a send may have eaten a ZMQ_FD edge since
+                              the socket was last seen empty */
     am__peer *peers;       /* size entries */
     size_t sendq_total;    /* frames in all send queues */
     am__fifo loopback;     /* frames sent to this PE */

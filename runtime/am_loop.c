@@ -67,6 +67,7 @@ int am__loop_watch(am_ctx_t *ctx)
 {
     if (!ctx->sock)
         return 0;
+    ctx->events_stale = 1; /* the boot used the socket without us */
     ctx->zmq_ev = event_new(ctx->base, ctx->zfd, EV_READ | EV_PERSIST, wake_cb,
                             ctx);
     int mfd;
@@ -179,9 +180,10 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
         return rc;
     if (am__has_ready_work(ctx))
         return 0;
-    /* The edge rule: a send since the last drain may have consumed the
-     * ZMQ_FD edge of frames that are already waiting. */
-    if (am__socket_readable(ctx))
+    /* The edge rule: a send since the socket was last seen empty may have
+     * consumed the ZMQ_FD edge of frames that are already waiting; then
+     * ZMQ_EVENTS must be read again (a system call, so only then). */
+    if (ctx->events_stale && am__socket_readable(ctx))
         return 0;
     double slice = ctx->suspects ? HOUSEKEEPING : IDLE_SLICE;
     if (max_seconds >= 0 && max_seconds < slice)

@@ -18,7 +18,10 @@
  *   low to high addresses:
  *     +0  MXCSR (4 bytes), x87 control word (2 bytes), 2 bytes unused
  *     +8  r15, +16 r14, +24 r13, +32 r12, +40 rbx, +48 rbp, +56 return
- *   Caller-saved registers need no saving: the switch is a function call.
+ *   Caller-saved registers need no saving: the switch is a function call
+ *   (rax and rcx are used as scratch). A control word is reloaded only if
+ *   it differs from the current one: ldmxcsr and fldcw are slow (they made
+ *   a switch cost 26 ns instead of about 15 ns here).
  *
  * am__switch_boot
  *   Never called: a new thread's first frame (built in am_thread.c) makes
@@ -51,11 +54,19 @@ am__switch:
     subq $8, %rsp
     stmxcsr (%rsp)
     fnstcw 4(%rsp)
+    movl (%rsp), %eax
+    movzwl 4(%rsp), %ecx
     movq %rsp, (%rdi)
     movq %rsi, %rsp
+    /* Reloading a control word stalls the pipeline; threads almost never
+     * change them, so reload only what differs. */
+    cmpl (%rsp), %eax
+    je 1f
     ldmxcsr (%rsp)
+1:  cmpw 4(%rsp), %cx
+    je 2f
     fldcw 4(%rsp)
-    addq $8, %rsp
+2:  addq $8, %rsp
     popq %r15
     popq %r14
     popq %r13

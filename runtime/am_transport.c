@@ -310,7 +310,12 @@ int am__socket_readable(am_ctx_t *ctx)
     size_t len = sizeof ev;
     if (zmq_getsockopt(ctx->sock, ZMQ_EVENTS, &ev, &len) != 0)
         return 0;
-    return (ev & ZMQ_POLLIN) != 0;
+    if (ev & ZMQ_POLLIN)
+        return 1;
+    /* ZMQ_EVENTS processed every pending command: the next frame will
+     * signal ZMQ_FD again. */
+    ctx->events_stale = 0;
+    return 0;
 }
 
 /* ---------------------------------------------------------------- sending */
@@ -335,6 +340,8 @@ static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
 {
     uint8_t id[5];
     am__routing_id(pe, id);
+    /* A send may process the commands that carried a ZMQ_FD edge. */
+    ctx->events_stale = 1;
     if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
         if (errno == EAGAIN)
             return 1;
@@ -370,23 +377,22 @@ int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
         return 0;
     }
     am__peer *p = &ctx->peers[pe];
-    /* Allocate the queue node up front: after ZeroMQ refused the frame
-     * there must be no failure left that could lose it. */
-    if (!(f = am__frame_new()))
-        return AM_ENOMEM;
     h.seq = p->send_seq;
     pr_header_encode(&h, zmq_msg_data(msg));
     if (p->sendq.n == 0) {
         int rc = zsend(ctx, pe, msg);
-        if (rc == 2)
+        if (rc == 2) /* dropped while finalizing */
             zmq_msg_close(msg);
-        if (rc <= 0 || rc == 2) {
-            am__frame_free(f);
-            if (rc != 1)
+        if (rc != 1) {
+            if (rc >= 0)
                 p->send_seq++;
-            return rc == 2 ? 0 : rc;
+            return rc < 0 ? rc : 0;
         }
     }
+    /* ZeroMQ cannot take it now (or earlier frames wait): queue it. On
+     * failure nothing was sent, and msg is still the caller's. */
+    if (!(f = am__frame_new()))
+        return AM_ENOMEM;
     p->send_seq++;
     zmq_msg_move(&f->msg, msg);
     f->hdr = h;
@@ -647,21 +653,52 @@ static int is_basic(const am__frame *f)
            f->hdr.handler == AM__CTL_RPC_REQ || f->hdr.handler == AM__CTL_RPC_REP;
 }
 
-/* Takes one validated frame from the network to its next stage. */
+/* Moves a frame that lives on the stack into a queue node. */
+static am__frame *keep(am_ctx_t *ctx, am__frame *f)
+{
+    am__frame *k = am__frame_new();
+    if (!k) {
+        zmq_msg_close(&f->msg);
+        am__fail(ctx, AM_ENOMEM, "out of memory queueing a frame");
+        return NULL;
+    }
+    zmq_msg_move(&k->msg, &f->msg);
+    zmq_msg_close(&f->msg);
+    k->hdr = f->hdr;
+    k->src = f->src;
+    return k;
+}
+
+/* Takes one validated frame (on the stack) from the network to its next
+ * stage: the boot stash, a latency queue, the deferred queue (each needs
+ * a node), or straight to its handler (no allocation). */
 static void route_frame(am_ctx_t *ctx, am__frame *f)
 {
-    if (ctx->state == AM__BOOTING && !is_boot_frame(f))
-        am__fifo_push(&ctx->early, f);
-    else if (ctx->lat.on && ctx->state == AM__RUNNING)
-        am__latency_enqueue(ctx, f);
-    else
-        am__arrive(ctx, f);
+    am__frame *k;
+    if (ctx->state == AM__BOOTING && !is_boot_frame(f)) {
+        if ((k = keep(ctx, f)))
+            am__fifo_push(&ctx->early, k);
+    } else if (ctx->lat.on && ctx->state == AM__RUNNING) {
+        if ((k = keep(ctx, f)))
+            am__latency_enqueue(ctx, k);
+    } else if (ctx->term.defer && is_basic(f)) {
+        if ((k = keep(ctx, f)))
+            am__fifo_push(&ctx->deferred, k);
+    } else {
+        am__dispatch(ctx, f);
+        zmq_msg_close(&f->msg);
+    }
 }
 
 int am__recv_some(am_ctx_t *ctx, unsigned budget)
 {
     int taken = 0;
-    while ((unsigned)taken < budget && !ctx->failed) {
+    while (!ctx->failed) {
+        if ((unsigned)taken >= budget) {
+            /* Frames may remain: re-read ZMQ_EVENTS before blocking. */
+            ctx->events_stale = 1;
+            break;
+        }
         zmq_msg_t id;
         zmq_msg_init(&id);
         if (zmq_msg_recv(&id, ctx->sock, ZMQ_DONTWAIT) < 0) {
@@ -672,36 +709,35 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
             if (e != EAGAIN)
                 am__fail(ctx, AM_ETRANSPORT, "receiving failed: %s",
                          zmq_strerror(e));
+            else
+                ctx->events_stale = 0; /* as after ZMQ_EVENTS */
             break;
         }
         taken++;
-        am__frame *f = am__frame_new();
-        if (!f) {
-            zmq_msg_close(&id);
-            am__fail(ctx, AM_ENOMEM, "out of memory receiving a frame");
-            break;
-        }
+        am__frame fr;
+        memset(&fr, 0, sizeof fr);
+        zmq_msg_init(&fr.msg);
         int parts_ok = zmq_msg_more(&id) &&
-                       zmq_msg_recv(&f->msg, ctx->sock, ZMQ_DONTWAIT) >= 0 &&
-                       !zmq_msg_more(&f->msg);
+                       zmq_msg_recv(&fr.msg, ctx->sock, ZMQ_DONTWAIT) >= 0 &&
+                       !zmq_msg_more(&fr.msg);
         if (!parts_ok) {
             /* Swallow the rest of a multipart message. */
             zmq_msg_t junk;
             zmq_msg_init(&junk);
-            int more = zmq_msg_more(&f->msg);
+            int more = zmq_msg_more(&fr.msg);
             while (more && zmq_msg_recv(&junk, ctx->sock, ZMQ_DONTWAIT) >= 0)
                 more = zmq_msg_more(&junk);
             zmq_msg_close(&junk);
             zmq_msg_close(&id);
-            am__frame_free(f);
+            zmq_msg_close(&fr.msg);
             am__reject(ctx, AM__REJ_PARTS, -1, NULL);
             continue;
         }
         int src;
-        const uint8_t *data = zmq_msg_data(&f->msg);
-        size_t len = zmq_msg_size(&f->msg);
+        const uint8_t *data = zmq_msg_data(&fr.msg);
+        size_t len = zmq_msg_size(&fr.msg);
         int why = am__frame_check(ctx, zmq_msg_data(&id), zmq_msg_size(&id),
-                                  data, len, &src, &f->hdr);
+                                  data, len, &src, &fr.hdr);
         zmq_msg_close(&id);
         if (why) {
             if (why - 1 == AM__REJ_VERSION) {
@@ -711,7 +747,7 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
                          "version %d",
                          len > 4 ? data[4] : 0, PR_VERSION);
                 if (ctx->state == AM__BOOTING && src >= 0) {
-                    am__frame_free(f);
+                    zmq_msg_close(&fr.msg);
                     am__fail(ctx, AM_EPROTO, "PE %d %s", src, detail + 3);
                     break;
                 }
@@ -719,26 +755,23 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
             } else {
                 am__reject(ctx, why - 1, src, NULL);
             }
-            am__frame_free(f);
+            zmq_msg_close(&fr.msg);
             continue;
         }
         am__peer *p = &ctx->peers[src];
-        if (f->hdr.seq > p->recv_seq) {
-            char detail[80];
-            snprintf(detail, sizeof detail, "expected %llu, got %llu",
-                     (unsigned long long)p->recv_seq,
-                     (unsigned long long)f->hdr.seq);
-            am__warn(ctx, "sequence gap from PE %d (%s): frames were lost",
-                     src, detail);
-        }
-        p->recv_seq = f->hdr.seq + 1;
+        if (fr.hdr.seq > p->recv_seq)
+            am__warn(ctx, "sequence gap from PE %d (expected %llu, got %llu): "
+                          "frames were lost",
+                     src, (unsigned long long)p->recv_seq,
+                     (unsigned long long)fr.hdr.seq);
+        p->recv_seq = fr.hdr.seq + 1;
         if (p->said_bye) {
             am__reject(ctx, AM__REJ_LATE, src, NULL);
-            am__frame_free(f);
+            zmq_msg_close(&fr.msg);
             continue;
         }
-        f->src = src;
-        route_frame(ctx, f);
+        fr.src = src;
+        route_frame(ctx, &fr);
     }
     return taken;
 }
@@ -896,6 +929,7 @@ static int unreachable(am_ctx_t *ctx, int pe)
     uint8_t id[5];
     am__routing_id(pe, id);
     int gone = 0;
+    ctx->events_stale = 1;
     if (ctx->peers[pe].sendq.n == 0) {
         if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
             gone = errno == EHOSTUNREACH;
