@@ -199,6 +199,19 @@ int am__rpc_rep_get(pr_reader *r, am__rpc_msg *m)
     return pr_reader_finish(r);
 }
 
+void am__abort_put(pr_buf *b, const am__abort_msg *m)
+{
+    pr_put_u32(b, m->culprit);
+    put_str(b, (const char *)m->reason.p, m->reason.len);
+}
+
+int am__abort_get(pr_reader *r, am__abort_msg *m)
+{
+    pr_get_u32(r, &m->culprit);
+    get_str(r, AM__REASON_MAX, &m->reason);
+    return pr_reader_finish(r);
+}
+
 int am__empty_get(pr_reader *r)
 {
     return pr_reader_finish(r);

@@ -27,7 +27,8 @@
     X(COLL_DOWN, 9, "coll_down")     /* parent -> child result */            \
     X(GATHER, 10, "gather")          /* blob -> rank 0 */                    \
     X(RPC_REQ, 11, "rpc_request")    /* am_call request */                   \
-    X(RPC_REP, 12, "rpc_reply")      /* am_call reply */
+    X(RPC_REP, 12, "rpc_reply")      /* am_call reply */                     \
+    X(ABORT, 13, "abort")            /* a PE saw a peer fail; it exits */
 
 enum am__ctl_type {
 #define AM__CTL_ENUM(name, value, label) AM__CTL_##name = (value),
@@ -123,6 +124,17 @@ int am__rpc_req_get(pr_reader *r, am__rpc_msg *m);
 void am__rpc_rep_put(pr_buf *b, uint64_t call_id, const void *data,
                      size_t len);
 int am__rpc_rep_get(pr_reader *r, am__rpc_msg *m);
+
+/* ABORT: the PE that failed (or UINT32_MAX if none in particular) and
+ * the sender's one-line reason. */
+#define AM__REASON_MAX 512
+typedef struct am__abort_msg {
+    uint32_t culprit;
+    am__str reason;
+} am__abort_msg;
+
+void am__abort_put(pr_buf *b, const am__abort_msg *m);
+int am__abort_get(pr_reader *r, am__abort_msg *m);
 
 /* BYE and PING have empty bodies. */
 int am__empty_get(pr_reader *r);

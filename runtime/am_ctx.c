@@ -60,8 +60,15 @@ int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
     }
     am__warn(ctx, "%s", ctx->errmsg);
     fflush(NULL);
-    /* Like MPI_ERRORS_ARE_FATAL. _exit, not exit: ZeroMQ's threads and
-     * half-done collectives make atexit handlers a risk, not a help. */
+    /* Give queued frames (the ABORTs to the other PEs) half a second to
+     * leave, then stop: like MPI_ERRORS_ARE_FATAL. _exit, not exit:
+     * ZeroMQ's threads and half-done collectives make atexit handlers a
+     * risk, not a help. */
+    if (ctx->sock) {
+        int linger = 500;
+        zmq_setsockopt(ctx->sock, ZMQ_LINGER, &linger, sizeof linger);
+        am__transport_close(ctx);
+    }
     _exit(1);
 }
 

@@ -357,6 +357,7 @@ struct am_ctx_s {
     int zfd;               /* ZMQ_FD of sock */
     int events_stale;      /* a send may have eaten a ZMQ_FD edge since
                               the socket was last seen empty */
+    int aborting;          /* telling peers about a failure */
     am__peer *peers;       /* size entries */
     size_t sendq_total;    /* frames in all send queues */
     am__fifo loopback;     /* frames sent to this PE */
@@ -439,6 +440,9 @@ void am__check_peers(am_ctx_t *ctx);
  * Returns 0 or the reason (enum am__reject) + 1. Exposed for unit tests. */
 int am__frame_check(const am_ctx_t *ctx, const void *id, size_t id_len,
                     const void *frame, size_t len, int *src, pr_header *hdr);
+/* A peer failed: tells the other PEs (ABORT), then fails with AM_EPEER
+ * and the message why. */
+int am__peer_failed(am_ctx_t *ctx, int pe, const char *why);
 /* Counts a rejected frame; warns once per reason. */
 void am__reject(am_ctx_t *ctx, int reason, int src, const char *detail);
 /* Frame passed validation (and latency): delivers or defers it. */

@@ -322,15 +322,41 @@ int am__socket_readable(am_ctx_t *ctx)
 
 static int peer_gone(am_ctx_t *ctx, int pe)
 {
+    char why[AM__REASON_MAX];
     if (ctx->peers[pe].said_bye)
-        return am__fail(ctx, AM_EPEER,
-                        "PE %d already finalized; a message to it cannot be "
-                        "delivered",
-                        pe);
-    return am__fail(ctx, AM_EPEER,
-                    "PE %d went away: its connection is gone (the process "
-                    "died, or was silent for %.1f s)",
-                    pe, ctx->heartbeat);
+        snprintf(why, sizeof why,
+                 "PE %d already finalized; a message to it cannot be delivered",
+                 pe);
+    else
+        snprintf(why, sizeof why,
+                 "PE %d went away: its connection is gone (the process died, "
+                 "or was silent for %.1f s)",
+                 pe, ctx->heartbeat);
+    return am__peer_failed(ctx, pe, why);
+}
+
+int am__peer_failed(am_ctx_t *ctx, int pe, const char *why)
+{
+    if (ctx->failed)
+        return ctx->failed;
+    /* Tell the others first: a PE that exits because of PE 3 would
+     * otherwise be reported as the one that went away by PEs that notice
+     * its own exit before PE 3's. */
+    if (ctx->sock && ctx->state == AM__RUNNING) {
+        ctx->aborting = 1;
+        for (int to = 0; to < ctx->size; to++) {
+            if (to == ctx->rank || to == pe || ctx->peers[to].said_bye)
+                continue;
+            pr_buf b = PR_BUF_INIT;
+            am__ctl_begin(&b);
+            am__abort_msg m = {(uint32_t)pe, {(const uint8_t *)why, strlen(why)}};
+            am__abort_put(&b, &m);
+            am__send_ctl(ctx, to, AM__CTL_ABORT, &b);
+            pr_buf_free(&b);
+        }
+        ctx->aborting = 0;
+    }
+    return am__fail(ctx, AM_EPEER, "%s", why);
 }
 
 /* Hands msg to ZeroMQ. Returns 0 (msg consumed), 1 (would block: msg still
@@ -345,7 +371,8 @@ static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
     if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
         if (errno == EAGAIN)
             return 1;
-        if (errno == EHOSTUNREACH && ctx->state == AM__CLOSING)
+        if (errno == EHOSTUNREACH &&
+            (ctx->state == AM__CLOSING || ctx->aborting))
             return 2;
         if (errno == EHOSTUNREACH)
             return peer_gone(ctx, pe);
@@ -846,6 +873,17 @@ void am__dispatch(am_ctx_t *ctx, am__frame *f)
         break;
     case AM__CTL_PING:
         break;
+    case AM__CTL_ABORT: {
+        am__abort_msg m;
+        if (am__abort_get(&r, &m)) {
+            am__reject(ctx, AM__REJ_BODY, f->src, "abort");
+            break;
+        }
+        /* Passed on as is: the sender already named the PE concerned. */
+        am__fail(ctx, AM_EPEER, "%.*s (noticed by PE %d)", (int)m.reason.len,
+                 (const char *)m.reason.p, f->src);
+        break;
+    }
     case AM__CTL_TOKEN:
     case AM__CTL_TERMINATE:
         am__term_ctl(ctx, f->src, type, &r);

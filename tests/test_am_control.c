@@ -205,6 +205,34 @@ START_TEST(gather_and_rpc_round_trip)
 }
 END_TEST
 
+static int abort_get(pr_reader *r, void *out)
+{
+    return am__abort_get(r, out);
+}
+
+START_TEST(abort_round_trip)
+{
+    const char *why = "PE 5 went away";
+    am__abort_msg in = {5, {(const uint8_t *)why, strlen(why)}}, out;
+    pr_buf b = PR_BUF_INIT;
+    am__abort_put(&b, &in);
+    ck_assert_uint_eq(b.len, 4 + 4 + strlen(why));
+    check_prefixes_and_trailing(&b, abort_get, &out);
+    ck_assert_uint_eq(out.culprit, 5);
+    ck_assert(out.reason.len == strlen(why) && !memcmp(out.reason.p, why, out.reason.len));
+    /* A reason longer than AM__REASON_MAX is refused. */
+    pr_buf_reset(&b);
+    pr_put_u32(&b, 1);
+    pr_put_u32(&b, AM__REASON_MAX + 1);
+    for (int i = 0; i <= AM__REASON_MAX; i++)
+        pr_put_u8(&b, 'x');
+    pr_reader r;
+    pr_reader_init(&r, b.data, b.len);
+    ck_assert_int_eq(am__abort_get(&r, &out), PR_ERANGE);
+    pr_buf_free(&b);
+}
+END_TEST
+
 START_TEST(empty_bodies_and_names)
 {
     pr_reader r;
@@ -303,6 +331,7 @@ static Suite *control_suite(void)
     tcase_add_test(tc, token_round_trip);
     tcase_add_test(tc, collective_round_trip);
     tcase_add_test(tc, gather_and_rpc_round_trip);
+    tcase_add_test(tc, abort_round_trip);
     tcase_add_test(tc, empty_bodies_and_names);
     suite_add_tcase(s, tc);
     tc = tcase_create("frames");
