@@ -3,11 +3,13 @@
  *
  *   am_bench zmq-pingpong ipc|tcp N BYTES   raw ZeroMQ ROUTER/ROUTER ping-
  *                                           pong between two forked
- *                                           processes, blocking receives
+ *                                           processes, blocking receives;
+ *                                           median of N round trips
  *   am_bench zmq-rate ipc|tcp N BYTES       raw ZeroMQ one-way message rate
  *   am_bench am-pingpong N BYTES            (under am-run -n 2) AM round
  *                                           trips; the waiting PE blocks in
- *                                           libevent between messages
+ *                                           libevent between messages;
+ *                                           median of N round trips
  *   am_bench am-rate N BYTES                (under am-run -n 2) AM one-way
  *                                           message rate
  *   am_bench switch N                       thread switch cost, for each
@@ -38,6 +40,22 @@ static double now(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Median of n samples (sorts them). Single round trips are timed one by
+ * one and summarised by their median, which a busy shared machine
+ * disturbs far less than a mean: a round trip during which the process
+ * was preempted is an outlier, not a shift. */
+static double median(double *v, long n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
 static void die(const char *what)
@@ -129,13 +147,16 @@ static int raw_bench(int rate, const char *transport, long n, size_t bytes)
         double dt = now() - t0;
         printf("raw_rate %.0f\n", n / dt);
     } else {
+        double *rtt = malloc(sizeof *rtt * (size_t)n);
         for (long i = 0; i < n + 100; i++) {
-            if (i == 100)
-                t0 = now(); /* after 100 warm-up rounds */
+            t0 = now();
             raw_send(srv, "P1", buf, frame);
             raw_recv(srv, buf, frame);
+            if (i >= 100) /* after 100 warm-up rounds */
+                rtt[i - 100] = now() - t0;
         }
-        printf("raw_rtt_us %.2f\n", (now() - t0) / n * 1e6);
+        printf("raw_rtt_us %.2f\n", median(rtt, n) * 1e6);
+        free(rtt);
     }
     int status;
     waitpid(pid, &status, 0);
@@ -211,14 +232,16 @@ static int am_bench(int rate, int argc, char **argv)
     rate_n = n;
     am_barrier(ctx);
     if (am_rank(ctx) == 0 && !rate) {
-        double t0 = 0;
+        double *rtt = malloc(sizeof *rtt * (size_t)n);
         for (long i = 0; i < n + 100; i++) {
-            if (i == 100)
-                t0 = now();
+            double t0 = now();
             am_send(ctx, 1, H_PING, buf, bytes);
             wait_count(ctx, i + 1);
+            if (i >= 100)
+                rtt[i - 100] = now() - t0;
         }
-        printf("am_rtt_us %.2f\n", (now() - t0) / n * 1e6);
+        printf("am_rtt_us %.2f\n", median(rtt, n) * 1e6);
+        free(rtt);
     } else if (am_rank(ctx) == 0) {
         double t0 = now();
         for (long i = 0; i < n; i++) {
