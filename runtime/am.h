@@ -288,7 +288,8 @@ AM_EXPORT int am_poll(am_ctx_t *ctx);
 AM_EXPORT int am_run_threads(am_ctx_t *ctx);
 
 /* Blocks in libevent until a frame arrives, a timer is due, or max_seconds
- * pass (max_seconds < 0: no limit), counting the time as idle. Returns at
+ * pass (max_seconds < 0: no limit; it may still return after a quarter of
+ * a second, so call it in a loop), counting the time as idle. Returns at
  * once if a message or thread is already waiting. Main context only. */
 AM_EXPORT int am_idle(am_ctx_t *ctx, double max_seconds);
 
@@ -378,7 +379,8 @@ AM_EXPORT int am_reply_to(am_ctx_t *ctx, int pe, uint64_t call_id,
 
 /* ----------------------------------------------------------------- timers */
 
-/* A one-shot timer; fn runs in the main context when it fires. An armed
+/* A one-shot timer; fn runs in the main context when it fires (never
+ * early; libevent's precise timers give microsecond resolution). An armed
  * timer keeps this PE active for termination detection. Caller owns *out
  * (am_timer_free). */
 AM_EXPORT int am_timer_new(am_ctx_t *ctx, am_timer_fn fn, void *arg,
@@ -426,8 +428,9 @@ AM_EXPORT int am_category(am_ctx_t *ctx, const char *name);
 /* Opens/closes category cat. Categories are independent and may overlap;
  * begin/end pairs on one category nest (several threads may hold it open):
  * a category accumulates the wall time during which it is open at least
- * once, and counts its begin calls. Unbalanced ends are ignored. Each call
- * reads the monotonic clock once. */
+ * once, and counts its begin calls. Unbalanced ends are ignored. An
+ * outermost begin or end reads the monotonic clock once; nested ones do
+ * not read it. */
 AM_EXPORT void am_time_begin(am_ctx_t *ctx, int cat);
 AM_EXPORT void am_time_end(am_ctx_t *ctx, int cat);
 

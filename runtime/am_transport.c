@@ -15,10 +15,13 @@
  * bounded (2 s) so a dead peer cannot hold up exit.
  *
  * ZMQ_FD is edge-triggered: it signals a change, not a level. The runtime
- * therefore never relies on it alone: am_poll always drains until
- * ZMQ_EVENTS has no POLLIN or the poll budget is spent, and am_idle
- * re-reads ZMQ_EVENTS right before it blocks (a send may have consumed the
- * edge in between).
+ * therefore never relies on it alone: am_poll receives until ZeroMQ says
+ * EAGAIN (or the poll budget is spent), and before am_idle blocks it
+ * re-reads ZMQ_EVENTS whenever a send happened since the socket was last
+ * seen empty (events_stale): a send can process the command that carried
+ * the edge of a frame that is already waiting. An EAGAIN receive or a
+ * ZMQ_EVENTS read processes every pending command, so after one, the next
+ * frame is sure to signal ZMQ_FD again.
  *
  * Failure detection: ZeroMQ heartbeats (ZMQ_HEARTBEAT_IVL/TIMEOUT/TTL, on
  * tcp and ipc) close a connection whose peer stopped answering, and the OS
