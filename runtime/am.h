@@ -208,7 +208,8 @@ AM_EXPORT const char *am_version(void);
  * AM_LATENCY, AM_BANDWIDTH, AM_STATS_DIR, AM_STACK_SIZE, AM_SWITCH
  * (ucontext|fast), AM_BOOT_TIMEOUT, AM_HEARTBEAT (seconds), AM_HWM (ZeroMQ
  * high-water mark, default 0 = unlimited), AM_CURVE_SERVER_PUBLIC/SECRET
- * (CURVE keys for tcp, made by am-run; see README). opts fields, when set,
+ * (CURVE keys for tcp, made by am-run: a socket without them cannot get a
+ * frame in; protocol notes: runtime/CONTROL.md). opts fields, when set,
  * win over the environment. The caller owns *out (am_finalize). */
 AM_EXPORT int am_init(int *argc, char ***argv, const am_opts_t *opts,
                       am_ctx_t **out);

@@ -510,13 +510,11 @@ void am__stats_free(am_ctx_t *ctx);
 int am__latency_parse(const char *spec, double *lo, double *hi);
 /* Parses "100Mbit", "1Gbit", "12.5MB", "0": bytes per second in *bps. */
 int am__bandwidth_parse(const char *spec, double *bps);
-/* Formats seconds as "200us"/"1.5ms"/"2s" into buf. */
-void am__format_seconds(double s, char *buf, size_t n);
 int am__latency_init(am_ctx_t *ctx, const char *lat, const char *bw);
 /* Queues a received frame for delayed delivery (takes ownership). */
 void am__latency_enqueue(am_ctx_t *ctx, am__frame *f);
 void am__latency_free(am_ctx_t *ctx);
-/* Frames waiting in latency queues. */
+/* Frames waiting in latency queues (for tests and diagnostics). */
 size_t am__latency_pending(const am_ctx_t *ctx);
 
 #endif /* AM_INT_H */

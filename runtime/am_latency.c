@@ -110,18 +110,6 @@ int am__bandwidth_parse(const char *spec, double *bps)
     return AM_EINVAL;
 }
 
-void am__format_seconds(double s, char *buf, size_t n)
-{
-    if (s == 0)
-        snprintf(buf, n, "0");
-    else if (s < 1e-3)
-        snprintf(buf, n, "%gus", s * 1e6);
-    else if (s < 1)
-        snprintf(buf, n, "%gms", s * 1e3);
-    else
-        snprintf(buf, n, "%gs", s);
-}
-
 /* ---------------------------------------------------------------- delays */
 
 static double rand01(am__latency *l)

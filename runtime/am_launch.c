@@ -12,8 +12,9 @@
  * directory that the launcher removes) or tcp (required for hostfiles;
  * bound to 127.0.0.1 unless --bind says otherwise). On tcp, when libzmq
  * has CURVE, the launcher makes one key pair per job and the PEs encrypt
- * and authenticate with it (see README: the job's "public" key is kept
- * secret and acts as a shared job secret).
+ * and authenticate with it (runtime/CONTROL.md, "CURVE": the job's
+ * "public" key is given only to the job's PEs and acts as a shared job
+ * secret).
  */
 #include "config.h"
 
@@ -108,8 +109,9 @@ static void usage(const launch *L, FILE *out)
             "stopping the others (10)\n"
             "  -h, --help              this text\n\n"
             "The exit status is 0 if every PE exited 0, else the first failing "
-            "PE's status\n(128+N if it was killed by signal N). See README.md, "
-            "\"Running jobs\".\n",
+            "PE's status\n(128+N if it was killed by signal N). The PEs find "
+            "their rank and peers in AM_*\nenvironment variables (see am_init "
+            "in am.h).\n",
             L->prog, EXIT_TIMEOUT);
 }
 
@@ -344,6 +346,13 @@ static pid_t start_local(launch *L, int r)
         return pid;
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
+    /* Nothing of an enclosing job may leak into this one. */
+    static const char *const stale[] = {
+        "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
+        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_SERVER_PUBLIC",
+        "AM_CURVE_SERVER_SECRET"};
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        unsetenv(stale[i]);
     for (int i = 0; i < n; i++)
         putenv(env[i]);
     if (L->curve && !strcmp(L->transport, "tcp")) {

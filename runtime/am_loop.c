@@ -125,14 +125,20 @@ static int main_context_only(const am_ctx_t *ctx)
 static void poll_local(am_ctx_t *ctx)
 {
     am__frame *f;
-    if (ctx->state == AM__RUNNING)
-        while ((f = am__fifo_pop(&ctx->early)))
-            ctx->lat.on ? am__latency_enqueue(ctx, f) : am__arrive(ctx, f);
-    if (!ctx->term.defer)
-        while (!ctx->term.defer && (f = am__fifo_pop(&ctx->deferred))) {
-            am__dispatch(ctx, f);
-            am__frame_free(f);
-        }
+    /* Frames that came during the boot go through latency injection like
+     * any other (they were not delayed yet). */
+    while (ctx->state == AM__RUNNING && (f = am__fifo_pop(&ctx->early))) {
+        if (ctx->lat.on)
+            am__latency_enqueue(ctx, f);
+        else
+            am__arrive(ctx, f);
+    }
+    /* A handler may declare termination again (TERMINATE of the next
+     * epoch cannot overtake these, but the check is cheap). */
+    while (!ctx->term.defer && (f = am__fifo_pop(&ctx->deferred))) {
+        am__dispatch(ctx, f);
+        am__frame_free(f);
+    }
     /* Only what is queued now: a handler that sends to its own PE must not
      * keep this poll going for ever. */
     for (size_t n = ctx->loopback.n; n > 0 && (f = am__fifo_pop(&ctx->loopback));

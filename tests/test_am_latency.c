@@ -67,20 +67,6 @@ START_TEST(bandwidth_specs)
 }
 END_TEST
 
-START_TEST(format_seconds)
-{
-    char buf[32];
-    am__format_seconds(200e-6, buf, sizeof buf);
-    ck_assert_str_eq(buf, "200us");
-    am__format_seconds(2e-3, buf, sizeof buf);
-    ck_assert_str_eq(buf, "2ms");
-    am__format_seconds(3, buf, sizeof buf);
-    ck_assert_str_eq(buf, "3s");
-    am__format_seconds(0, buf, sizeof buf);
-    ck_assert_str_eq(buf, "0");
-}
-END_TEST
-
 /* ------------------------------------------------------ delayed delivery */
 
 #define NFRAMES 40
@@ -195,7 +181,6 @@ static Suite *latency_suite(void)
     TCase *tc = tcase_create("specs");
     tcase_add_test(tc, latency_specs);
     tcase_add_test(tc, bandwidth_specs);
-    tcase_add_test(tc, format_seconds);
     suite_add_tcase(s, tc);
     tc = tcase_create("delivery");
     tcase_set_timeout(tc, 20);
