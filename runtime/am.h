@@ -27,10 +27,12 @@
  *    suspend the calling thread; from the main context they drive the loop
  *    (poll, run threads, block in libevent) until done; from a callback they
  *    fail with AM_ESTATE.
- *  - Fatal conditions (a peer went away, a peer speaks another protocol
- *    version) go to the error handler (am_set_error_handler). The default
- *    handler prints "am: PE <rank>: <message>" and exits with status 1,
- *    like MPI's default MPI_ERRORS_ARE_FATAL.
+ *  - Fatal conditions after start-up (a peer went away) go to the error
+ *    handler (am_set_error_handler). The default handler prints
+ *    "am: PE <rank>: <message>" and exits with status 1, like MPI's default
+ *    MPI_ERRORS_ARE_FATAL. During am_init they make it return the code
+ *    (AM_EPROTO for a peer speaking another protocol version, with a
+ *    message naming both versions on stderr).
  */
 #ifndef AM_H
 #define AM_H
