@@ -12,7 +12,8 @@
 
 #define PDR_COMMANDS(X)                                                      \
     X(info, "print the version, build configuration and libraries")          \
-    X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")
+    X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")   \
+    X(run, "start a program as a parallel libam job (like am-run)")
 
 #define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
 PDR_COMMANDS(PDR_CMD_DECLARE)
