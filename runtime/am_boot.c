@@ -234,11 +234,12 @@ static int send_hello(am_ctx_t *ctx, int to, unsigned type)
     am__ctl_begin(&b);
     if (type == AM__CTL_HELLO) {
         const char *ep = ctx->peers[ctx->rank].endpoint;
-        am__hello h = {(uint32_t)ctx->rank, (uint32_t)ctx->size, ctx->job,
-                       {(const uint8_t *)ep, strlen(ep)}};
+        am__hello h = {.endpoint = {(const uint8_t *)ep, strlen(ep)}};
+        pr_hello_init(&h.id, ctx->job, (uint32_t)ctx->rank, (uint32_t)ctx->size);
         am__hello_put(&b, &h);
     } else if (type == AM__CTL_PEER_HELLO) {
-        am__peer_hello h = {(uint32_t)ctx->rank, ctx->job};
+        am__peer_hello h;
+        pr_hello_init(&h.id, ctx->job, (uint32_t)ctx->rank, (uint32_t)ctx->size);
         am__peer_hello_put(&b, &h);
     } else {
         char **eps = malloc(sizeof *eps * (size_t)ctx->size);
@@ -304,6 +305,30 @@ static int check_job(am_ctx_t *ctx, int src, uint64_t job, uint32_t size)
     return 0;
 }
 
+/* A peer's hello, decided by proto's negotiation rules. Returns 0 if the
+ * peer may take part; otherwise the hello is ignored (a PE of another job,
+ * with a warning) or the job fails with the negotiation's one-line
+ * explanation. */
+static int check_hello(am_ctx_t *ctx, int src, const pr_hello *remote)
+{
+    if (remote->job != ctx->job)
+        return check_job(ctx, src, remote->job, remote->size);
+    pr_hello local;
+    pr_hello_init(&local, ctx->job, (uint32_t)ctx->rank, (uint32_t)ctx->size);
+    uint8_t version;
+    char why[256];
+    int rc = pr_negotiate(&local, remote, &version, why, sizeof why);
+    if (rc) {
+        am__fail(ctx, rc == PR_EVERSION ? AM_EPROTO : AM_ELAUNCH, "%s", why);
+        return 1;
+    }
+    if (remote->rank != (uint32_t)src) {
+        am__reject(ctx, AM__REJ_BODY, src, "hello names another rank");
+        return 1;
+    }
+    return 0;
+}
+
 void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
 {
     if (ctx->state != AM__BOOTING) {
@@ -313,11 +338,11 @@ void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
     am__peer *p = &ctx->peers[src];
     if (type == AM__CTL_HELLO) {
         am__hello h;
-        if (am__hello_get(r, &h) || ctx->rank != 0 || h.rank != (uint32_t)src) {
+        if (am__hello_get(r, &h) || ctx->rank != 0) {
             am__reject(ctx, AM__REJ_BODY, src, "bad hello");
             return;
         }
-        if (check_job(ctx, src, h.job, h.size))
+        if (check_hello(ctx, src, &h.id))
             return;
         free(p->endpoint);
         p->endpoint = strndup((const char *)h.endpoint.p, h.endpoint.len);
@@ -330,12 +355,11 @@ void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
     }
     if (type == AM__CTL_PEER_HELLO) {
         am__peer_hello h;
-        if (am__peer_hello_get(r, &h) || h.rank != (uint32_t)src ||
-            src <= ctx->rank) {
+        if (am__peer_hello_get(r, &h) || src <= ctx->rank) {
             am__reject(ctx, AM__REJ_BODY, src, "bad peer hello");
             return;
         }
-        if (!check_job(ctx, src, h.job, 0))
+        if (!check_hello(ctx, src, &h.id))
             p->hello = 1;
         return;
     }

@@ -37,22 +37,45 @@ static int get_str(pr_reader *r, size_t max, am__str *s)
     return pr_get_view(r, &s->p, n);
 }
 
+/* The hello is nested length-prefixed, so that a hello of another protocol
+ * version (which may be longer) still parses far enough to be named in an
+ * error by pr_negotiate. */
+static void put_id(pr_buf *b, const pr_hello *id)
+{
+    pr_buf inner = PR_BUF_INIT;
+    int rc = pr_hello_put(&inner, id);
+    if (rc) {
+        if (!b->err)
+            b->err = rc;
+    } else {
+        put_str(b, (const char *)inner.data, inner.len);
+    }
+    pr_buf_free(&inner);
+}
+
+static int get_id(pr_reader *r, pr_hello *id)
+{
+    am__str raw;
+    if (get_str(r, AM__HELLO_MAX, &raw))
+        return r->err;
+    int rc = pr_hello_decode(id, raw.p, raw.len);
+    if (rc)
+        return pr_reader_fail(r, rc);
+    if (id->size > AM__PE_MAX)
+        return pr_reader_fail(r, PR_ERANGE);
+    return 0;
+}
+
 void am__hello_put(pr_buf *b, const am__hello *m)
 {
-    pr_put_u32(b, m->rank);
-    pr_put_u32(b, m->size);
-    pr_put_u64(b, m->job);
+    put_id(b, &m->id);
     put_str(b, (const char *)m->endpoint.p, m->endpoint.len);
 }
 
 int am__hello_get(pr_reader *r, am__hello *m)
 {
-    pr_get_u32(r, &m->rank);
-    pr_get_u32(r, &m->size);
-    pr_get_u64(r, &m->job);
+    get_id(r, &m->id);
     get_str(r, AM__EP_MAX, &m->endpoint);
-    if (!r->err && (m->size == 0 || m->size > AM__PE_MAX || m->rank >= m->size))
-        pr_reader_fail(r, PR_ERANGE);
     return pr_reader_finish(r);
 }
 
@@ -85,14 +108,12 @@ int am__table_get(pr_reader *r, uint64_t *job, uint32_t max, uint32_t *size,
 
 void am__peer_hello_put(pr_buf *b, const am__peer_hello *m)
 {
-    pr_put_u32(b, m->rank);
-    pr_put_u64(b, m->job);
+    put_id(b, &m->id);
 }
 
 int am__peer_hello_get(pr_reader *r, am__peer_hello *m)
 {
-    pr_get_u32(r, &m->rank);
-    pr_get_u64(r, &m->job);
+    get_id(r, &m->id);
     return pr_reader_finish(r);
 }
 

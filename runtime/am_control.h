@@ -52,9 +52,14 @@ typedef struct am__str {
     size_t len;
 } am__str;
 
+/* Longest hello message (proto's pr_hello, envelope included) accepted in
+ * a HELLO or PEER_HELLO body; version 1's is 20 bytes. */
+#define AM__HELLO_MAX 64
+
+/* HELLO: proto's hello message (versions, job, rank, size), which every
+ * protocol version lays out the same way, then the sender's endpoint. */
 typedef struct am__hello {
-    uint32_t rank, size;
-    uint64_t job;
+    pr_hello id;
     am__str endpoint;
 } am__hello;
 
@@ -69,9 +74,9 @@ void am__table_put(pr_buf *b, uint64_t job, uint32_t size,
 int am__table_get(pr_reader *r, uint64_t *job, uint32_t max, uint32_t *size,
                   am__str *eps);
 
+/* PEER_HELLO: proto's hello message only. */
 typedef struct am__peer_hello {
-    uint32_t rank;
-    uint64_t job;
+    pr_hello id;
 } am__peer_hello;
 
 void am__peer_hello_put(pr_buf *b, const am__peer_hello *m);

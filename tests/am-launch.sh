@@ -76,6 +76,21 @@ foreign OMPI_COMM_WORLD_RANK OMPI_COMM_WORLD_SIZE
 foreign PMI_RANK PMI_SIZE
 foreign SLURM_PROCID SLURM_NTASKS
 
+# --- two PEs that disagree on the job size: the hello negotiation refuses
+# the pair with a message naming both sizes, and neither PE hangs.
+rm -f "$work/rdv"
+env OMPI_COMM_WORLD_RANK=0 OMPI_COMM_WORLD_SIZE=2 AM_RENDEZVOUS="file:$work/rdv" \
+    AM_JOB=78 AM_BOOT_TIMEOUT=10 timeout 20 "$MP" coll "$tag" >"$work/mis.0" 2>&1 &
+p0=$!
+env OMPI_COMM_WORLD_RANK=1 OMPI_COMM_WORLD_SIZE=3 AM_RENDEZVOUS="file:$work/rdv" \
+    AM_JOB=78 AM_BOOT_TIMEOUT=10 timeout 20 "$MP" coll "$tag" >"$work/mis.1" 2>&1 &
+p1=$!
+wait "$p0" && fail "rank 0 of a mismatched job should fail"
+wait "$p1"
+grep -q "rank 1 says the job has 3 PEs, this PE says 2" "$work/mis.0" ||
+    { cat "$work"/mis.*; fail "job-size mismatch not named by rank 0"; }
+no_leftovers
+
 # --- hostfile launch through a fake ssh on PATH
 mkdir "$work/bin"
 cat >"$work/bin/ssh" <<FAKE

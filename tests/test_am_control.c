@@ -44,29 +44,63 @@ static int hello_get(pr_reader *r, void *out)
 START_TEST(hello_round_trip)
 {
     const char *ep = "tcp://10.0.0.7:41234";
-    am__hello in = {3, 16, 0xDEADBEEFCAFEULL, {(const uint8_t *)ep, strlen(ep)}};
+    am__hello in = {.endpoint = {(const uint8_t *)ep, strlen(ep)}};
+    pr_hello_init(&in.id, 0xDEADBEEFCAFEULL, 3, 16);
     am__hello out;
     pr_buf b = PR_BUF_INIT;
     am__hello_put(&b, &in);
     ck_assert_int_eq(b.err, 0);
-    /* rank, size, job, endpoint length, endpoint */
-    ck_assert_uint_eq(b.len, 4 + 4 + 8 + 4 + strlen(ep));
-    ck_assert_uint_eq(b.data[0], 3);
-    ck_assert_uint_eq(b.data[4], 16);
-    ck_assert_uint_eq(b.data[8], 0xFE);
+    /* hello length, proto's hello message, endpoint length, endpoint */
+    ck_assert_uint_eq(b.len, 4 + 20 + 4 + strlen(ep));
+    ck_assert_uint_eq(pr_load_u32(b.data), 20);
+    ck_assert_uint_eq(b.data[4], PR_MSG_HELLO);
+    ck_assert_uint_eq(b.data[5], PR_VERSION);
     check_prefixes_and_trailing(&b, hello_get, &out);
-    ck_assert_uint_eq(out.rank, 3);
-    ck_assert_uint_eq(out.size, 16);
-    ck_assert(out.job == in.job);
+    ck_assert_uint_eq(out.id.rank, 3);
+    ck_assert_uint_eq(out.id.size, 16);
+    ck_assert(out.id.job == in.id.job);
+    ck_assert_uint_eq(out.id.version, PR_VERSION);
     ck_assert_uint_eq(out.endpoint.len, strlen(ep));
     ck_assert(!memcmp(out.endpoint.p, ep, strlen(ep)));
-    /* rank >= size is refused */
+    /* rank >= size cannot even be encoded, and a forged one is refused */
     pr_buf_reset(&b);
-    in.rank = 16;
+    in.id.rank = 16;
     am__hello_put(&b, &in);
+    ck_assert_int_eq(b.err, PR_EINVAL);
+    pr_buf_reset(&b);
+    in.id.rank = 3;
+    am__hello_put(&b, &in);
+    b.data[4 + 1 + 3 + 8] = 16; /* rank field of the nested hello */
     pr_reader r;
     pr_reader_init(&r, b.data, b.len);
+    ck_assert_int_eq(am__hello_get(&r, &out), PR_EDATA);
+    /* more PEs than the runtime supports */
+    pr_buf_reset(&b);
+    pr_hello_init(&in.id, 1, 0, AM__PE_MAX + 1);
+    am__hello_put(&b, &in);
+    pr_reader_init(&r, b.data, b.len);
     ck_assert_int_eq(am__hello_get(&r, &out), PR_ERANGE);
+    pr_buf_free(&b);
+}
+END_TEST
+
+static int peer_hello_get(pr_reader *r, void *out)
+{
+    return am__peer_hello_get(r, out);
+}
+
+START_TEST(peer_hello_round_trip)
+{
+    am__peer_hello in, out;
+    pr_hello_init(&in.id, 42, 5, 8);
+    pr_buf b = PR_BUF_INIT;
+    am__peer_hello_put(&b, &in);
+    ck_assert_int_eq(b.err, 0);
+    ck_assert_uint_eq(b.len, 4 + 20);
+    check_prefixes_and_trailing(&b, peer_hello_get, &out);
+    ck_assert_uint_eq(out.id.rank, 5);
+    ck_assert_uint_eq(out.id.size, 8);
+    ck_assert(out.id.job == 42);
     pr_buf_free(&b);
 }
 END_TEST
@@ -327,6 +361,7 @@ static Suite *control_suite(void)
     Suite *s = suite_create("am_control");
     TCase *tc = tcase_create("codecs");
     tcase_add_test(tc, hello_round_trip);
+    tcase_add_test(tc, peer_hello_round_trip);
     tcase_add_test(tc, table_round_trip_and_limits);
     tcase_add_test(tc, token_round_trip);
     tcase_add_test(tc, collective_round_trip);
