@@ -24,3 +24,7 @@ pdr_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
 pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 	$(EVENT_LIBS) -lm
 pdr_LDFLAGS = $(AM_LDFLAGS) -static
+
+# The Delaunay kernel: exact predicates.
+noinst_HEADERS += mesher/pred.h
+libpdrmesh_la_SOURCES += mesher/pred.c

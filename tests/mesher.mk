@@ -10,3 +10,9 @@ TESTS += tests/test_textin
 tests_test_textin_SOURCES = tests/test_textin.c
 tests_test_textin_CFLAGS = $(UNIT_CFLAGS)
 tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
+
+check_PROGRAMS += tests/test_pred
+TESTS += tests/test_pred
+tests_test_pred_SOURCES = tests/test_pred.c
+tests_test_pred_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pred_LDADD = libpdrmesh.la $(UNIT_LIBS) $(GMP_LIBS) -lm

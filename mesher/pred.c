@@ -1,0 +1,631 @@
+/*
+ * pred.c -- exact orientation and in-sphere predicates.
+ *
+ * Notation: eps = 2^-53 is the unit roundoff of IEEE double arithmetic with
+ * round-to-nearest; fl(x op y) = (x op y)(1 + d) with |d| <= eps as long as
+ * the result neither overflows nor is subnormal. The build turns off FMA
+ * contraction (-ffp-contract=off), which these bounds depend on: a fused
+ * multiply-add rounds once where the analysis below counts two roundings of
+ * different sizes, and the bounds would no longer hold as written.
+ *
+ * ---------------------------------------------------------------- filters
+ * Each filter translates the points so that the query point is the origin,
+ * giving "entries" x = fl(p - q) (rounded differences, relative error
+ * <= eps each), evaluates the determinant of the entries in a fixed order,
+ * and compares it with a bound C * (product of column maxima) where Mx, My,
+ * Mz are the largest |entry| of each column. Such a bound (a "semi-static"
+ * filter) is cheaper than one built from the permanent. Derivations, first
+ * order in eps (second-order terms are below 1e-13 relative and are covered
+ * by the margin between the derived and the used constant):
+ *
+ * orient3d, rows u, v, w:  m1 = vy*wz - vz*wy (and cyclic), det = ux*m1 +
+ *   uy*m2 + uz*m3. A product of two entries is off by <= eps*MyMz, the
+ *   difference by <= eps*2MyMz, so |m1 - exact| <= 4eps*MyMz, |m1| <= 2MyMz.
+ *   Each term ux*m1: 4eps*P + eps*2P = 6eps*P (P = MxMyMz), |term| <= 2P.
+ *   The two additions: eps*4P + eps*6P. Evaluation error <= 28eps*P.
+ *   Rounding of the 9 entries: the determinant has 6 monomials of 3 entries,
+ *   each off by <= 3eps*P: 18eps*P. Total 46eps*P; we use 48eps*P.
+ * insphere, rows a,b,c,d (translated by e), lifted l = x^2+y^2+z^2:
+ *   2x2 minors m_ij = ix*jy - jx*iy (error 4eps*MxMy, |m| <= 2MxMy), 3x3
+ *   minors D(i,j,k) = iz*m_jk - jz*m_ik + kz*m_ij (error 28eps*P, |D| <= 6P),
+ *   lifts with S = Mx^2+My^2+Mz^2 (error 3eps*S, |l| <= S), terms l*D:
+ *   3eps*S*6P + S*28eps*P + eps*6SP = 52eps*S*P each, |l*D| <= 6SP; the sum
+ *   (t1 - t2) + (t3 - t4) adds eps*(12+12+24)SP. Evaluation <= 256eps*S*P.
+ *   Entry rounding: 4 * S * 6P worth of degree-5 monomials, each off by
+ *   <= 5eps: 120eps*S*P. Total 376eps*S*P; we use 380eps*S*P.
+ * orient2d, rows u, v: det = ux*vy - uy*vx: 4eps + 4eps = 8eps*MxMy; use 10.
+ * incircle, rows a,b,c (translated by d), l = x^2+y^2, S = Mx^2+My^2:
+ *   terms l*m: 2eps*S*2P + S*4eps*P + eps*2SP = 10eps*SP, sum (t1-t2)+t3 adds
+ *   10eps*SP, entry rounding 6SP * 4eps: total 64eps*S*P; use 68.
+ *
+ * Overflow and underflow. The derivations assume neither happens. Overflow
+ * needs no test: it produces an infinity or a NaN in the determinant or in
+ * the bound, and then the comparison "|det| > bound" is false, so the
+ * filter hands over to exact arithmetic. Underflow in a product adds an
+ * absolute error <= 2^-1075, which later products multiply by at most the
+ * column maxima; requiring every column maximum to lie in [2^-330, 2^330]
+ * (orient3d), [2^-330, 2^200] (insphere), [2^-500, 2^500] (orient2d),
+ * [2^-240, 2^240] (incircle) keeps all such contributions far below the
+ * margin of the constants above and rules out overflow of the monomials.
+ * Outside those ranges the filter declines and exact arithmetic decides.
+ *
+ * ------------------------------------------------------ exact evaluation
+ * A double is m * 2^e with an integer m < 2^53 (subnormals included). A
+ * monomial of k doubles is the integer product of their mantissas (at most
+ * 53k bits) times 2^(sum of exponents). All monomials of one determinant
+ * have the same degree k, so with emin the smallest exponent among the
+ * arguments, every monomial is an integer multiple of 2^(k*emin). We add
+ * them, shifted to that common origin, into a two's complement fixed-point
+ * integer of k*(emax-emin) + 53k + 11 bits, which holds the exact sum
+ * (at most 360 monomials). For nearby points of ordinary magnitude that is
+ * about ten 32-bit words; the widest possible case (subnormals next to
+ * 2^1023, degree 5) needs 330 words, which is the size of the buffer. The
+ * sign of the sum is the sign of the determinant. This is exact for every
+ * finite double, unlike floating-point expansion arithmetic, which breaks
+ * when a partial product underflows.
+ */
+#include "config.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "pred.h"
+
+#define EPS (DBL_EPSILON / 2) /* 2^-53 */
+
+/* Column-maximum ranges in which the filters' bounds are proved. */
+#define O3_LO 0x1p-330
+#define O3_HI 0x1p+330
+#define IS_LO 0x1p-330
+#define IS_HI 0x1p+200
+#define O2_LO 0x1p-500
+#define O2_HI 0x1p+500
+#define IC_LO 0x1p-240
+#define IC_HI 0x1p+240
+
+static const double o3_bound = 48.0 * EPS;
+static const double is_bound = 380.0 * EPS;
+static const double o2_bound = 10.0 * EPS;
+static const double ic_bound = 68.0 * EPS;
+
+/* ================================================ fixed-point big integer */
+
+#define BIG_LIMBS 336 /* >= (5 * 2045 + 5 * 53 + 11) / 32 + 2 */
+
+typedef struct bigacc {
+    uint32_t w[BIG_LIMBS]; /* two's complement, little-endian 32-bit words */
+    int n;                 /* words in use */
+    int base;              /* exponent of bit 0 */
+} bigacc;
+
+typedef struct dbits {
+    uint64_t m; /* mantissa, < 2^53 */
+    int e;      /* value = (neg ? -1 : 1) * m * 2^e */
+    int neg;
+} dbits;
+
+static dbits decompose(double v)
+{
+    uint64_t u;
+    memcpy(&u, &v, sizeof u);
+    dbits d;
+    d.neg = (int)(u >> 63);
+    int ef = (int)((u >> 52) & 0x7ff);
+    uint64_t frac = u & ((UINT64_C(1) << 52) - 1);
+    if (ef == 0) {
+        d.m = frac;
+        d.e = -1074;
+    } else {
+        d.m = frac | (UINT64_C(1) << 52);
+        d.e = ef - 1075;
+    }
+    return d;
+}
+
+/* Adds (neg ? -1 : 1) * val * 2^shift, val given as len 32-bit words. */
+static void big_add_shifted(bigacc *acc, const uint32_t *val, int len, int shift, int neg)
+{
+    int q = shift >> 5, r = shift & 31;
+    uint64_t carry = 0;
+    int k = q;
+    for (int i = 0; i <= len && k < acc->n; i++, k++) {
+        uint32_t cur = i < len ? val[i] : 0;
+        uint32_t prev = i > 0 ? val[i - 1] : 0;
+        uint32_t word = r ? (uint32_t)(cur << r) | (prev >> (32 - r)) : cur;
+        if (!neg) {
+            uint64_t t = (uint64_t)acc->w[k] + word + carry;
+            acc->w[k] = (uint32_t)t;
+            carry = t >> 32;
+        } else {
+            uint64_t t = (uint64_t)acc->w[k] - word - carry;
+            acc->w[k] = (uint32_t)t;
+            carry = (t >> 63) & 1;
+        }
+    }
+    for (; carry && k < acc->n; k++) {
+        if (!neg) {
+            uint64_t t = (uint64_t)acc->w[k] + carry;
+            acc->w[k] = (uint32_t)t;
+            carry = t >> 32;
+        } else {
+            uint64_t t = (uint64_t)acc->w[k] - carry;
+            acc->w[k] = (uint32_t)t;
+            carry = (t >> 63) & 1;
+        }
+    }
+}
+
+static int big_sign(const bigacc *acc)
+{
+    if (acc->w[acc->n - 1] >> 31)
+        return -1;
+    for (int i = 0; i < acc->n; i++)
+        if (acc->w[i])
+            return 1;
+    return 0;
+}
+
+/* One determinant to evaluate exactly: n x n, rows given as 'dim'
+ * coordinates each, the columns being the dim coordinates, then (if
+ * has_lift) the sum of the squared coordinates, then (if has_one) a 1. */
+typedef struct detspec {
+    int n, dim, has_lift, has_one;
+    dbits val[15]; /* val[r*dim + k] */
+    int deg;
+    bigacc acc;
+} detspec;
+
+static void add_monomial(detspec *s, const int *idx, int nf, int sign)
+{
+    uint32_t prod[12];
+    int len = 0, esum = 0, neg = sign < 0;
+    for (int f = 0; f < nf; f++) {
+        const dbits *d = &s->val[idx[f]];
+        esum += d->e;
+        neg ^= d->neg;
+        if (f == 0) {
+            prod[0] = (uint32_t)d->m;
+            prod[1] = (uint32_t)(d->m >> 32);
+            len = 2;
+            continue;
+        }
+        uint32_t res[12] = {0};
+        for (int j = 0; j < 2; j++) {
+            uint64_t mj = j ? d->m >> 32 : d->m & 0xffffffffu;
+            uint64_t carry = 0;
+            for (int i = 0; i < len; i++) {
+                uint64_t t = (uint64_t)prod[i] * mj + res[i + j] + carry;
+                res[i + j] = (uint32_t)t;
+                carry = t >> 32;
+            }
+            res[len + j] = (uint32_t)carry;
+        }
+        len += 2;
+        while (len > 0 && res[len - 1] == 0)
+            len--;
+        memcpy(prod, res, (size_t)len * sizeof prod[0]);
+    }
+    big_add_shifted(&s->acc, prod, len, esum - s->acc.base, neg);
+}
+
+static void visit_permutation(detspec *s, const int *perm, int sign)
+{
+    int idx[6], nf = 0, lift_row = -1;
+    for (int r = 0; r < s->n; r++) {
+        int col = perm[r];
+        if (col < s->dim) {
+            int i = r * s->dim + col;
+            if (s->val[i].m == 0)
+                return;
+            idx[nf++] = i;
+        } else if (s->has_lift && col == s->dim) {
+            lift_row = r;
+        }
+    }
+    if (lift_row < 0) {
+        add_monomial(s, idx, nf, sign);
+        return;
+    }
+    for (int k = 0; k < s->dim; k++) {
+        int i = lift_row * s->dim + k;
+        if (s->val[i].m == 0)
+            continue;
+        idx[nf] = idx[nf + 1] = i;
+        add_monomial(s, idx, nf + 2, sign);
+    }
+}
+
+/* Exact sign of the determinant described above; rows has n*dim values. */
+static int exact_det_sign(int n, int dim, int has_lift, int has_one, const double *rows)
+{
+    detspec s;
+    s.n = n;
+    s.dim = dim;
+    s.has_lift = has_lift;
+    s.has_one = has_one;
+    s.deg = dim + (has_lift ? 2 : 0);
+    int emin = 1 << 20, emax = -(1 << 20), any = 0;
+    for (int i = 0; i < n * dim; i++) {
+        s.val[i] = decompose(rows[i]);
+        if (s.val[i].m) {
+            any = 1;
+            if (s.val[i].e < emin)
+                emin = s.val[i].e;
+            if (s.val[i].e > emax)
+                emax = s.val[i].e;
+        }
+    }
+    if (!any)
+        return 0;
+    int nbits = s.deg * (emax - emin) + 53 * s.deg + 11;
+    s.acc.n = nbits / 32 + 2;
+    s.acc.base = s.deg * emin;
+    memset(s.acc.w, 0, (size_t)s.acc.n * sizeof s.acc.w[0]);
+
+    /* Heap's algorithm: each permutation differs from the previous one by a
+     * single swap, so the sign alternates. perm[r] is the column of row r. */
+    int perm[5], c[5] = {0}, sign = 1;
+    for (int i = 0; i < n; i++)
+        perm[i] = i;
+    visit_permutation(&s, perm, sign);
+    int i = 1;
+    while (i < n) {
+        if (c[i] < i) {
+            int j = (i % 2 == 0) ? 0 : c[i];
+            int t = perm[j];
+            perm[j] = perm[i];
+            perm[i] = t;
+            sign = -sign;
+            visit_permutation(&s, perm, sign);
+            c[i]++;
+            i = 1;
+        } else {
+            c[i] = 0;
+            i++;
+        }
+    }
+    return big_sign(&s.acc);
+}
+
+/* Rounded difference x = fl(a - b); returns nonzero if it is exact. */
+static int diff_exact(double a, double b, double x)
+{
+    double bv = a - x;
+    double av = x + bv;
+    double br = bv - b;
+    double ar = a - av;
+    return ar + br == 0.0;
+}
+
+/* Fills out[] with p_i - q for the given points and reports whether every
+ * difference is exact. */
+static int diffs(const double *const *p, int np, const double *q, int dim, double *out)
+{
+    int exact = 1;
+    for (int i = 0; i < np; i++)
+        for (int k = 0; k < dim; k++) {
+            double x = p[i][k] - q[k];
+            out[i * dim + k] = x;
+            exact &= diff_exact(p[i][k], q[k], x);
+        }
+    return exact;
+}
+
+static int neg_sign(int s)
+{
+    return -s;
+}
+
+/* ============================================================ orient3d */
+
+int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
+                         int stage)
+{
+    if (stage == 2) {
+        const double *p[3] = {a, b, c};
+        double rows[9];
+        if (!diffs(p, 3, d, 3, rows))
+            return 2;
+        /* orient3d = -det[a-d; b-d; c-d] */
+        return neg_sign(exact_det_sign(3, 3, 0, 0, rows));
+    }
+    double rows[12];
+    memcpy(rows, a, 3 * sizeof(double));
+    memcpy(rows + 3, b, 3 * sizeof(double));
+    memcpy(rows + 6, c, 3 * sizeof(double));
+    memcpy(rows + 9, d, 3 * sizeof(double));
+    /* det[x y z 1] of (a,b,c,d) equals det[a-d; b-d; c-d] = -orient3d. */
+    return neg_sign(exact_det_sign(4, 3, 0, 1, rows));
+}
+
+static int orient3d_exact(const double *a, const double *b, const double *c, const double *d)
+{
+    int s = pred__orient3d_exact(a, b, c, d, 2);
+    return s != 2 ? s : pred__orient3d_exact(a, b, c, d, 3);
+}
+
+int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d)
+{
+    double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
+    double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
+    double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
+    double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
+    double mx = fmax(fabs(ux), fmax(fabs(vx), fabs(wx)));
+    double my = fmax(fabs(uy), fmax(fabs(vy), fabs(wy)));
+    double mz = fmax(fabs(uz), fmax(fabs(vz), fabs(wz)));
+    double lo = fmin(mx, fmin(my, mz)), hi = fmax(mx, fmax(my, mz));
+    if (lo >= O3_LO && hi <= O3_HI) {
+        double bound = o3_bound * mx * my * mz;
+        if (det > bound)
+            return -1;
+        if (det < -bound)
+            return 1;
+    }
+    return 2;
+}
+
+int pred_orient3d(const double *a, const double *b, const double *c, const double *d)
+{
+    int s = pred__orient3d_filter(a, b, c, d);
+    return s != 2 ? s : orient3d_exact(a, b, c, d);
+}
+
+/* ============================================================ insphere */
+
+int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,
+                         const double *e, int stage)
+{
+    if (stage == 2) {
+        const double *p[4] = {a, b, c, d};
+        double rows[12];
+        if (!diffs(p, 4, e, 3, rows))
+            return 2;
+        /* insphere = -det[x y z l] of the translated rows (see pred.h). */
+        return neg_sign(exact_det_sign(4, 3, 1, 0, rows));
+    }
+    double rows[15];
+    memcpy(rows, a, 3 * sizeof(double));
+    memcpy(rows + 3, b, 3 * sizeof(double));
+    memcpy(rows + 6, c, 3 * sizeof(double));
+    memcpy(rows + 9, d, 3 * sizeof(double));
+    memcpy(rows + 12, e, 3 * sizeof(double));
+    /* det[x y z |p|^2 1] of (a,b,c,d,e) is positive when e is outside. */
+    return neg_sign(exact_det_sign(5, 3, 1, 1, rows));
+}
+
+static int insphere_exact(const double *a, const double *b, const double *c, const double *d,
+                          const double *e)
+{
+    int s = pred__insphere_exact(a, b, c, d, e, 2);
+    return s != 2 ? s : pred__insphere_exact(a, b, c, d, e, 3);
+}
+
+int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
+                          const double *e)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+
+    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+
+    double mx = fmax(fmax(fabs(ax), fabs(bx)), fmax(fabs(cx), fabs(dx)));
+    double my = fmax(fmax(fabs(ay), fabs(by)), fmax(fabs(cy), fabs(dy)));
+    double mz = fmax(fmax(fabs(az), fabs(bz)), fmax(fabs(cz), fabs(dz)));
+    double lo = fmin(mx, fmin(my, mz)), hi = fmax(mx, fmax(my, mz));
+    if (lo >= IS_LO && hi <= IS_HI) {
+        double bound = is_bound * ((mx * mx + my * my) + mz * mz) * mx * my * mz;
+        if (det > bound)
+            return 1;
+        if (det < -bound)
+            return -1;
+    }
+    return 2;
+}
+
+int pred_insphere(const double *a, const double *b, const double *c, const double *d,
+                  const double *e)
+{
+    int s = pred__insphere_filter(a, b, c, d, e);
+    return s != 2 ? s : insphere_exact(a, b, c, d, e);
+}
+
+/* ============================================================ 2D */
+
+int pred__orient2d_exact(const double *a, const double *b, const double *c, int stage)
+{
+    if (stage == 2) {
+        const double *p[2] = {a, b};
+        double rows[4];
+        if (!diffs(p, 2, c, 2, rows))
+            return 2;
+        return exact_det_sign(2, 2, 0, 0, rows);
+    }
+    double rows[6] = {a[0], a[1], b[0], b[1], c[0], c[1]};
+    return exact_det_sign(3, 2, 0, 1, rows);
+}
+
+int pred_orient2d(const double *a, const double *b, const double *c)
+{
+    double ux = a[0] - c[0], uy = a[1] - c[1];
+    double vx = b[0] - c[0], vy = b[1] - c[1];
+    double det = ux * vy - uy * vx;
+    double mx = fmax(fabs(ux), fabs(vx)), my = fmax(fabs(uy), fabs(vy));
+    double lo = fmin(mx, my), hi = fmax(mx, my);
+    if (lo >= O2_LO && hi <= O2_HI) {
+        double bound = o2_bound * mx * my;
+        if (det > bound)
+            return 1;
+        if (det < -bound)
+            return -1;
+    }
+    int s = pred__orient2d_exact(a, b, c, 2);
+    return s != 2 ? s : pred__orient2d_exact(a, b, c, 3);
+}
+
+int pred__incircle_exact(const double *a, const double *b, const double *c, const double *d,
+                         int stage)
+{
+    if (stage == 2) {
+        const double *p[3] = {a, b, c};
+        double rows[6];
+        if (!diffs(p, 3, d, 2, rows))
+            return 2;
+        return exact_det_sign(3, 2, 1, 0, rows);
+    }
+    double rows[8] = {a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]};
+    return exact_det_sign(4, 2, 1, 1, rows);
+}
+
+int pred_incircle(const double *a, const double *b, const double *c, const double *d)
+{
+    double ax = a[0] - d[0], ay = a[1] - d[1];
+    double bx = b[0] - d[0], by = b[1] - d[1];
+    double cx = c[0] - d[0], cy = c[1] - d[1];
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, bc = bx * cy - cx * by;
+    double la = ax * ax + ay * ay, lb = bx * bx + by * by, lc = cx * cx + cy * cy;
+    double det = (la * bc - lb * ac) + lc * ab;
+    double mx = fmax(fabs(ax), fmax(fabs(bx), fabs(cx)));
+    double my = fmax(fabs(ay), fmax(fabs(by), fabs(cy)));
+    double lo = fmin(mx, my), hi = fmax(mx, my);
+    if (lo >= IC_LO && hi <= IC_HI) {
+        double bound = ic_bound * (mx * mx + my * my) * mx * my;
+        if (det > bound)
+            return 1;
+        if (det < -bound)
+            return -1;
+    }
+    int s = pred__incircle_exact(a, b, c, d, 2);
+    return s != 2 ? s : pred__incircle_exact(a, b, c, d, 3);
+}
+
+/* ============================================ symbolic perturbation */
+
+int pred_lexcmp3(const double *p, const double *q)
+{
+    for (int k = 0; k < 3; k++) {
+        if (p[k] < q[k])
+            return -1;
+        if (p[k] > q[k])
+            return 1;
+    }
+    return 0;
+}
+
+static int lexcmp2(const double *p, const double *q)
+{
+    for (int k = 0; k < 2; k++) {
+        if (p[k] < q[k])
+            return -1;
+        if (p[k] > q[k])
+            return 1;
+    }
+    return 0;
+}
+
+/* Sorts idx[0..n) so that pts[idx[0]] is the lexicographically largest.
+ * Returns 0 if two points coincide. */
+static int order_by_perturbation(const double *const *pts, int n, int dim, int *idx)
+{
+    for (int i = 0; i < n; i++)
+        idx[i] = i;
+    for (int i = 1; i < n; i++) {
+        int v = idx[i], j = i;
+        while (j > 0) {
+            int c = dim == 3 ? pred_lexcmp3(pts[idx[j - 1]], pts[v])
+                             : lexcmp2(pts[idx[j - 1]], pts[v]);
+            if (c == 0)
+                return 0;
+            if (c > 0)
+                break;
+            idx[j] = idx[j - 1];
+            j--;
+        }
+        idx[j] = v;
+    }
+    return 1;
+}
+
+/* pred_insphere is -det5 with rows (x, y, z, w, 1), w = |p|^2. Perturbing
+ * w_r (row r, 1-based) by eps_r adds eps_r * (-1)^(r+4) * M_r to det5,
+ * where the minor M_r = det[x y z 1] of the other rows = -orient3d of them.
+ * So the perturbed insphere gains eps_r * (-1)^r * orient3d(others). */
+int pred_insphere_sos(const double *a, const double *b, const double *c, const double *d,
+                      const double *e)
+{
+    int s = pred_insphere(a, b, c, d, e);
+    if (s)
+        return s;
+    const double *pts[5] = {a, b, c, d, e};
+    int idx[5];
+    if (!order_by_perturbation(pts, 5, 3, idx))
+        return 0;
+    for (int k = 0; k < 5; k++) {
+        int r = idx[k];
+        const double *o[4];
+        for (int i = 0, j = 0; i < 5; i++)
+            if (i != r)
+                o[j++] = pts[i];
+        int os = pred_orient3d(o[0], o[1], o[2], o[3]);
+        if (os)
+            return (r % 2 == 0) ? -os : os; /* (-1)^(r+1), r 0-based */
+    }
+    return 0;
+}
+
+/* pred_incircle is det4 with rows (x, y, w, 1); perturbing w_r adds
+ * eps_r * (-1)^(r+3) * orient2d(others) (r 1-based). */
+int pred_incircle_sos(const double *a, const double *b, const double *c, const double *d)
+{
+    int s = pred_incircle(a, b, c, d);
+    if (s)
+        return s;
+    const double *pts[4] = {a, b, c, d};
+    int idx[4];
+    if (!order_by_perturbation(pts, 4, 2, idx))
+        return 0;
+    for (int k = 0; k < 4; k++) {
+        int r = idx[k];
+        const double *o[3];
+        for (int i = 0, j = 0; i < 4; i++)
+            if (i != r)
+                o[j++] = pts[i];
+        int os = pred_orient2d(o[0], o[1], o[2]);
+        if (os)
+            return (r % 2 == 0) ? os : -os; /* (-1)^r, r 0-based */
+    }
+    return 0;
+}
+
+/* The circle through a,b,c is the trace, on their plane, of every sphere
+ * through a,b,c and a point q off the plane; so for e in the plane,
+ * "inside the circle" is "inside the sphere (a,b,c,q)". Perturbing q's
+ * lifted coordinate contributes eps_q * orient3d(a,b,c,e) = 0, so q never
+ * takes part in the tie-break and the result does not depend on q. */
+int pred_incircle3d_sos(const double *a, const double *b, const double *c, const double *e)
+{
+    for (int k = 0; k < 3; k++) {
+        double q[3] = {a[0], a[1], a[2]};
+        q[k] = a[k] != 0.0 ? 0.0 : 1.0;
+        int o = pred_orient3d(a, b, c, q);
+        if (o)
+            return o * pred_insphere_sos(a, b, c, q, e);
+    }
+    return 0;
+}

@@ -1,0 +1,96 @@
+/*
+ * pred.h -- exact geometric predicates (prefix pred_).
+ *
+ * Every predicate returns the exact sign (-1, 0 or +1) of a determinant of
+ * its double arguments, for every finite double input: no tolerance, no
+ * overflow or underflow caveat. Each is evaluated in up to three stages:
+ *
+ *   1. a floating-point filter with a certified (proved) error bound; it
+ *      decides almost every call;
+ *   2. if the filter cannot decide and the coordinate differences the
+ *      filter used were computed without rounding (always the case for
+ *      nearby points, by Sterbenz's lemma), the determinant of those
+ *      differences is evaluated exactly;
+ *   3. otherwise the determinant of the raw coordinates is evaluated exactly.
+ *
+ * Exact evaluation expands the determinant into monomials (products of
+ * doubles) and sums them in a fixed-point big integer wide enough for the
+ * exponent range of the arguments (pred.c explains the sizes). The stack use
+ * of any predicate is below 2 KiB, so they can run on small coroutine stacks.
+ *
+ * Orientation conventions (a right-handed frame):
+ *   pred_orient3d(a,b,c,d) > 0  iff d lies on the side of the plane abc
+ *       towards which (b-a) x (c-a) points, i.e. a,b,c appear
+ *       counterclockwise seen from d. A tetrahedron (a,b,c,d) with
+ *       pred_orient3d > 0 is "positively oriented"; TetGen's .ele files use
+ *       the same convention.
+ *   pred_insphere(a,b,c,d,e) > 0  iff e lies inside the sphere through
+ *       a,b,c,d, when (a,b,c,d) is positively oriented (the sign flips for a
+ *       negatively oriented tetrahedron; 0 if cospherical).
+ *   pred_orient2d(a,b,c) > 0  iff a,b,c are counterclockwise.
+ *   pred_incircle(a,b,c,d) > 0  iff d lies inside the circle through a,b,c,
+ *       when a,b,c are counterclockwise.
+ *
+ * Symbolic perturbation (the *_sos variants). Exactly cospherical points
+ * (a grid, points on a sphere) make pred_insphere return 0, and a
+ * Delaunay algorithm needs a consistent tie-break. We use the lifting map:
+ * point p is lifted to (p, |p|^2) and the insphere sign is the orientation of
+ * five lifted points. Every lifted coordinate is perturbed to |p|^2 + eps_p,
+ * where eps_p > 0 is infinitesimal and eps_p >> eps_q whenever p is
+ * lexicographically larger than q (compare x, then y, then z). This is a
+ * weight perturbation in the sense of Edelsbrunner-Muecke and
+ * Devillers-Teillaud: it turns the point set into a generic weighted set whose
+ * regular triangulation is unique, so every decision is consistent with one
+ * triangulation. The order depends only on coordinates, never on vertex
+ * numbers, so two processes that number vertices differently still agree.
+ * When insphere is 0 the perturbed sign is that of the first non-zero
+ * cofactor, taking the points by decreasing lexicographic order; each
+ * cofactor is an orient3d of the other four points (orient2d in 2D).
+ * pred_insphere_sos returns 0 only if the five points are coplanar or two of
+ * them coincide; pred_incircle_sos likewise for collinear/coincident points.
+ *
+ * Points of the convex hull: a query point e exactly coplanar with a hull
+ * face abc is in conflict with the (ghost) tetrahedron beyond that face iff
+ * it is inside the perturbed circumcircle of abc: pred_incircle3d_sos. That
+ * is the same lifted-plane test restricted to the plane of abc, so it agrees
+ * with pred_insphere_sos on any real tetrahedron having abc as a face.
+ */
+#ifndef PDR_PRED_H
+#define PDR_PRED_H
+
+int pred_orient3d(const double *a, const double *b, const double *c, const double *d);
+int pred_insphere(const double *a, const double *b, const double *c, const double *d,
+                  const double *e);
+int pred_orient2d(const double *a, const double *b, const double *c);
+int pred_incircle(const double *a, const double *b, const double *c, const double *d);
+
+/* Perturbed variants (see above). */
+int pred_insphere_sos(const double *a, const double *b, const double *c, const double *d,
+                      const double *e);
+int pred_incircle_sos(const double *a, const double *b, const double *c, const double *d);
+/* e must be coplanar with the non-degenerate triangle abc (else the result
+ * is the sign of an insphere test with an arbitrary fourth point). Returns
+ * +1 if e is inside the perturbed circumcircle of abc, -1 if outside, 0 only
+ * if e coincides with a, b or c or abc is degenerate. */
+int pred_incircle3d_sos(const double *a, const double *b, const double *c, const double *e);
+
+/* Lexicographic comparison of 3D points: -1, 0, +1. */
+int pred_lexcmp3(const double *p, const double *q);
+
+/* Internal entry points for the tests: the exact stages alone, bypassing the
+ * filter. stage 2 = exact determinant of the rounded differences (only valid
+ * when those differences are exact: returns 2 when they are not), stage 3 =
+ * exact determinant of the raw coordinates. */
+int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
+                         int stage);
+int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,
+                         const double *e, int stage);
+int pred__orient2d_exact(const double *a, const double *b, const double *c, int stage);
+int pred__incircle_exact(const double *a, const double *b, const double *c, const double *d,
+                         int stage);
+/* The filter alone: the sign, or 2 when the filter cannot decide. */
+int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d);
+int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
+                          const double *e);
+
+#endif /* PDR_PRED_H */
