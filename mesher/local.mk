@@ -26,5 +26,7 @@ pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 pdr_LDFLAGS = $(AM_LDFLAGS) -static
 
 # The Delaunay kernel: exact predicates.
-noinst_HEADERS += mesher/pred.h
-libpdrmesh_la_SOURCES += mesher/pred.c
+noinst_HEADERS += mesher/pred.h mesher/tetmesh.h mesher/delaunay.h \
+	mesher/spatial_sort.h mesher/verify.h
+libpdrmesh_la_SOURCES += mesher/pred.c mesher/tetmesh.c mesher/delaunay.c \
+	mesher/spatial_sort.c mesher/verify.c

@@ -16,3 +16,9 @@ TESTS += tests/test_pred
 tests_test_pred_SOURCES = tests/test_pred.c
 tests_test_pred_CFLAGS = $(UNIT_CFLAGS)
 tests_test_pred_LDADD = libpdrmesh.la $(UNIT_LIBS) $(GMP_LIBS) -lm
+
+check_PROGRAMS += tests/test_delaunay
+TESTS += tests/test_delaunay
+tests_test_delaunay_SOURCES = tests/test_delaunay.c
+tests_test_delaunay_CFLAGS = $(UNIT_CFLAGS)
+tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
