@@ -27,6 +27,7 @@ pdr_LDFLAGS = $(AM_LDFLAGS) -static
 
 # The Delaunay kernel: exact predicates.
 noinst_HEADERS += mesher/pred.h mesher/tetmesh.h mesher/delaunay.h \
-	mesher/spatial_sort.h mesher/verify.h
+	mesher/spatial_sort.h mesher/verify.h mesher/io_tetgen.h
 libpdrmesh_la_SOURCES += mesher/pred.c mesher/tetmesh.c mesher/delaunay.c \
-	mesher/spatial_sort.c mesher/verify.c
+	mesher/spatial_sort.c mesher/verify.c mesher/io_tetgen.c
+pdr_SOURCES += mesher/cmd_delaunay.c mesher/cmd_check.c

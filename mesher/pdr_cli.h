@@ -11,7 +11,9 @@
 #define PDR_CLI_H
 
 #define PDR_COMMANDS(X)                                                      \
-    X(info, "print the version, build configuration and libraries")
+    X(info, "print the version, build configuration and libraries")         \
+    X(delaunay, "Delaunay tetrahedralization of a point set (.node)")        \
+    X(check, "verify a tetrahedral mesh (.node/.ele) with exact predicates")
 
 #define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
 PDR_COMMANDS(PDR_CMD_DECLARE)
