@@ -164,7 +164,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
             goto done;
         }
     } else {
-        nodes.n = (size_t)nrandom;
+        nodes.n = nrandom > 0 && nrandom < (1LL << 34) ? (size_t)nrandom : 0;
         nodes.first = 1;
         nodes.xyz = calloc(nodes.n * 3 + 1, sizeof(double));
         if (!nodes.xyz) {
@@ -201,7 +201,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
         goto done;
     }
     struct progress prog = {t_read, 0, quiet, isatty(2), 0};
-    dt_build_opts bo = {.seed = seed, .progress = show_progress, .progress_arg = &prog};
+    dt_build_opts bo = {.seed = seed, .renumber = 1, .progress = show_progress, .progress_arg = &prog};
     dt_build_stats st;
     rc = dt_build(&m, &bo, &st);
     if (prog.shown && prog.tty)

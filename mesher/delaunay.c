@@ -33,6 +33,8 @@ void dt_cavity_init(dt_cavity *c)
 
 void dt_cavity_free(dt_cavity *c)
 {
+    free(c->edge_table);
+    free(c->loc_ids);
     free(c->tets);
     free(c->bnd);
     free(c->newtets);
@@ -105,7 +107,7 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
             if (fi == from)
                 continue;
             const uint8_t *f = tm_face_vtx[fi];
-            if (pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) < 0) {
+            if (pred_orient3d_fast(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) < 0) {
                 tm_link l = T->n[fi];
                 if (tm_is_special(l)) {
                     *tet = t;
@@ -129,11 +131,11 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
 
 /* ------------------------------------------------------------ conflict */
 
-int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
+static inline int conflict(const tm_mesh *m, uint32_t t, const double p[3])
 {
     const uint32_t *v = m->tets[t].v;
     if (v[0] && v[1] && v[2] && v[3])
-        return pred_insphere_sos(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
+        return pred_insphere_sos_fast(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
     /* A ghost: in conflict iff p is beyond its hull face, or on the face's
      * plane and inside its (perturbed) circumcircle. */
     int k = v[0] == TM_VINF ? 0 : v[1] == TM_VINF ? 1 : v[2] == TM_VINF ? 2 : 3;
@@ -143,6 +145,11 @@ int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
     if (o)
         return o;
     return pred_incircle3d_sos(a, b, c, p);
+}
+
+int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
+{
+    return conflict(m, t, p);
 }
 
 static uint32_t vertex_at(const tm_mesh *m, uint32_t t, const double *p)
@@ -229,6 +236,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     if (c->pending)
         dt_cavity_abandon(m, c);
     memcpy(c->p, p, sizeof c->p);
+    c->flags = flags;
     c->status = DT_OK;
     c->ntets = c->nbnd = c->nnew = 0;
     c->located = c->dup_vertex = c->blocker = TM_NONE;
@@ -282,6 +290,11 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     while (!rc && sp > 0) {
         uint32_t t = c->stack[--sp];
         const tm_tet *T = &m->tets[t];
+        /* Start the memory loads of all four neighbours before testing the
+         * first one. */
+        for (int f = 0; f < 4; f++)
+            if (!tm_is_special(T->n[f]))
+                __builtin_prefetch(&m->tets[tm_ltet(T->n[f])]);
         for (int f = 0; f < 4 && !rc; f++) {
             tm_link l = T->n[f];
             if (tm_is_special(l)) {
@@ -304,7 +317,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return r;
                 }
             }
-            int s = dt_conflict(m, u, p);
+            int s = conflict(m, u, p);
             if (s > 0) {
                 rc = add_cavity_tet(m, c, u, &sp);
             } else if (s < 0) {
@@ -344,9 +357,11 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
 
 /* -------------------------------------------------------------- commit */
 
-static int slot_of(const tm_tet *T, uint32_t v)
+/* Slot of vertex v in T (v must be there), without branches: the
+ * comparisons are unpredictable and this runs in the innermost loop. */
+static inline int slot_of(const tm_tet *T, uint32_t v)
 {
-    return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : 3;
+    return (T->v[1] == v) + 2 * (T->v[2] == v) + 3 * (T->v[3] == v);
 }
 
 /* Moves the subsegment bits of face j of a cavity tetrahedron (flags ft) to
@@ -362,6 +377,113 @@ static uint16_t subseg_bits(uint16_t ft, int j)
     if (ft & TM_F_SUBSEG(tm_edge_of[f[1]][f[2]]))
         out |= TM_F_SUBSEG(3); /* slots 1-2 */
     return out;
+}
+
+/* Links the side faces of the new tetrahedra (faces 0-2, which contain
+ * the new vertex). Face k of a new tet holds v and the edge {a,b} of its
+ * boundary face. The other new tet on that edge sits on the next boundary
+ * face met when turning around {a,b} through the cavity, starting from the
+ * cavity tet's other face on {a,b}: every link out of a cavity tet now
+ * leads to a new tet. */
+static void link_by_rotation(tm_mesh *m, dt_cavity *c)
+{
+    tm_tet *tets = m->tets;
+    const uint16_t *fl = m->flags;
+    size_t nb = c->nbnd;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        tm_tet *N = &tets[n];
+        uint32_t t = c->bnd[i].tet;
+        int j = c->bnd[i].face;
+        const uint8_t *f = tm_face_vtx[j];
+        for (int k = 0; k < 3; k++) {
+            if (N->n[k] != TM_LINK_UNSET)
+                continue;
+            int sa = f[(k + 1) % 3], sb = f[(k + 2) % 3];
+            uint32_t a = tets[t].v[sa], b = tets[t].v[sb];
+            uint32_t cur = t;
+            int ex = 6 - j - sa - sb;
+            for (;;) {
+                tm_link l = tets[cur].n[ex];
+                uint32_t u = tm_ltet(l);
+                if (!(fl[u] & TM_F_CAVITY)) {
+                    /* u is new: slots 0..2 hold a, b and one more, slot 3
+                     * the new vertex; its face k2 is the one without that
+                     * third vertex... i.e. opposite it: k2 = 3 - (a's slot
+                     * + b's slot). */
+                    const tm_tet *U = &tets[u];
+                    int k2 = 3 - slot_of(U, a) - slot_of(U, b);
+                    N->n[k] = tm_mklink(u, k2);
+                    tets[u].n[k2] = tm_mklink(n, k);
+                    break;
+                }
+                const tm_tet *U = &tets[u];
+                int uf = tm_lface(l);
+                ex = 6 - uf - slot_of(U, a) - slot_of(U, b);
+                cur = u;
+            }
+        }
+    }
+}
+
+#define DT_LOCAL_MAX 64
+#define LOCAL_TAG 0xC0000000u /* vhint values >= this are never tets */
+
+/* The same links with an edge table: each boundary vertex gets a small
+ * local number (kept for a moment in its vhint slot, tagged so it cannot be
+ * mistaken for a tet), and the first new face on edge {a,b} waits in
+ * table[a][b] for the second. Returns 0 (nothing changed) if the boundary
+ * has more than DT_LOCAL_MAX vertices or the cavity was cut by marked faces
+ * (its boundary might then not be a simple surface). */
+static int link_by_table(tm_mesh *m, dt_cavity *c)
+{
+    size_t nb = c->nbnd;
+    if (c->flags & DT_STOP_MARKED)
+        return 0;
+    if (!c->edge_table) {
+        c->edge_table = malloc(DT_LOCAL_MAX * DT_LOCAL_MAX * sizeof *c->edge_table);
+        if (!c->edge_table)
+            return 0;
+        for (size_t i = 0; i < DT_LOCAL_MAX * DT_LOCAL_MAX; i++)
+            c->edge_table[i] = TM_LINK_UNSET;
+    }
+    if (grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1))
+        return 0;
+    tm_tet *tets = m->tets;
+    uint32_t *hint = m->vhint;
+    uint32_t nloc = 0;
+    for (size_t i = 0; i < nb; i++) {
+        const tm_tet *N = &tets[c->newtets[i]];
+        for (int s = 0; s < 3; s++) {
+            uint32_t w = N->v[s], k = hint[w] - LOCAL_TAG;
+            if (k >= nloc || c->loc_vert[k] != w) {
+                if (nloc == DT_LOCAL_MAX)
+                    return 0; /* hints are rewritten by the caller anyway */
+                k = nloc++;
+                c->loc_vert[k] = w;
+                hint[w] = LOCAL_TAG + k;
+            }
+            c->loc_ids[3 * i + (size_t)s] = (uint8_t)k;
+        }
+    }
+    uint32_t *table = c->edge_table;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const uint8_t *l = &c->loc_ids[3 * i];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = l[k == 0 ? 1 : 0], b = l[k == 2 ? 1 : 2];
+            uint32_t key = a < b ? a * DT_LOCAL_MAX + b : b * DT_LOCAL_MAX + a;
+            uint32_t e = table[key];
+            if (e == TM_LINK_UNSET) {
+                table[key] = tm_mklink(n, k);
+            } else {
+                tets[n].n[k] = e;
+                tets[tm_ltet(e)].n[tm_lface(e)] = tm_mklink(n, k);
+                table[key] = TM_LINK_UNSET;
+            }
+        }
+    }
+    return 1;
 }
 
 int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
@@ -408,46 +530,16 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         if (!(N->v[0] && N->v[1] && N->v[2]))
             m->nghost++;
         T->n[j] = tm_mklink(n, 3);
-        for (int s = 0; s < 4; s++)
-            m->vhint[N->v[s]] = n;
         c->newtets[i] = n;
     }
-    /* 2. Links between new tetrahedra. Face k (k < 3) of a new tet holds v
-     * and the edge {a,b} of its boundary face. The other new tet on that
-     * edge sits on the next boundary face met when turning around {a,b}
-     * through the cavity, starting from the cavity tet's other face on
-     * {a,b}: every link out of a cavity tet now leads to a new tet. */
+    /* 2. Links between new tetrahedra: by edge table when the boundary has
+     * few vertices (always, in practice), else by turning around edges. */
+    if (!link_by_table(m, c))
+        link_by_rotation(m, c);
     for (size_t i = 0; i < nb; i++) {
-        uint32_t n = c->newtets[i];
-        tm_tet *N = &tets[n];
-        uint32_t t = c->bnd[i].tet;
-        int j = c->bnd[i].face;
-        const uint8_t *f = tm_face_vtx[j];
-        for (int k = 0; k < 3; k++) {
-            if (N->n[k] != TM_LINK_UNSET)
-                continue;
-            int sa = f[(k + 1) % 3], sb = f[(k + 2) % 3];
-            uint32_t a = tets[t].v[sa], b = tets[t].v[sb];
-            uint32_t cur = t;
-            int ex = 6 - j - sa - sb;
-            for (;;) {
-                tm_link l = tets[cur].n[ex];
-                uint32_t u = tm_ltet(l);
-                if (!(fl[u] & TM_F_CAVITY)) {
-                    const tm_tet *U = &tets[u];
-                    int k2 = (U->v[0] != a && U->v[0] != b) ? 0
-                             : (U->v[1] != a && U->v[1] != b) ? 1
-                                                              : 2;
-                    N->n[k] = tm_mklink(u, k2);
-                    tets[u].n[k2] = tm_mklink(n, k);
-                    break;
-                }
-                const tm_tet *U = &tets[u];
-                int uf = tm_lface(l);
-                ex = 6 - uf - slot_of(U, a) - slot_of(U, b);
-                cur = u;
-            }
-        }
+        const tm_tet *N = &tets[c->newtets[i]];
+        for (int s = 0; s < 4; s++)
+            m->vhint[N->v[s]] = c->newtets[i];
     }
     /* 3. The cavity goes to the free list. */
     for (size_t i = 0; i < c->ntets; i++)
@@ -537,6 +629,33 @@ static int collinear(const double *a, const double *b, const double *c)
     return 1;
 }
 
+/* Moves vertex order[i] to number i+1, recording old numbers in gid. */
+static int renumber(tm_mesh *m, uint32_t *order, size_t n)
+{
+    int rc = tm_enable(m, TM_FEAT_GIDS);
+    if (rc)
+        return rc;
+    double *xyz = malloc((n + 1) * 3 * sizeof *xyz);
+    uint64_t *gid = malloc((n + 1) * sizeof *gid);
+    if (!xyz || !gid) {
+        free(xyz);
+        free(gid);
+        return PDR_ENOMEM;
+    }
+    memcpy(xyz, m->xyz, 3 * sizeof *xyz);
+    gid[0] = m->gid[0];
+    for (size_t i = 0; i < n; i++) {
+        memcpy(xyz + 3 * (i + 1), X(m, order[i]), 3 * sizeof *xyz);
+        gid[i + 1] = m->gid[order[i]];
+        order[i] = (uint32_t)(i + 1);
+    }
+    memcpy(m->xyz, xyz, (n + 1) * 3 * sizeof *xyz);
+    memcpy(m->gid, gid, (n + 1) * sizeof *gid);
+    free(xyz);
+    free(gid);
+    return 0;
+}
+
 int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
 {
     dt_build_stats st;
@@ -560,6 +679,13 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     }
     for (size_t i = 0; i < n; i++)
         order[i] += 1; /* point i is vertex i+1 */
+    if (opts && opts->renumber) {
+        rc = renumber(m, order, n);
+        if (rc) {
+            free(order);
+            return rc;
+        }
+    }
     double t1 = pdr_now();
     st.sort_seconds = t1 - t0;
 

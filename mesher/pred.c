@@ -313,6 +313,18 @@ static int diffs(const double *const *p, int np, const double *q, int dim, doubl
     return exact;
 }
 
+/* Inline max/min: fmax/fmin are library calls at -O2 because of their NaN
+ * rules. Entries are never NaN (differences of finite doubles); an infinite
+ * entry makes the maximum infinite and the filter declines. */
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+
 static int neg_sign(int s)
 {
     return -s;
@@ -352,10 +364,10 @@ int pred__orient3d_filter(const double *a, const double *b, const double *c, con
     double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
     double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
     double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
-    double mx = fmax(fabs(ux), fmax(fabs(vx), fabs(wx)));
-    double my = fmax(fabs(uy), fmax(fabs(vy), fabs(wy)));
-    double mz = fmax(fabs(uz), fmax(fabs(vz), fabs(wz)));
-    double lo = fmin(mx, fmin(my, mz)), hi = fmax(mx, fmax(my, mz));
+    double mx = dmax(fabs(ux), dmax(fabs(vx), fabs(wx)));
+    double my = dmax(fabs(uy), dmax(fabs(vy), fabs(wy)));
+    double mz = dmax(fabs(uz), dmax(fabs(vz), fabs(wz)));
+    double lo = dmin(mx, dmin(my, mz)), hi = dmax(mx, dmax(my, mz));
     if (lo >= O3_LO && hi <= O3_HI) {
         double bound = o3_bound * mx * my * mz;
         if (det > bound)
@@ -425,10 +437,10 @@ int pred__insphere_filter(const double *a, const double *b, const double *c, con
 
     double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
 
-    double mx = fmax(fmax(fabs(ax), fabs(bx)), fmax(fabs(cx), fabs(dx)));
-    double my = fmax(fmax(fabs(ay), fabs(by)), fmax(fabs(cy), fabs(dy)));
-    double mz = fmax(fmax(fabs(az), fabs(bz)), fmax(fabs(cz), fabs(dz)));
-    double lo = fmin(mx, fmin(my, mz)), hi = fmax(mx, fmax(my, mz));
+    double mx = dmax(dmax(fabs(ax), fabs(bx)), dmax(fabs(cx), fabs(dx)));
+    double my = dmax(dmax(fabs(ay), fabs(by)), dmax(fabs(cy), fabs(dy)));
+    double mz = dmax(dmax(fabs(az), fabs(bz)), dmax(fabs(cz), fabs(dz)));
+    double lo = dmin(mx, dmin(my, mz)), hi = dmax(mx, dmax(my, mz));
     if (lo >= IS_LO && hi <= IS_HI) {
         double bound = is_bound * ((mx * mx + my * my) + mz * mz) * mx * my * mz;
         if (det > bound)
@@ -466,8 +478,8 @@ int pred_orient2d(const double *a, const double *b, const double *c)
     double ux = a[0] - c[0], uy = a[1] - c[1];
     double vx = b[0] - c[0], vy = b[1] - c[1];
     double det = ux * vy - uy * vx;
-    double mx = fmax(fabs(ux), fabs(vx)), my = fmax(fabs(uy), fabs(vy));
-    double lo = fmin(mx, my), hi = fmax(mx, my);
+    double mx = dmax(fabs(ux), fabs(vx)), my = dmax(fabs(uy), fabs(vy));
+    double lo = dmin(mx, my), hi = dmax(mx, my);
     if (lo >= O2_LO && hi <= O2_HI) {
         double bound = o2_bound * mx * my;
         if (det > bound)
@@ -501,9 +513,9 @@ int pred_incircle(const double *a, const double *b, const double *c, const doubl
     double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, bc = bx * cy - cx * by;
     double la = ax * ax + ay * ay, lb = bx * bx + by * by, lc = cx * cx + cy * cy;
     double det = (la * bc - lb * ac) + lc * ab;
-    double mx = fmax(fabs(ax), fmax(fabs(bx), fabs(cx)));
-    double my = fmax(fabs(ay), fmax(fabs(by), fabs(cy)));
-    double lo = fmin(mx, my), hi = fmax(mx, my);
+    double mx = dmax(fabs(ax), dmax(fabs(bx), fabs(cx)));
+    double my = dmax(fabs(ay), dmax(fabs(by), fabs(cy)));
+    double lo = dmin(mx, my), hi = dmax(mx, my);
     if (lo >= IC_LO && hi <= IC_HI) {
         double bound = ic_bound * (mx * mx + my * my) * mx * my;
         if (det > bound)

@@ -74,6 +74,80 @@ int pred_incircle_sos(const double *a, const double *b, const double *c, const d
  * if e coincides with a, b or c or abc is degenerate. */
 int pred_incircle3d_sos(const double *a, const double *b, const double *c, const double *e);
 
+/* ------------------------------------------------------------------
+ * Inline versions for hot loops: the filter of pred.c, inlined so that the
+ * caller's loads and the arithmetic can be scheduled together; when the
+ * filter cannot decide they call the out-of-line predicate. Same results
+ * as the functions above (the bounds are explained in pred.c).
+ */
+#define PRED_EPS_ (1.1102230246251565e-16) /* 2^-53 */
+
+static inline double pred_max_(double a, double b)
+{
+    return a > b ? a : b;
+}
+static inline double pred_min_(double a, double b)
+{
+    return a < b ? a : b;
+}
+
+static inline int pred_orient3d_fast(const double *a, const double *b, const double *c,
+                                     const double *d)
+{
+    double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
+    double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
+    double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
+    double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
+    double mx = pred_max_(__builtin_fabs(ux), pred_max_(__builtin_fabs(vx), __builtin_fabs(wx)));
+    double my = pred_max_(__builtin_fabs(uy), pred_max_(__builtin_fabs(vy), __builtin_fabs(wy)));
+    double mz = pred_max_(__builtin_fabs(uz), pred_max_(__builtin_fabs(vz), __builtin_fabs(wz)));
+    double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
+    if (lo >= 0x1p-330 && hi <= 0x1p+330) {
+        double bound = (48.0 * PRED_EPS_) * mx * my * mz;
+        if (det > bound)
+            return -1;
+        if (det < -bound)
+            return 1;
+    }
+    return pred_orient3d(a, b, c, d);
+}
+
+/* pred_insphere_sos with the filter inlined. */
+static inline int pred_insphere_sos_fast(const double *a, const double *b, const double *c,
+                                         const double *d, const double *e)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+    double mx = pred_max_(pred_max_(__builtin_fabs(ax), __builtin_fabs(bx)),
+                          pred_max_(__builtin_fabs(cx), __builtin_fabs(dx)));
+    double my = pred_max_(pred_max_(__builtin_fabs(ay), __builtin_fabs(by)),
+                          pred_max_(__builtin_fabs(cy), __builtin_fabs(dy)));
+    double mz = pred_max_(pred_max_(__builtin_fabs(az), __builtin_fabs(bz)),
+                          pred_max_(__builtin_fabs(cz), __builtin_fabs(dz)));
+    double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
+    if (lo >= 0x1p-330 && hi <= 0x1p+200) {
+        double bound = (380.0 * PRED_EPS_) * ((mx * mx + my * my) + mz * mz) * mx * my * mz;
+        if (det > bound)
+            return 1;
+        if (det < -bound)
+            return -1;
+    }
+    return pred_insphere_sos(a, b, c, d, e);
+}
+
 /* Lexicographic comparison of 3D points: -1, 0, +1. */
 int pred_lexcmp3(const double *p, const double *q);
 
