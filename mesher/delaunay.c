@@ -203,7 +203,7 @@ static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
     return 1;
 }
 
-static int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
+static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
 {
     if (c->nbnd == c->cap_bnd &&
         grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 1, sizeof *c->bnd))
@@ -217,7 +217,7 @@ static int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
     return 0;
 }
 
-static int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
+static inline int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
 {
     if ((c->ntets == c->cap_tets &&
          grow((void **)&c->tets, &c->cap_tets, c->ntets + 1, sizeof *c->tets)) ||
