@@ -134,7 +134,8 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
 static inline int conflict(const tm_mesh *m, uint32_t t, const double p[3])
 {
     const uint32_t *v = m->tets[t].v;
-    if (v[0] && v[1] && v[2] && v[3])
+    /* One test instead of four branches: is any vertex the infinite one? */
+    if (((v[0] == TM_VINF) | (v[1] == TM_VINF) | (v[2] == TM_VINF) | (v[3] == TM_VINF)) == 0)
         return pred_insphere_sos_fast(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
     /* A ghost: in conflict iff p is beyond its hull face, or on the face's
      * plane and inside its (perturbed) circumcircle. */
@@ -290,6 +291,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     while (!rc && sp > 0) {
         uint32_t t = c->stack[--sp];
         const tm_tet *T = &m->tets[t];
+        uint16_t ft = fl[t];
         /* Start the memory loads of all four neighbours before testing the
          * first one. */
         for (int f = 0; f < 4; f++)
@@ -301,7 +303,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                 rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
                 continue;
             }
-            if (stop_marked && (fl[t] & TM_F_FACEMARK(f))) {
+            if (stop_marked && (ft & TM_F_FACEMARK(f))) {
                 rc = add_bface(c, t, f, DT_BND_MARKED, l);
                 continue;
             }

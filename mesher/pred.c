@@ -32,7 +32,13 @@
  *   3eps*S*6P + S*28eps*P + eps*6SP = 52eps*S*P each, |l*D| <= 6SP; the sum
  *   (t1 - t2) + (t3 - t4) adds eps*(12+12+24)SP. Evaluation <= 256eps*S*P.
  *   Entry rounding: 4 * S * 6P worth of degree-5 monomials, each off by
- *   <= 5eps: 120eps*S*P. Total 376eps*S*P; we use 380eps*S*P.
+ *   <= 5eps: 120eps*S*P. Total 376eps*S*P. This filter runs about fifty
+ *   times per inserted point, so the column maxima are replaced by a
+ *   cheaper quantity already at hand: with L the largest lift, every entry
+ *   is at most sqrt(L), so S*P <= 3L * L^(3/2) and the error is at most
+ *   1128eps*L^(5/2). We test det^2 > (1140eps)^2 * L^5 (no square root;
+ *   the margin of 12eps*L^(5/2) also covers the rounding of the lifts, of
+ *   det^2 and of L^5).
  * orient2d, rows u, v: det = ux*vy - uy*vx: 4eps + 4eps = 8eps*MxMy; use 10.
  * incircle, rows a,b,c (translated by d), l = x^2+y^2, S = Mx^2+My^2:
  *   terms l*m: 2eps*S*2P + S*4eps*P + eps*2SP = 10eps*SP, sum (t1-t2)+t3 adds
@@ -44,8 +50,10 @@
  * filter hands over to exact arithmetic. Underflow in a product adds an
  * absolute error <= 2^-1075, which later products multiply by at most the
  * column maxima; requiring every column maximum to lie in [2^-330, 2^330]
- * (orient3d), [2^-330, 2^200] (insphere), [2^-500, 2^500] (orient2d),
- * [2^-240, 2^240] (incircle) keeps all such contributions far below the
+ * (orient3d), [2^-500, 2^500] (orient2d), [2^-240, 2^240] (incircle), and
+ * for insphere the largest lift L to [2^-190, 2^190] (then L^5 and det^2
+ * are normal numbers, and underflow terms, at most about 150*L^(3/2)*2^-1075,
+ * are below 2^-800 of the margin) keeps all such contributions far below the
  * margin of the constants above and rules out overflow of the monomials.
  * Outside those ranges the filter declines and exact arithmetic decides.
  *
@@ -75,18 +83,13 @@
 
 #define EPS (DBL_EPSILON / 2) /* 2^-53 */
 
-/* Column-maximum ranges in which the filters' bounds are proved. */
-#define O3_LO 0x1p-330
-#define O3_HI 0x1p+330
-#define IS_LO 0x1p-330
-#define IS_HI 0x1p+200
+/* Column-maximum ranges in which the 2D filters' bounds are proved (the 3D
+ * filters are inline in pred.h, with their constants). */
 #define O2_LO 0x1p-500
 #define O2_HI 0x1p+500
 #define IC_LO 0x1p-240
 #define IC_HI 0x1p+240
 
-static const double o3_bound = 48.0 * EPS;
-static const double is_bound = 380.0 * EPS;
 static const double o2_bound = 10.0 * EPS;
 static const double ic_bound = 68.0 * EPS;
 
@@ -360,22 +363,7 @@ static int orient3d_exact(const double *a, const double *b, const double *c, con
 
 int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d)
 {
-    double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
-    double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
-    double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
-    double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
-    double mx = dmax(fabs(ux), dmax(fabs(vx), fabs(wx)));
-    double my = dmax(fabs(uy), dmax(fabs(vy), fabs(wy)));
-    double mz = dmax(fabs(uz), dmax(fabs(vz), fabs(wz)));
-    double lo = dmin(mx, dmin(my, mz)), hi = dmax(mx, dmax(my, mz));
-    if (lo >= O3_LO && hi <= O3_HI) {
-        double bound = o3_bound * mx * my * mz;
-        if (det > bound)
-            return -1;
-        if (det < -bound)
-            return 1;
-    }
-    return 2;
+    return pred_orient3d_filter_(a, b, c, d);
 }
 
 int pred_orient3d(const double *a, const double *b, const double *c, const double *d)
@@ -417,38 +405,7 @@ static int insphere_exact(const double *a, const double *b, const double *c, con
 int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
                           const double *e)
 {
-    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
-    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
-    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
-    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
-
-    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
-    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
-
-    double dbcd = (bz * cd - cz * bd) + dz * bc;
-    double dacd = (az * cd - cz * ad) + dz * ac;
-    double dabd = (az * bd - bz * ad) + dz * ab;
-    double dabc = (az * bc - bz * ac) + cz * ab;
-
-    double la = (ax * ax + ay * ay) + az * az;
-    double lb = (bx * bx + by * by) + bz * bz;
-    double lc = (cx * cx + cy * cy) + cz * cz;
-    double ld = (dx * dx + dy * dy) + dz * dz;
-
-    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
-
-    double mx = dmax(dmax(fabs(ax), fabs(bx)), dmax(fabs(cx), fabs(dx)));
-    double my = dmax(dmax(fabs(ay), fabs(by)), dmax(fabs(cy), fabs(dy)));
-    double mz = dmax(dmax(fabs(az), fabs(bz)), dmax(fabs(cz), fabs(dz)));
-    double lo = dmin(mx, dmin(my, mz)), hi = dmax(mx, dmax(my, mz));
-    if (lo >= IS_LO && hi <= IS_HI) {
-        double bound = is_bound * ((mx * mx + my * my) + mz * mz) * mx * my * mz;
-        if (det > bound)
-            return 1;
-        if (det < -bound)
-            return -1;
-    }
-    return 2;
+    return pred_insphere_filter_(a, b, c, d, e);
 }
 
 int pred_insphere(const double *a, const double *b, const double *c, const double *d,

@@ -91,8 +91,9 @@ static inline double pred_min_(double a, double b)
     return a < b ? a : b;
 }
 
-static inline int pred_orient3d_fast(const double *a, const double *b, const double *c,
-                                     const double *d)
+/* The orient3d filter: the sign of pred_orient3d, or 2. */
+static inline int pred_orient3d_filter_(const double *a, const double *b, const double *c,
+                                        const double *d)
 {
     double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
     double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
@@ -109,43 +110,52 @@ static inline int pred_orient3d_fast(const double *a, const double *b, const dou
         if (det < -bound)
             return 1;
     }
-    return pred_orient3d(a, b, c, d);
+    return 2;
 }
 
-/* pred_insphere_sos with the filter inlined. */
-static inline int pred_insphere_sos_fast(const double *a, const double *b, const double *c,
-                                         const double *d, const double *e)
+static inline int pred_orient3d_fast(const double *a, const double *b, const double *c,
+                                     const double *d)
 {
-    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
-    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
-    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
-    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    int s = pred_orient3d_filter_(a, b, c, d);
+    return s != 2 ? s : pred_orient3d(a, b, c, d);
+}
+
+/* The insphere filter (see pred.c for the bound): the sign of
+ * pred_insphere, or 2 if the filter cannot decide. */
+static inline int pred_insphere_filter_(const double *a, const double *b, const double *c,
+                                        const double *d, const double *e)
+{
+    double ex = e[0], ey = e[1], ez = e[2];
+    double ax = a[0] - ex, ay = a[1] - ey, az = a[2] - ez;
+    double bx = b[0] - ex, by = b[1] - ey, bz = b[2] - ez;
+    double cx = c[0] - ex, cy = c[1] - ey, cz = c[2] - ez;
+    double dx = d[0] - ex, dy = d[1] - ey, dz = d[2] - ez;
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
     double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
     double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
     double dbcd = (bz * cd - cz * bd) + dz * bc;
     double dacd = (az * cd - cz * ad) + dz * ac;
     double dabd = (az * bd - bz * ad) + dz * ab;
     double dabc = (az * bc - bz * ac) + cz * ab;
-    double la = (ax * ax + ay * ay) + az * az;
-    double lb = (bx * bx + by * by) + bz * bz;
-    double lc = (cx * cx + cy * cy) + cz * cz;
-    double ld = (dx * dx + dy * dy) + dz * dz;
     double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
-    double mx = pred_max_(pred_max_(__builtin_fabs(ax), __builtin_fabs(bx)),
-                          pred_max_(__builtin_fabs(cx), __builtin_fabs(dx)));
-    double my = pred_max_(pred_max_(__builtin_fabs(ay), __builtin_fabs(by)),
-                          pred_max_(__builtin_fabs(cy), __builtin_fabs(dy)));
-    double mz = pred_max_(pred_max_(__builtin_fabs(az), __builtin_fabs(bz)),
-                          pred_max_(__builtin_fabs(cz), __builtin_fabs(dz)));
-    double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
-    if (lo >= 0x1p-330 && hi <= 0x1p+200) {
-        double bound = (380.0 * PRED_EPS_) * ((mx * mx + my * my) + mz * mz) * mx * my * mz;
-        if (det > bound)
-            return 1;
-        if (det < -bound)
-            return -1;
+    double L = pred_max_(pred_max_(la, lb), pred_max_(lc, ld));
+    if (L >= 0x1p-190 && L <= 0x1p+190) {
+        double L2 = L * L;
+        if (det * det > (1140.0 * PRED_EPS_) * (1140.0 * PRED_EPS_) * (L2 * L2 * L))
+            return det > 0 ? 1 : -1;
     }
-    return pred_insphere_sos(a, b, c, d, e);
+    return 2;
+}
+
+/* pred_insphere_sos with the filter inlined. */
+static inline int pred_insphere_sos_fast(const double *a, const double *b, const double *c,
+                                         const double *d, const double *e)
+{
+    int s = pred_insphere_filter_(a, b, c, d, e);
+    return s != 2 ? s : pred_insphere_sos(a, b, c, d, e);
 }
 
 /* Lexicographic comparison of 3D points: -1, 0, +1. */
