@@ -289,6 +289,17 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     uint16_t *fl = m->flags;
     int stop_marked = (flags & DT_STOP_MARKED) != 0;
     while (!rc && sp > 0) {
+        /* Room for the four faces of t, so that the appends below need no
+         * checks. */
+        if ((c->ntets + 4 > c->cap_tets &&
+             grow((void **)&c->tets, &c->cap_tets, c->ntets + 4, sizeof *c->tets)) ||
+            (sp + 4 > c->cap_stack &&
+             grow((void **)&c->stack, &c->cap_stack, sp + 4, sizeof *c->stack)) ||
+            (c->nbnd + 4 > c->cap_bnd &&
+             grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 4, sizeof *c->bnd))) {
+            rc = PDR_ENOMEM;
+            break;
+        }
         uint32_t t = c->stack[--sp];
         const tm_tet *T = &m->tets[t];
         uint16_t ft = fl[t];
@@ -297,7 +308,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
         for (int f = 0; f < 4; f++)
             if (!tm_is_special(T->n[f]))
                 __builtin_prefetch(&m->tets[tm_ltet(T->n[f])]);
-        for (int f = 0; f < 4 && !rc; f++) {
+        for (int f = 0; f < 4; f++) {
             tm_link l = T->n[f];
             if (tm_is_special(l)) {
                 rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
@@ -320,11 +331,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                 }
             }
             int s = conflict(m, u, p);
-            if (s > 0) {
-                rc = add_cavity_tet(m, c, u, &sp);
-            } else if (s < 0) {
-                rc = add_bface(c, t, f, DT_BND_OUTSIDE, l);
-            } else {
+            if (s == 0) {
                 /* p is a vertex of u: only possible for a duplicate point
                  * (without DT_LOCATE, or equal to a ghost's hull vertex). */
                 clear_marks(m, c);
@@ -334,6 +341,22 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return PDR_ETOPOLOGY;
                 return 0;
             }
+            /* In conflict: u joins the cavity; else face f bounds it. The
+             * outcome is a coin toss for the branch predictor, so both
+             * records are written and only the counters depend on it. */
+            unsigned in = s > 0;
+            c->tets[c->ntets] = u;
+            c->stack[sp] = u;
+            fl[u] |= (uint16_t)(in * TM_F_CAVITY);
+            c->ntets += in;
+            sp += in;
+            dt_bface *b = &c->bnd[c->nbnd];
+            b->tet = t;
+            b->face = (uint8_t)f;
+            b->reason = DT_BND_OUTSIDE;
+            b->spare = 0;
+            b->outer = l;
+            c->nbnd += !in;
         }
     }
     if (rc) {
@@ -431,15 +454,29 @@ static void link_by_rotation(tm_mesh *m, dt_cavity *c)
 #define DT_LOCAL_MAX 64
 #define LOCAL_TAG 0xC0000000u /* vhint values >= this are never tets */
 
-/* The same links with an edge table: each boundary vertex gets a small
- * local number (kept for a moment in its vhint slot, tagged so it cannot be
- * mistaken for a tet), and the first new face on edge {a,b} waits in
- * table[a][b] for the second. Returns 0 (nothing changed) if the boundary
- * has more than DT_LOCAL_MAX vertices or the cavity was cut by marked faces
- * (its boundary might then not be a simple surface). */
-static int link_by_table(tm_mesh *m, dt_cavity *c)
+/* Side faces of the new tetrahedra are linked with an edge table: each
+ * boundary vertex gets a small local number (kept for a moment in its vhint
+ * slot, tagged so it cannot be mistaken for a tet), and the first new face
+ * on edge {a,b} waits in table[min][max] for the second. The table is used
+ * unless the boundary has more than DT_LOCAL_MAX vertices or the cavity was
+ * cut by marked faces (its boundary might then not be a simple surface);
+ * link_by_rotation() does those. */
+static inline void pair_faces(uint32_t *table, tm_tet *tets, uint32_t a, uint32_t b, tm_link me)
 {
-    size_t nb = c->nbnd;
+    uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
+    uint32_t *slot = &table[lo * DT_LOCAL_MAX + hi];
+    /* First face on the edge: wait in the table. Second: link both and
+     * empty the entry. Without branches (the order is a coin toss): the
+     * first face links to itself until its partner overwrites that. */
+    uint32_t e = *slot;
+    int first = e == TM_LINK_UNSET;
+    *slot = first ? me : TM_LINK_UNSET;
+    tets[tm_ltet(me)].n[tm_lface(me)] = e;
+    tets[first ? tm_ltet(me) : tm_ltet(e)].n[first ? tm_lface(me) : tm_lface(e)] = me;
+}
+
+static int table_ready(dt_cavity *c, size_t nb)
+{
     if (c->flags & DT_STOP_MARKED)
         return 0;
     if (!c->edge_table) {
@@ -449,43 +486,7 @@ static int link_by_table(tm_mesh *m, dt_cavity *c)
         for (size_t i = 0; i < DT_LOCAL_MAX * DT_LOCAL_MAX; i++)
             c->edge_table[i] = TM_LINK_UNSET;
     }
-    if (grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1))
-        return 0;
-    tm_tet *tets = m->tets;
-    uint32_t *hint = m->vhint;
-    uint32_t nloc = 0;
-    for (size_t i = 0; i < nb; i++) {
-        const tm_tet *N = &tets[c->newtets[i]];
-        for (int s = 0; s < 3; s++) {
-            uint32_t w = N->v[s], k = hint[w] - LOCAL_TAG;
-            if (k >= nloc || c->loc_vert[k] != w) {
-                if (nloc == DT_LOCAL_MAX)
-                    return 0; /* hints are rewritten by the caller anyway */
-                k = nloc++;
-                c->loc_vert[k] = w;
-                hint[w] = LOCAL_TAG + k;
-            }
-            c->loc_ids[3 * i + (size_t)s] = (uint8_t)k;
-        }
-    }
-    uint32_t *table = c->edge_table;
-    for (size_t i = 0; i < nb; i++) {
-        uint32_t n = c->newtets[i];
-        const uint8_t *l = &c->loc_ids[3 * i];
-        for (int k = 0; k < 3; k++) {
-            uint32_t a = l[k == 0 ? 1 : 0], b = l[k == 2 ? 1 : 2];
-            uint32_t key = a < b ? a * DT_LOCAL_MAX + b : b * DT_LOCAL_MAX + a;
-            uint32_t e = table[key];
-            if (e == TM_LINK_UNSET) {
-                table[key] = tm_mklink(n, k);
-            } else {
-                tets[n].n[k] = e;
-                tets[tm_ltet(e)].n[tm_lface(e)] = tm_mklink(n, k);
-                table[key] = TM_LINK_UNSET;
-            }
-        }
-    }
-    return 1;
+    return !grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1);
 }
 
 int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
@@ -501,9 +502,13 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
 
     tm_tet *tets = m->tets;
     uint16_t *fl = m->flags;
+    uint32_t *hint = m->vhint;
+    int table = table_ready(c, nb);
+    uint32_t nloc = 0;
     /* 1. One new tetrahedron per boundary face, linked to the outside; the
-     * cavity tetrahedron's link across that face is redirected to it, so
-     * that step 2 can find it. */
+     * cavity tetrahedron's link across that face is redirected to it (the
+     * rotation fallback relies on that). Boundary vertices get their local
+     * numbers on the way. */
     for (size_t i = 0; i < nb; i++) {
         const dt_bface *b = &c->bnd[i];
         uint32_t t = b->tet;
@@ -511,9 +516,10 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         uint32_t n = tm_alloc_tet(m);
         tm_tet *T = &tets[t], *N = &tets[n];
         const uint8_t *f = tm_face_vtx[j];
-        N->v[0] = T->v[f[0]];
-        N->v[1] = T->v[f[1]];
-        N->v[2] = T->v[f[2]];
+        uint32_t v0 = T->v[f[0]], v1 = T->v[f[1]], v2 = T->v[f[2]];
+        N->v[0] = v0;
+        N->v[1] = v1;
+        N->v[2] = v2;
         N->v[3] = v;
         N->n[0] = N->n[1] = N->n[2] = TM_LINK_UNSET;
         N->n[3] = b->outer;
@@ -529,21 +535,48 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
             }
             fl[n] = nf;
         }
-        if (!(N->v[0] && N->v[1] && N->v[2]))
-            m->nghost++;
+        m->nghost += (v0 == TM_VINF) | (v1 == TM_VINF) | (v2 == TM_VINF);
         T->n[j] = tm_mklink(n, 3);
         c->newtets[i] = n;
+        if (table) {
+            uint8_t *ids = &c->loc_ids[3 * i];
+            for (int s = 0; s < 3; s++) {
+                uint32_t w = N->v[s], k = hint[w] - LOCAL_TAG;
+                if (k >= nloc || c->loc_vert[k] != w) {
+                    if (nloc == DT_LOCAL_MAX) {
+                        table = 0;
+                        break;
+                    }
+                    k = nloc++;
+                    c->loc_vert[k] = w;
+                    hint[w] = LOCAL_TAG + k;
+                }
+                ids[s] = (uint8_t)k;
+            }
+        }
     }
-    /* 2. Links between new tetrahedra: by edge table when the boundary has
-     * few vertices (always, in practice), else by turning around edges. */
-    if (!link_by_table(m, c))
+    /* 2. Links between the new tetrahedra. */
+    if (table) {
+        uint32_t *tab = c->edge_table;
+        for (size_t i = 0; i < nb; i++) {
+            uint32_t n = c->newtets[i];
+            const uint8_t *l = &c->loc_ids[3 * i];
+            pair_faces(tab, tets, l[1], l[2], tm_mklink(n, 0));
+            pair_faces(tab, tets, l[0], l[2], tm_mklink(n, 1));
+            pair_faces(tab, tets, l[0], l[1], tm_mklink(n, 2));
+        }
+    } else {
         link_by_rotation(m, c);
-    for (size_t i = 0; i < nb; i++) {
-        const tm_tet *N = &tets[c->newtets[i]];
-        for (int s = 0; s < 4; s++)
-            m->vhint[N->v[s]] = c->newtets[i];
     }
-    /* 3. The cavity goes to the free list. */
+    /* 3. Vertex hints (this also clears the local numbers), and the cavity
+     * goes to the free list. */
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const tm_tet *N = &tets[n];
+        hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+    }
+    if (nb)
+        hint[v] = c->newtets[nb - 1];
     for (size_t i = 0; i < c->ntets; i++)
         tm_free_tet(m, c->tets[i]);
     c->nnew = nb;
