@@ -131,11 +131,12 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
 
 /* ------------------------------------------------------------ conflict */
 
-static inline int conflict(const tm_mesh *m, uint32_t t, const double p[3])
+/* ft: t's flags (the caller has them at hand). */
+static inline __attribute__((always_inline)) int conflict(const tm_mesh *m, uint32_t t,
+                                                          uint16_t ft, const double p[3])
 {
     const uint32_t *v = m->tets[t].v;
-    /* One test instead of four branches: is any vertex the infinite one? */
-    if (((v[0] == TM_VINF) | (v[1] == TM_VINF) | (v[2] == TM_VINF) | (v[3] == TM_VINF)) == 0)
+    if (!(ft & TM_F_GHOST))
         return pred_insphere_sos_fast(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
     /* A ghost: in conflict iff p is beyond its hull face, or on the face's
      * plane and inside its (perturbed) circumcircle. */
@@ -150,7 +151,7 @@ static inline int conflict(const tm_mesh *m, uint32_t t, const double p[3])
 
 int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
 {
-    return conflict(m, t, p);
+    return conflict(m, t, m->flags[t], p);
 }
 
 static uint32_t vertex_at(const tm_mesh *m, uint32_t t, const double *p)
@@ -264,7 +265,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     } else {
         if (t0 >= m->nslots || tm_is_dead(m, t0))
             return PDR_EINVAL;
-        int s = dt_conflict(m, t0, p);
+        int s = conflict(m, t0, m->flags[t0], p);
         if (s == 0) {
             c->dup_vertex = vertex_at(m, t0, p);
             c->status = DT_DUPLICATE;
@@ -319,7 +320,8 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                 continue;
             }
             uint32_t u = tm_ltet(l);
-            if (fl[u] & TM_F_CAVITY)
+            uint16_t fu = fl[u];
+            if (fu & TM_F_CAVITY)
                 continue;
             if (lock) {
                 int r = take_lock(m, c, u);
@@ -330,7 +332,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return r;
                 }
             }
-            int s = conflict(m, u, p);
+            int s = conflict(m, u, fu, p);
             if (s == 0) {
                 /* p is a vertex of u: only possible for a duplicate point
                  * (without DT_LOCATE, or equal to a ghost's hull vertex). */
@@ -347,7 +349,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
             unsigned in = s > 0;
             c->tets[c->ntets] = u;
             c->stack[sp] = u;
-            fl[u] |= (uint16_t)(in * TM_F_CAVITY);
+            fl[u] = (uint16_t)(fu | in * TM_F_CAVITY);
             c->ntets += in;
             sp += in;
             dt_bface *b = &c->bnd[c->nbnd];
@@ -504,7 +506,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
     uint16_t *fl = m->flags;
     uint32_t *hint = m->vhint;
     int table = table_ready(c, nb);
-    uint32_t nloc = 0;
+    uint32_t nloc = 0, nghost = 0;
     /* 1. One new tetrahedron per boundary face, linked to the outside; the
      * cavity tetrahedron's link across that face is redirected to it (the
      * rotation fallback relies on that). Boundary vertices get their local
@@ -526,16 +528,18 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         if (!tm_is_special(b->outer))
             tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
         uint16_t ft = fl[t];
+        unsigned ghost = (v0 == TM_VINF) | (v1 == TM_VINF) | (v2 == TM_VINF);
+        uint16_t nf = (uint16_t)(ghost * TM_F_GHOST);
         if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
-            uint16_t nf = subseg_bits(ft, j);
+            nf |= subseg_bits(ft, j);
             if (ft & TM_F_FACEMARK(j)) {
                 nf |= TM_F_FACEMARK(3);
                 if (m->marker)
                     m->marker[4 * (size_t)n + 3] = m->marker[4 * (size_t)t + (size_t)j];
             }
-            fl[n] = nf;
         }
-        m->nghost += (v0 == TM_VINF) | (v1 == TM_VINF) | (v2 == TM_VINF);
+        fl[n] = nf;
+        nghost += ghost;
         T->n[j] = tm_mklink(n, 3);
         c->newtets[i] = n;
         if (table) {
@@ -555,6 +559,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
             }
         }
     }
+    m->nghost += nghost;
     /* 2. Links between the new tetrahedra. */
     if (table) {
         uint32_t *tab = c->edge_table;
@@ -627,6 +632,7 @@ int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
         G->v[1] = T->v[f[2]];
         G->v[2] = T->v[f[1]];
         G->v[3] = TM_VINF;
+        m->flags[g[i]] = TM_F_GHOST;
         G->n[3] = tm_mklink(t, i);
         T->n[i] = tm_mklink(g[i], 3);
         m->nghost++;
