@@ -1,2 +1,3 @@
 # tools/: set-up script, launch helpers, domain generators, benchmarks.
 dist_noinst_SCRIPTS += tools/bootstrap
+dist_noinst_SCRIPTS += tools/bench-delaunay
