@@ -35,6 +35,7 @@ void dt_cavity_free(dt_cavity *c)
 {
     free(c->edge_table);
     free(c->loc_ids);
+    free(c->tri);
     free(c->tets);
     free(c->bnd);
     free(c->newtets);
@@ -491,6 +492,93 @@ static int table_ready(dt_cavity *c, size_t nb)
     return !grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1);
 }
 
+/* The usual commit: everything needed from the cavity (face vertices,
+ * marks) is copied out first, so the cavity's slots can be freed before the
+ * new tetrahedra are made, and are reused by them while they are still in
+ * the cache. Returns 0, having changed nothing but vertex hints, when the
+ * edge table cannot be used (the general path then rewrites the hints). */
+static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
+{
+    size_t nb = c->nbnd;
+    if (!table_ready(c, nb) || grow((void **)&c->tri, &c->cap_tri, 4 * nb, sizeof *c->tri))
+        return 0;
+    tm_tet *tets = m->tets;
+    uint16_t *fl = m->flags;
+    uint32_t *hint = m->vhint;
+    uint32_t nloc = 0;
+    for (size_t i = 0; i < nb; i++) {
+        dt_bface *b = &c->bnd[i];
+        uint32_t t = b->tet;
+        int j = b->face;
+        const tm_tet *T = &tets[t];
+        const uint8_t *f = tm_face_vtx[j];
+        uint32_t *q = &c->tri[4 * i];
+        q[0] = T->v[f[0]];
+        q[1] = T->v[f[1]];
+        q[2] = T->v[f[2]];
+        uint16_t ft = fl[t], nf = 0;
+        if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
+            nf = subseg_bits(ft, j);
+            if (ft & TM_F_FACEMARK(j)) {
+                nf |= TM_F_FACEMARK(3);
+                q[3] = m->marker ? (uint32_t)m->marker[4 * (size_t)t + (size_t)j] : 0;
+            }
+        }
+        b->spare = nf;
+        uint8_t *ids = &c->loc_ids[3 * i];
+        for (int s = 0; s < 3; s++) {
+            uint32_t w = q[s], k = hint[w] - LOCAL_TAG;
+            if (k >= nloc || c->loc_vert[k] != w) {
+                if (nloc == DT_LOCAL_MAX)
+                    return 0;
+                k = nloc++;
+                c->loc_vert[k] = w;
+                hint[w] = LOCAL_TAG + k;
+            }
+            ids[s] = (uint8_t)k;
+        }
+    }
+    for (size_t i = 0; i < c->ntets; i++)
+        tm_free_tet(m, c->tets[i]);
+    uint32_t nghost = 0;
+    for (size_t i = 0; i < nb; i++) {
+        const dt_bface *b = &c->bnd[i];
+        const uint32_t *q = &c->tri[4 * i];
+        uint32_t n = tm_alloc_tet(m);
+        tm_tet *N = &tets[n];
+        N->v[0] = q[0];
+        N->v[1] = q[1];
+        N->v[2] = q[2];
+        N->v[3] = v;
+        N->n[3] = b->outer;
+        if (!tm_is_special(b->outer))
+            tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
+        unsigned ghost = (q[0] == TM_VINF) | (q[1] == TM_VINF) | (q[2] == TM_VINF);
+        fl[n] = (uint16_t)(b->spare | ghost * TM_F_GHOST);
+        if ((b->spare & TM_F_FACEMARK(3)) && m->marker)
+            m->marker[4 * (size_t)n + 3] = (int32_t)q[3];
+        nghost += ghost;
+        c->newtets[i] = n;
+    }
+    m->nghost += nghost;
+    uint32_t *tab = c->edge_table;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const uint8_t *l = &c->loc_ids[3 * i];
+        pair_faces(tab, tets, l[1], l[2], tm_mklink(n, 0));
+        pair_faces(tab, tets, l[0], l[2], tm_mklink(n, 1));
+        pair_faces(tab, tets, l[0], l[1], tm_mklink(n, 2));
+    }
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const tm_tet *N = &tets[n];
+        hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+    }
+    if (nb)
+        hint[v] = c->newtets[nb - 1];
+    return 1;
+}
+
 int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
 {
     if (!c->pending || c->status != DT_OK)
@@ -501,16 +589,21 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         rc = grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
     if (rc)
         return rc;
+    if (commit_reusing_cavity(m, v, c)) {
+        c->nnew = nb;
+        c->pending = 0;
+        return 0;
+    }
 
+    /* The general path: new slots, cavity kept intact until the end so
+     * that links can be found by turning around edges. */
     tm_tet *tets = m->tets;
     uint16_t *fl = m->flags;
     uint32_t *hint = m->vhint;
-    int table = table_ready(c, nb);
-    uint32_t nloc = 0, nghost = 0;
+    uint32_t nghost = 0;
     /* 1. One new tetrahedron per boundary face, linked to the outside; the
-     * cavity tetrahedron's link across that face is redirected to it (the
-     * rotation fallback relies on that). Boundary vertices get their local
-     * numbers on the way. */
+     * cavity tetrahedron's link across that face is redirected to it, which
+     * is how link_by_rotation() recognises the new tets. */
     for (size_t i = 0; i < nb; i++) {
         const dt_bface *b = &c->bnd[i];
         uint32_t t = b->tet;
@@ -542,38 +635,12 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         nghost += ghost;
         T->n[j] = tm_mklink(n, 3);
         c->newtets[i] = n;
-        if (table) {
-            uint8_t *ids = &c->loc_ids[3 * i];
-            for (int s = 0; s < 3; s++) {
-                uint32_t w = N->v[s], k = hint[w] - LOCAL_TAG;
-                if (k >= nloc || c->loc_vert[k] != w) {
-                    if (nloc == DT_LOCAL_MAX) {
-                        table = 0;
-                        break;
-                    }
-                    k = nloc++;
-                    c->loc_vert[k] = w;
-                    hint[w] = LOCAL_TAG + k;
-                }
-                ids[s] = (uint8_t)k;
-            }
-        }
     }
     m->nghost += nghost;
     /* 2. Links between the new tetrahedra. */
-    if (table) {
-        uint32_t *tab = c->edge_table;
-        for (size_t i = 0; i < nb; i++) {
-            uint32_t n = c->newtets[i];
-            const uint8_t *l = &c->loc_ids[3 * i];
-            pair_faces(tab, tets, l[1], l[2], tm_mklink(n, 0));
-            pair_faces(tab, tets, l[0], l[2], tm_mklink(n, 1));
-            pair_faces(tab, tets, l[0], l[1], tm_mklink(n, 2));
-        }
-    } else {
-        link_by_rotation(m, c);
-    }
-    /* 3. Vertex hints (this also clears the local numbers), and the cavity
+    link_by_rotation(m, c);
+    /* 3. Vertex hints (this also clears local numbers left by an attempt of
+     * commit_reusing_cavity), and the cavity
      * goes to the free list. */
     for (size_t i = 0; i < nb; i++) {
         uint32_t n = c->newtets[i];

@@ -105,6 +105,8 @@ typedef struct dt_cavity {
     uint32_t loc_vert[64];
     uint8_t *loc_ids;     /* 3 per boundary face */
     size_t cap_loc_ids;
+    uint32_t *tri;        /* 4 per boundary face: its vertices, its marker */
+    size_t cap_tri;
 } dt_cavity;
 
 void dt_cavity_init(dt_cavity *c);

@@ -262,6 +262,18 @@ START_TEST(single_insertions_inside_and_outside_the_hull)
         ck_assert_int_eq(c.status, DT_OK);
     }
     assert_clean(&m);
+    /* A point far away sees most of the hull: a cavity whose boundary has
+     * more vertices than the commit's edge table, which then links the new
+     * tets by turning around edges. */
+    {
+        double far[3] = {50, 60, 70};
+        uint32_t vf;
+        ck_assert_int_eq(tm_add_vertex(&m, far, &vf), 0);
+        ck_assert_int_eq(dt_cavity_search(&m, far, TM_NONE, DT_LOCATE, &c), 0);
+        ck_assert_uint_gt(c.nbnd, 2 * 64);
+        ck_assert_int_eq(dt_cavity_commit(&m, vf, &c), 0);
+        assert_clean(&m);
+    }
     /* Inserting an existing vertex again is refused. */
     uint32_t v;
     ck_assert_int_eq(tm_add_vertex(&m, tm_xyz(&m, 17), &v), 0);
