@@ -101,6 +101,22 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
             from = tm_lface(l);
             continue;
         }
+        /* The four vertices relative to p, once for all faces; the filter
+         * bound uses column maxima over all four rows, a valid (slightly
+         * looser) bound for each face (pred.c). */
+        double q[4][3], mx = 0, my = 0, mz = 0;
+        for (int s = 0; s < 4; s++) {
+            const double *x = X(m, T->v[s]);
+            q[s][0] = x[0] - p[0];
+            q[s][1] = x[1] - p[1];
+            q[s][2] = x[2] - p[2];
+            mx = pred_max_(mx, __builtin_fabs(q[s][0]));
+            my = pred_max_(my, __builtin_fabs(q[s][1]));
+            mz = pred_max_(mz, __builtin_fabs(q[s][2]));
+        }
+        double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
+        double bound = lo >= 0x1p-330 && hi <= 0x1p+330 ? (48.0 * PRED_EPS_) * mx * my * mz
+                                                          : __builtin_inf();
         uint32_t r = xorshift(m);
         int moved = 0;
         for (int i = 0; i < 4; i++) {
@@ -108,7 +124,15 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
             if (fi == from)
                 continue;
             const uint8_t *f = tm_face_vtx[fi];
-            if (pred_orient3d_fast(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) < 0) {
+            const double *u = q[f[0]], *v = q[f[1]], *w = q[f[2]];
+            /* orient3d(face, p) = -det[u; v; w] */
+            double det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) +
+                         u[2] * (v[0] * w[1] - v[1] * w[0]);
+            int o = det > bound    ? -1
+                    : det < -bound ? 1
+                                   : pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]),
+                                                   X(m, T->v[f[2]]), p);
+            if (o < 0) {
                 tm_link l = T->n[fi];
                 if (tm_is_special(l)) {
                     *tet = t;
