@@ -216,6 +216,10 @@ int pdr_cmd_delaunay(int argc, char **argv)
         pdr_cli_error("delaunay", "%s", pdr_strerror(rc));
         goto done;
     }
+    if (!out) { /* the mesh has its own copy: keep the peak memory down */
+        free(nodes.xyz);
+        nodes.xyz = NULL;
+    }
     struct progress prog = {t_read, 0, quiet, isatty(2), 0};
     dt_build_opts bo = {.seed = seed, .renumber = 1, .progress = show_progress, .progress_arg = &prog};
     dt_build_stats st;
