@@ -333,6 +333,40 @@ static int neg_sign(int s)
     return -s;
 }
 
+/* Small integers. Exactly degenerate inputs are mostly grids: entries that
+ * are multiples of one power of two 2^s with few significant bits. If
+ * every entry is a multiple of 2^s and at most 2^(k+s) in magnitude, every
+ * intermediate of a degree-d determinant evaluated as in the filters is an
+ * integer multiple of 2^(d*s) below 2^53 of those units (k <= 16 for
+ * orient3d: |det| <= 3*2^(3k+1); k <= 9 for insphere: |det| <= 72*2^(5k)),
+ * so the floating-point evaluation is exact, sign 0 included. -190 <= s <=
+ * 150 keeps every unit a normal number and the results far from overflow. This is about a hundred instructions
+ * where the big-integer sum takes microseconds. */
+static int small_integers(const double *x, int n, int kmax)
+{
+    int smin = 1 << 20;
+    double amax = 0;
+    for (int i = 0; i < n; i++) {
+        if (x[i] == 0)
+            continue;
+        uint64_t u;
+        memcpy(&u, &x[i], sizeof u);
+        int ef = (int)((u >> 52) & 0x7ff);
+        if (ef == 0 || ef == 0x7ff)
+            return 0; /* subnormal, infinite */
+        uint64_t mant = (u & ((UINT64_C(1) << 52) - 1)) | (UINT64_C(1) << 52);
+        int lsb = ef - 1075 + __builtin_ctzll(mant);
+        if (lsb < smin)
+            smin = lsb;
+        double a = fabs(x[i]);
+        if (a > amax)
+            amax = a;
+    }
+    if (amax == 0)
+        return 1;
+    return smin >= -190 && smin <= 150 && amax <= ldexp(1.0, kmax + smin);
+}
+
 /* ============================================================ orient3d */
 
 int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
@@ -344,6 +378,12 @@ int pred__orient3d_exact(const double *a, const double *b, const double *c, cons
         if (!diffs(p, 3, d, 3, rows))
             return 2;
         /* orient3d = -det[a-d; b-d; c-d] */
+        if (small_integers(rows, 9, 16)) {
+            const double *u = rows, *v = rows + 3, *w = rows + 6;
+            double det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) +
+                         u[2] * (v[0] * w[1] - v[1] * w[0]);
+            return (det < 0) - (det > 0);
+        }
         return neg_sign(exact_det_sign(3, 3, 0, 0, rows));
     }
     double rows[12];
@@ -374,6 +414,27 @@ int pred_orient3d(const double *a, const double *b, const double *c, const doubl
 
 /* ============================================================ insphere */
 
+/* The insphere determinant as the filter evaluates it. */
+static double insphere_det(const double *a, const double *b, const double *c, const double *d,
+                           const double *e)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+}
+
 int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,
                          const double *e, int stage)
 {
@@ -382,6 +443,12 @@ int pred__insphere_exact(const double *a, const double *b, const double *c, cons
         double rows[12];
         if (!diffs(p, 4, e, 3, rows))
             return 2;
+        if (small_integers(rows, 12, 9)) {
+            /* the filter's formula, exact here; it evaluates insphere */
+            static const double origin[3] = {0, 0, 0};
+            double det = insphere_det(rows, rows + 3, rows + 6, rows + 9, origin);
+            return (det > 0) - (det < 0);
+        }
         /* insphere = -det[x y z l] of the translated rows (see pred.h). */
         return neg_sign(exact_det_sign(4, 3, 1, 0, rows));
     }

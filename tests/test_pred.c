@@ -267,6 +267,12 @@ START_TEST(near_cospherical_agree_with_gmp)
             apply(&t, sp[rndint(n)], p[i]);
         int ref = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
+        /* the exact stages alone (stage 2 takes the small-integer shortcut
+         * on these lattice points) */
+        int s2u = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
+        if (s2u != 2)
+            ck_assert_int_eq(s2u, ref);
+        ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3), ref);
         exact_zero += ref == 0;
         /* The SoS rule, checked against an actual rational perturbation. */
         if (ref == 0 && ref_orient3d(p[0], p[1], p[2], p[3]) != 0) {
@@ -324,6 +330,9 @@ START_TEST(near_coplanar_agree_with_gmp)
         int ref = ref_orient3d(p[0], p[1], p[2], p[3]);
         zero += ref == 0;
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
+        int s2u = pred__orient3d_exact(p[0], p[1], p[2], p[3], 2);
+        if (s2u != 2)
+            ck_assert_int_eq(s2u, ref);
         int who = rndint(4), k = rndint(3);
         p[who][k] = ulps(p[who][k], rndint(9) - 4);
         ref = ref_orient3d(p[0], p[1], p[2], p[3]);
