@@ -36,6 +36,7 @@ void dt_cavity_free(dt_cavity *c)
     free(c->edge_table);
     free(c->loc_ids);
     free(c->tri);
+    free(c->edge_hash);
     free(c->tets);
     free(c->bnd);
     free(c->newtets);
@@ -437,6 +438,56 @@ static uint16_t subseg_bits(uint16_t ft, int j)
  * face met when turning around {a,b} through the cavity, starting from the
  * cavity tet's other face on {a,b}: every link out of a cavity tet now
  * leads to a new tet. */
+/* Large cavities (more than DT_LOCAL_MAX boundary vertices; points far
+ * outside the hull, or degenerate point sets such as points on a curve,
+ * where one insertion can replace thousands of tets): the same pairing with
+ * an open-addressing hash on the edge's two vertex numbers. Turning around
+ * edges would cost the number of tets around each edge, which is then
+ * unbounded. Returns PDR_ENOMEM (nothing changed) if the table cannot grow. */
+struct dt_edge_slot {
+    uint64_t key; /* (lo << 32 | hi) + 1; 0 = empty */
+    tm_link link; /* waiting face, or TM_LINK_UNSET once paired */
+};
+
+static int link_by_hash(tm_mesh *m, dt_cavity *c)
+{
+    size_t nb = c->nbnd, cap = 64;
+    while (cap < 4 * nb)
+        cap *= 2;
+    if (cap > c->cap_hash) {
+        struct dt_edge_slot *h = realloc(c->edge_hash, cap * sizeof *h);
+        if (!h)
+            return PDR_ENOMEM;
+        c->edge_hash = h;
+        c->cap_hash = cap;
+    }
+    struct dt_edge_slot *h = c->edge_hash;
+    memset(h, 0, cap * sizeof *h);
+    tm_tet *tets = m->tets;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = tets[n].v[k == 0 ? 1 : 0], b = tets[n].v[k == 2 ? 1 : 2];
+            uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
+            uint64_t key = ((uint64_t)lo << 32 | hi) + 1;
+            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> 20) & (cap - 1);
+            while (h[j].key && h[j].key != key)
+                j = (j + 1) & (cap - 1);
+            tm_link me = tm_mklink(n, k);
+            if (h[j].key == key && h[j].link != TM_LINK_UNSET) {
+                tm_link e = h[j].link;
+                tets[n].n[k] = e;
+                tets[tm_ltet(e)].n[tm_lface(e)] = me;
+                h[j].link = TM_LINK_UNSET;
+            } else {
+                h[j].key = key;
+                h[j].link = me;
+            }
+        }
+    }
+    return 0;
+}
+
 static void link_by_rotation(tm_mesh *m, dt_cavity *c)
 {
     tm_tet *tets = m->tets;
@@ -620,7 +671,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
     }
 
     /* The general path: new slots, cavity kept intact until the end so
-     * that links can be found by turning around edges. */
+     * that links can be found by turning around edges if need be. */
     tm_tet *tets = m->tets;
     uint16_t *fl = m->flags;
     uint32_t *hint = m->vhint;
@@ -662,7 +713,8 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
     }
     m->nghost += nghost;
     /* 2. Links between the new tetrahedra. */
-    link_by_rotation(m, c);
+    if ((c->flags & DT_STOP_MARKED) || link_by_hash(m, c))
+        link_by_rotation(m, c);
     /* 3. Vertex hints (this also clears local numbers left by an attempt of
      * commit_reusing_cavity), and the cavity
      * goes to the free list. */

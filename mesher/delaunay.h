@@ -107,6 +107,8 @@ typedef struct dt_cavity {
     size_t cap_loc_ids;
     uint32_t *tri;        /* 4 per boundary face: its vertices, its marker */
     size_t cap_tri;
+    struct dt_edge_slot *edge_hash; /* large cavities: edge -> face */
+    size_t cap_hash;
 } dt_cavity;
 
 void dt_cavity_init(dt_cavity *c);

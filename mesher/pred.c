@@ -406,9 +406,41 @@ int pred__orient3d_filter(const double *a, const double *b, const double *c, con
     return pred_orient3d_filter_(a, b, c, d);
 }
 
+/* Second filter, with a bound proportional to the permanent (the same
+ * determinant with every product and sum taken in absolute value), which
+ * is tight for long thin tetrahedra where the column maxima overestimate
+ * the terms by orders of magnitude. Derivation for the evaluation of the
+ * first filter: minors off by 2eps*P_m (P_m = |vy*wz| + |vz*wy|), terms
+ * u*m by 3eps*|u|*P_m, the two sums by 2eps*P: 5eps*P; entry rounding
+ * 3eps*P; total 8eps*P, used 9eps*P. Valid when P >= 2^-800 (underflow in a
+ * partial product, at most 2^-1075 times column maxima below 2^330, is then
+ * far below the margin) and the column maxima are at most 2^330. */
+int pred__orient3d_filter2(const double *a, const double *b, const double *c, const double *d)
+{
+    double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
+    double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
+    double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
+    double p1 = vy * wz, p2 = vz * wy, p3 = vz * wx, p4 = vx * wz, p5 = vx * wy, p6 = vy * wx;
+    double det = ux * (p1 - p2) + uy * (p3 - p4) + uz * (p5 - p6);
+    double perm = fabs(ux) * (fabs(p1) + fabs(p2)) + fabs(uy) * (fabs(p3) + fabs(p4)) +
+                  fabs(uz) * (fabs(p5) + fabs(p6));
+    double hi = dmax(dmax(dmax(fabs(ux), fabs(vx)), dmax(fabs(wx), fabs(uy))),
+                     dmax(dmax(fabs(vy), fabs(wy)), dmax(dmax(fabs(uz), fabs(vz)), fabs(wz))));
+    if (perm >= 0x1p-800 && hi <= 0x1p+330) {
+        double bound = 9.0 * EPS * perm;
+        if (det > bound)
+            return -1;
+        if (det < -bound)
+            return 1;
+    }
+    return 2;
+}
+
 int pred_orient3d(const double *a, const double *b, const double *c, const double *d)
 {
     int s = pred__orient3d_filter(a, b, c, d);
+    if (s == 2)
+        s = pred__orient3d_filter2(a, b, c, d);
     return s != 2 ? s : orient3d_exact(a, b, c, d);
 }
 
@@ -475,10 +507,62 @@ int pred__insphere_filter(const double *a, const double *b, const double *c, con
     return pred_insphere_filter_(a, b, c, d, e);
 }
 
+/* Second insphere filter, bounded by the permanent P = sum over rows of
+ * l_i * perm(D_i), perm(D) = |iz|*P_m(jk) + |jz|*P_m(ik) + |kz|*P_m(ij),
+ * P_m(ij) = |ix*jy| + |jx*iy|. For the first filter's evaluation: minors off
+ * by 2eps*P_m, 3x3 terms by 3eps*|z|*P_m and their sums by 2eps*perm(D)
+ * (D off by 5eps*perm(D)), lifts by 3eps*l, products l*D by
+ * (3 + 5 + 1)eps*l*perm(D), the final sums by 2eps*P: 11eps*P; entry
+ * rounding of degree-5 monomials 5eps*P; total 16eps*P, used 17eps*P.
+ * Valid when P >= 2^-700 and the largest lift is at most 2^190 (underflow
+ * terms, at most about 2^-1075 * (2^95)^3 each, are then far below the
+ * margin; no overflow). */
+int pred__insphere_filter2(const double *a, const double *b, const double *c, const double *d,
+                           const double *e)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double ab1 = ax * by, ab2 = bx * ay, ac1 = ax * cy, ac2 = cx * ay, ad1 = ax * dy,
+           ad2 = dx * ay;
+    double bc1 = bx * cy, bc2 = cx * by, bd1 = bx * dy, bd2 = dx * by, cd1 = cx * dy,
+           cd2 = dx * cy;
+    double ab = ab1 - ab2, ac = ac1 - ac2, ad = ad1 - ad2;
+    double bc = bc1 - bc2, bd = bd1 - bd2, cd = cd1 - cd2;
+    double pab = fabs(ab1) + fabs(ab2), pac = fabs(ac1) + fabs(ac2), pad = fabs(ad1) + fabs(ad2);
+    double pbc = fabs(bc1) + fabs(bc2), pbd = fabs(bd1) + fabs(bd2), pcd = fabs(cd1) + fabs(cd2);
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    double pbcd = (fabs(bz) * pcd + fabs(cz) * pbd) + fabs(dz) * pbc;
+    double pacd = (fabs(az) * pcd + fabs(cz) * pad) + fabs(dz) * pac;
+    double pabd = (fabs(az) * pbd + fabs(bz) * pad) + fabs(dz) * pab;
+    double pabc = (fabs(az) * pbc + fabs(bz) * pac) + fabs(cz) * pab;
+    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+    double perm = (la * pbcd + lb * pacd) + (lc * pabd + ld * pabc);
+    double L = dmax(dmax(la, lb), dmax(lc, ld));
+    if (perm >= 0x1p-700 && L <= 0x1p+190) {
+        double bound = 17.0 * EPS * perm;
+        if (det > bound)
+            return 1;
+        if (det < -bound)
+            return -1;
+    }
+    return 2;
+}
+
 int pred_insphere(const double *a, const double *b, const double *c, const double *d,
                   const double *e)
 {
     int s = pred__insphere_filter(a, b, c, d, e);
+    if (s == 2)
+        s = pred__insphere_filter2(a, b, c, d, e);
     return s != 2 ? s : insphere_exact(a, b, c, d, e);
 }
 

@@ -172,7 +172,11 @@ int pred__insphere_exact(const double *a, const double *b, const double *c, cons
 int pred__orient2d_exact(const double *a, const double *b, const double *c, int stage);
 int pred__incircle_exact(const double *a, const double *b, const double *c, const double *d,
                          int stage);
-/* The filter alone: the sign, or 2 when the filter cannot decide. */
+/* The filters alone: the sign, or 2 when the filter cannot decide (filter2
+ * is the permanent-bounded second filter). */
+int pred__orient3d_filter2(const double *a, const double *b, const double *c, const double *d);
+int pred__insphere_filter2(const double *a, const double *b, const double *c, const double *d,
+                           const double *e);
 int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d);
 int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
                           const double *e);

@@ -298,6 +298,9 @@ START_TEST(near_cospherical_agree_with_gmp)
             ck_assert_int_eq(f, ref);
             decided_by_filter++;
         }
+        f = pred__insphere_filter2(p[0], p[1], p[2], p[3], p[4]);
+        if (f != 2)
+            ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
         int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
         if (s2 != 2)
@@ -388,6 +391,9 @@ START_TEST(near_coplanar_agree_with_gmp)
         p[who][k] = ulps(p[who][k], rndint(9) - 4);
         ref = ref_orient3d(p[0], p[1], p[2], p[3]);
         int f = pred__orient3d_filter(p[0], p[1], p[2], p[3]);
+        if (f != 2)
+            ck_assert_int_eq(f, ref);
+        f = pred__orient3d_filter2(p[0], p[1], p[2], p[3]);
         if (f != 2)
             ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
