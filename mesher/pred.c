@@ -182,7 +182,8 @@ typedef struct detspec {
 
 static void add_monomial(detspec *s, const int *idx, int nf, int sign)
 {
-    uint32_t prod[12];
+    uint32_t buf[2][12];
+    uint32_t *prod = buf[0], *res = buf[1];
     int len = 0, esum = 0, neg = sign < 0;
     for (int f = 0; f < nf; f++) {
         const dbits *d = &s->val[idx[f]];
@@ -194,21 +195,27 @@ static void add_monomial(detspec *s, const int *idx, int nf, int sign)
             len = 2;
             continue;
         }
-        uint32_t res[12] = {0};
-        for (int j = 0; j < 2; j++) {
-            uint64_t mj = j ? d->m >> 32 : d->m & 0xffffffffu;
-            uint64_t carry = 0;
-            for (int i = 0; i < len; i++) {
-                uint64_t t = (uint64_t)prod[i] * mj + res[i + j] + carry;
-                res[i + j] = (uint32_t)t;
-                carry = t >> 32;
-            }
-            res[len + j] = (uint32_t)carry;
+        /* res = prod * m, with m < 2^53 taken as two 32-bit words */
+        uint64_t m0 = d->m & 0xffffffffu, m1 = d->m >> 32, c = 0;
+        for (int i = 0; i < len; i++) {
+            uint64_t t = (uint64_t)prod[i] * m0 + c;
+            res[i] = (uint32_t)t;
+            c = t >> 32;
         }
+        res[len] = (uint32_t)c;
+        c = 0;
+        for (int i = 0; i < len; i++) {
+            uint64_t t = (uint64_t)prod[i] * m1 + res[i + 1] + c;
+            res[i + 1] = (uint32_t)t;
+            c = t >> 32;
+        }
+        res[len + 1] = (uint32_t)c;
         len += 2;
         while (len > 0 && res[len - 1] == 0)
             len--;
-        memcpy(prod, res, (size_t)len * sizeof prod[0]);
+        uint32_t *t = prod;
+        prod = res;
+        res = t;
     }
     big_add_shifted(&s->acc, prod, len, esum - s->acc.base, neg);
 }
