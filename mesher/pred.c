@@ -374,12 +374,244 @@ static int small_integers(const double *x, int n, int kmax)
     return smin >= -190 && smin <= 150 && amax <= ldexp(1.0, kmax + smin);
 }
 
+/* ============================================ exact floating point (xf)
+ * A second exact method, much faster than summing monomials when the
+ * arguments span few binades (the usual near-degenerate case: points on a
+ * sphere, a scaled grid): numbers m * 2^base with m a multi-word integer of
+ * at most XF_LIMBS words, and exact +, -, *. The determinant is evaluated
+ * with the very formula of the filters, every operation exact. If a result
+ * would not fit (arguments spanning hundreds of binades), the caller falls
+ * back to the monomial sums above. About 3 KiB of stack. */
+
+#define XF_LIMBS 28
+
+typedef struct xf {
+    int base; /* exponent of bit 0 of w[0], a multiple of 32 */
+    int n;    /* words in use; 0 means the value 0 */
+    int neg;
+    uint32_t w[XF_LIMBS];
+} xf;
+
+static void xf_set(xf *r, double v)
+{
+    r->neg = 0;
+    r->n = 0;
+    r->base = 0;
+    if (v == 0)
+        return;
+    dbits d = decompose(v);
+    int q = d.e >= 0 ? d.e / 32 : -((31 - d.e) / 32); /* floor(e / 32) */
+    int sh = d.e - 32 * q;                            /* 0..31 */
+    uint64_t lo = d.m << sh;                          /* low 64 bits of m << sh */
+    uint64_t hi = sh ? d.m >> (64 - sh) : 0;
+    r->w[0] = (uint32_t)lo;
+    r->w[1] = (uint32_t)(lo >> 32);
+    r->w[2] = (uint32_t)hi;
+    r->n = 3;
+    while (r->n > 0 && r->w[r->n - 1] == 0)
+        r->n--;
+    r->base = 32 * q;
+    r->neg = d.neg;
+}
+
+/* Drops zero words at both ends. */
+static void xf_trim(xf *r)
+{
+    while (r->n > 0 && r->w[r->n - 1] == 0)
+        r->n--;
+    int z = 0;
+    while (z < r->n && r->w[z] == 0)
+        z++;
+    if (z) {
+        memmove(r->w, r->w + z, (size_t)(r->n - z) * sizeof r->w[0]);
+        r->n -= z;
+        r->base += 32 * z;
+    }
+    if (r->n == 0)
+        r->neg = 0;
+}
+
+/* r = a * b (r distinct from a and b); -1 if it does not fit. */
+static int xf_mul(xf *r, const xf *a, const xf *b)
+{
+    r->neg = 0;
+    r->n = 0;
+    r->base = 0;
+    if (!a->n || !b->n)
+        return 0;
+    if (a->n + b->n > XF_LIMBS)
+        return -1;
+    int n = a->n + b->n;
+    for (int i = 0; i < n; i++)
+        r->w[i] = 0;
+    for (int i = 0; i < a->n; i++) {
+        uint64_t c = 0;
+        for (int j = 0; j < b->n; j++) {
+            uint64_t t = (uint64_t)a->w[i] * b->w[j] + r->w[i + j] + c;
+            r->w[i + j] = (uint32_t)t;
+            c = t >> 32;
+        }
+        r->w[i + b->n] = (uint32_t)c;
+    }
+    r->n = n;
+    r->base = a->base + b->base;
+    r->neg = a->neg ^ b->neg;
+    xf_trim(r);
+    return 0;
+}
+
+/* r = a + (sub ? -b : b); r may be a or b. -1 if it does not fit. */
+static int xf_add(xf *r, const xf *a, const xf *b, int sub)
+{
+    int bneg = b->neg ^ sub;
+    if (!b->n) {
+        if (r != a)
+            *r = *a;
+        return 0;
+    }
+    if (!a->n) {
+        if (r != b)
+            *r = *b;
+        r->neg = bneg;
+        return 0;
+    }
+    int base = a->base < b->base ? a->base : b->base;
+    int oa = (a->base - base) / 32, ob = (b->base - base) / 32;
+    int top = (oa + a->n > ob + b->n ? oa + a->n : ob + b->n) + 1;
+    if (top > XF_LIMBS)
+        return -1;
+    uint32_t x[XF_LIMBS], y[XF_LIMBS];
+    for (int i = 0; i < top; i++) {
+        x[i] = i >= oa && i < oa + a->n ? a->w[i - oa] : 0;
+        y[i] = i >= ob && i < ob + b->n ? b->w[i - ob] : 0;
+    }
+    int neg = a->neg;
+    if (a->neg == bneg) {
+        uint64_t c = 0;
+        for (int i = 0; i < top; i++) {
+            uint64_t t = (uint64_t)x[i] + y[i] + c;
+            r->w[i] = (uint32_t)t;
+            c = t >> 32;
+        }
+    } else {
+        int cmp = 0;
+        for (int i = top - 1; i >= 0 && !cmp; i--)
+            cmp = (x[i] > y[i]) - (x[i] < y[i]);
+        const uint32_t *big = cmp >= 0 ? x : y, *small = cmp >= 0 ? y : x;
+        neg = cmp >= 0 ? a->neg : bneg;
+        uint64_t brw = 0;
+        for (int i = 0; i < top; i++) {
+            uint64_t t = (uint64_t)big[i] - small[i] - brw;
+            r->w[i] = (uint32_t)t;
+            brw = (t >> 63) & 1;
+        }
+    }
+    r->n = top;
+    r->base = base;
+    r->neg = neg;
+    xf_trim(r);
+    return 0;
+}
+
+static int xf_sign(const xf *a)
+{
+    return a->n == 0 ? 0 : a->neg ? -1 : 1;
+}
+
+/* r = p - q for doubles, exactly. */
+static int xf_diff(xf *r, double p, double q)
+{
+    xf a, b;
+    xf_set(&a, p);
+    xf_set(&b, q);
+    return xf_add(r, &a, &b, 1);
+}
+
+/* r = u*v - w*x */
+static int xf_cross(xf *r, const xf *u, const xf *v, const xf *w, const xf *x)
+{
+    xf s, t;
+    if (xf_mul(&s, u, v) || xf_mul(&t, w, x))
+        return -1;
+    return xf_add(r, &s, &t, 1);
+}
+
+/* r = iz*m_jk - jz*m_ik + kz*m_ij */
+static int xf_minor3(xf *r, const xf *iz, const xf *jz, const xf *kz, const xf *mjk,
+                     const xf *mik, const xf *mij)
+{
+    xf t;
+    if (xf_cross(r, iz, mjk, jz, mik) || xf_mul(&t, kz, mij))
+        return -1;
+    return xf_add(r, r, &t, 0);
+}
+
+/* Exact orient3d by xf: the sign, or 2 if a value did not fit. */
+static int orient3d_xf(const double *a, const double *b, const double *c, const double *d)
+{
+    xf u[3], v[3], w[3], m[3], t, det;
+    for (int k = 0; k < 3; k++)
+        if (xf_diff(&u[k], a[k], d[k]) || xf_diff(&v[k], b[k], d[k]) ||
+            xf_diff(&w[k], c[k], d[k]))
+            return 2;
+    if (xf_cross(&m[0], &v[1], &w[2], &v[2], &w[1]) ||
+        xf_cross(&m[1], &v[2], &w[0], &v[0], &w[2]) ||
+        xf_cross(&m[2], &v[0], &w[1], &v[1], &w[0]))
+        return 2;
+    if (xf_mul(&det, &u[0], &m[0]) || xf_mul(&t, &u[1], &m[1]) || xf_add(&det, &det, &t, 0) ||
+        xf_mul(&t, &u[2], &m[2]) || xf_add(&det, &det, &t, 0))
+        return 2;
+    return -xf_sign(&det); /* orient3d = -det[a-d; b-d; c-d] */
+}
+
+/* Exact insphere by xf: the sign, or 2 if a value did not fit. */
+static int insphere_xf(const double *a, const double *b, const double *c, const double *d,
+                       const double *e)
+{
+    const double *pt[4] = {a, b, c, d};
+    xf r[4][3], l[4], mi[6], t, u, det;
+    for (int i = 0; i < 4; i++) {
+        for (int k = 0; k < 3; k++)
+            if (xf_diff(&r[i][k], pt[i][k], e[k]))
+                return 2;
+        if (xf_mul(&l[i], &r[i][0], &r[i][0]) || xf_mul(&t, &r[i][1], &r[i][1]) ||
+            xf_add(&l[i], &l[i], &t, 0) || xf_mul(&t, &r[i][2], &r[i][2]) ||
+            xf_add(&l[i], &l[i], &t, 0))
+            return 2;
+    }
+    /* 2x2 minors of (x, y): ab ac ad bc bd cd */
+    static const int pairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    for (int q = 0; q < 6; q++) {
+        int i = pairs[q][0], j = pairs[q][1];
+        if (xf_cross(&mi[q], &r[i][0], &r[j][1], &r[j][0], &r[i][1]))
+            return 2;
+    }
+    enum { AB, AC, AD, BC, BD, CD };
+    /* det = la*D(bcd) - lb*D(acd) + lc*D(abd) - ld*D(abc) */
+    det.n = 0;
+    det.neg = 0;
+    det.base = 0;
+    static const int tri[4][6] = {
+        /* rows i,j,k (z from them) and minors jk, ik, ij */
+        {1, 2, 3, CD, BD, BC}, {0, 2, 3, CD, AD, AC}, {0, 1, 3, BD, AD, AB}, {0, 1, 2, BC, AC, AB}};
+    for (int q = 0; q < 4; q++) {
+        const int *T = tri[q];
+        if (xf_minor3(&u, &r[T[0]][2], &r[T[1]][2], &r[T[2]][2], &mi[T[3]], &mi[T[4]],
+                      &mi[T[5]]) ||
+            xf_mul(&t, &l[q], &u) || xf_add(&det, &det, &t, q & 1))
+            return 2;
+    }
+    return xf_sign(&det);
+}
+
 /* ============================================================ orient3d */
 
 int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
                          int stage)
 {
-    if (stage == 2) {
+    if (stage == 1)
+        return orient3d_xf(a, b, c, d);
+    if (stage == 0 || stage == 2) {
         const double *p[3] = {a, b, c};
         double rows[9];
         if (!diffs(p, 3, d, 3, rows))
@@ -391,6 +623,8 @@ int pred__orient3d_exact(const double *a, const double *b, const double *c, cons
                          u[2] * (v[0] * w[1] - v[1] * w[0]);
             return (det < 0) - (det > 0);
         }
+        if (stage == 0)
+            return 2;
         return neg_sign(exact_det_sign(3, 3, 0, 0, rows));
     }
     double rows[12];
@@ -404,7 +638,11 @@ int pred__orient3d_exact(const double *a, const double *b, const double *c, cons
 
 static int orient3d_exact(const double *a, const double *b, const double *c, const double *d)
 {
-    int s = pred__orient3d_exact(a, b, c, d, 2);
+    int s = pred__orient3d_exact(a, b, c, d, 0);
+    if (s == 2)
+        s = pred__orient3d_exact(a, b, c, d, 1);
+    if (s == 2)
+        s = pred__orient3d_exact(a, b, c, d, 2);
     return s != 2 ? s : pred__orient3d_exact(a, b, c, d, 3);
 }
 
@@ -477,7 +715,9 @@ static double insphere_det(const double *a, const double *b, const double *c, co
 int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,
                          const double *e, int stage)
 {
-    if (stage == 2) {
+    if (stage == 1)
+        return insphere_xf(a, b, c, d, e);
+    if (stage == 0 || stage == 2) {
         const double *p[4] = {a, b, c, d};
         double rows[12];
         if (!diffs(p, 4, e, 3, rows))
@@ -488,6 +728,8 @@ int pred__insphere_exact(const double *a, const double *b, const double *c, cons
             double det = insphere_det(rows, rows + 3, rows + 6, rows + 9, origin);
             return (det > 0) - (det < 0);
         }
+        if (stage == 0)
+            return 2;
         /* insphere = -det[x y z l] of the translated rows (see pred.h). */
         return neg_sign(exact_det_sign(4, 3, 1, 0, rows));
     }
@@ -504,7 +746,11 @@ int pred__insphere_exact(const double *a, const double *b, const double *c, cons
 static int insphere_exact(const double *a, const double *b, const double *c, const double *d,
                           const double *e)
 {
-    int s = pred__insphere_exact(a, b, c, d, e, 2);
+    int s = pred__insphere_exact(a, b, c, d, e, 0);
+    if (s == 2)
+        s = pred__insphere_exact(a, b, c, d, e, 1);
+    if (s == 2)
+        s = pred__insphere_exact(a, b, c, d, e, 2);
     return s != 2 ? s : pred__insphere_exact(a, b, c, d, e, 3);
 }
 

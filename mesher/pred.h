@@ -3,20 +3,23 @@
  *
  * Every predicate returns the exact sign (-1, 0 or +1) of a determinant of
  * its double arguments, for every finite double input: no tolerance, no
- * overflow or underflow caveat. Each is evaluated in up to three stages:
+ * overflow or underflow caveat. Each is evaluated in stages, the first
+ * that can decide giving the answer:
  *
- *   1. a floating-point filter with a certified (proved) error bound; it
- *      decides almost every call;
- *   2. if the filter cannot decide and the coordinate differences the
- *      filter used were computed without rounding (always the case for
- *      nearby points, by Sterbenz's lemma), the determinant of those
- *      differences is evaluated exactly;
- *   3. otherwise the determinant of the raw coordinates is evaluated exactly.
+ *   1. a floating-point filter with a certified (proved) error bound,
+ *      inlined in the hot loops; it decides almost every call;
+ *   2. (3D) a second filter with a tighter bound (the permanent), for long
+ *      thin tetrahedra;
+ *   3. (3D) if the differences are exact small integers times a power of
+ *      two (grids), the floating-point evaluation, which is then exact;
+ *   4. (3D) the same formula in exact multi-word floating point, if the
+ *      arguments span few enough binades (always, in practice);
+ *   5. the determinant expanded into monomials (products of doubles) summed
+ *      in a fixed-point big integer wide enough for any exponent range: of
+ *      the differences if they are exact, else of the raw coordinates.
  *
- * Exact evaluation expands the determinant into monomials (products of
- * doubles) and sums them in a fixed-point big integer wide enough for the
- * exponent range of the arguments (pred.c explains the sizes). The stack use
- * of any predicate is below 2 KiB, so they can run on small coroutine stacks.
+ * pred.c explains every bound and size. Stack use is below 8 KiB (stage 4
+ * holds about 25 numbers of 28 words), fine for coroutine stacks.
  *
  * Orientation conventions (a right-handed frame):
  *   pred_orient3d(a,b,c,d) > 0  iff d lies on the side of the plane abc
@@ -162,9 +165,13 @@ static inline int pred_insphere_sos_fast(const double *a, const double *b, const
 int pred_lexcmp3(const double *p, const double *q);
 
 /* Internal entry points for the tests: the exact stages alone, bypassing the
- * filter. stage 2 = exact determinant of the rounded differences (only valid
- * when those differences are exact: returns 2 when they are not), stage 3 =
- * exact determinant of the raw coordinates. */
+ * filters; each returns the sign, or 2 when it does not apply. For orient3d
+ * and insphere: stage 0 = floating-point evaluation when the differences
+ * are exact small integers (times a power of two); stage 1 = exact
+ * floating-point arithmetic (multi-word mantissas) when the values fit;
+ * stage 2 = sum of monomials of the differences, when they are exact;
+ * stage 3 = sum of monomials of the raw coordinates (always applies). 2D
+ * predicates have stages 2 and 3. */
 int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
                          int stage);
 int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,

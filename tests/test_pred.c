@@ -247,6 +247,14 @@ START_TEST(random_points_agree_with_gmp)
                          ref_insphere(p[0], p[1], p[2], p[3], p[4]));
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3),
                          ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+        for (int st = 0; st <= 2; st++) {
+            int s3 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s3 != 2)
+                ck_assert_int_eq(s3, ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+            s3 = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (s3 != 2)
+                ck_assert_int_eq(s3, ref_orient3d(p[0], p[1], p[2], p[3]));
+        }
         ck_assert_int_eq(pred_orient2d(p[0], p[1], p[2]), ref_orient2d(p[0], p[1], p[2]));
         ck_assert_int_eq(pred_incircle(p[0], p[1], p[2], p[3]),
                          ref_incircle(p[0], p[1], p[2], p[3]));
@@ -302,9 +310,11 @@ START_TEST(near_cospherical_agree_with_gmp)
         if (f != 2)
             ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
-        int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
-        if (s2 != 2)
-            ck_assert_int_eq(s2, ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3), ref);
     }
     ck_assert_int_gt(exact_zero, 100); /* the degenerate inputs really are */
@@ -346,9 +356,12 @@ START_TEST(large_integer_points_agree_with_gmp)
             p[rndint(5)][rndint(3)] += rndint(2) ? 1 : -1;
         int ref = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
-        int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
-        if (s2 != 2)
-            ck_assert_int_eq(s2, ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
+        int s2;
         /* coplanar: the first three and their integer combination */
         double r[3];
         int u = rndint(7) - 3, v = rndint(7) - 3;
@@ -356,9 +369,11 @@ START_TEST(large_integer_points_agree_with_gmp)
             r[k] = p[0][k] + u * (p[1][k] - p[0][k]) + v * (p[2][k] - p[0][k]) +
                    (it % 2 ? (k == 0) : 0);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], r), ref_orient3d(p[0], p[1], p[2], r));
-        s2 = pred__orient3d_exact(p[0], p[1], p[2], r, 2);
-        if (s2 != 2)
-            ck_assert_int_eq(s2, ref_orient3d(p[0], p[1], p[2], r));
+        for (int st = 0; st <= 2; st++) {
+            s2 = pred__orient3d_exact(p[0], p[1], p[2], r, st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref_orient3d(p[0], p[1], p[2], r));
+        }
     }
 }
 END_TEST
@@ -398,6 +413,11 @@ START_TEST(near_coplanar_agree_with_gmp)
             ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
         ck_assert_int_eq(pred__orient3d_exact(p[0], p[1], p[2], p[3], 3), ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
     }
     ck_assert_int_gt(zero, 3000);
 }
@@ -485,10 +505,17 @@ START_TEST(extreme_exponents_agree_with_gmp)
         if (it % 2) /* make some exactly degenerate: coplanar via z = x */
             for (int i = 0; i < 5; i++)
                 p[i][2] = p[i][0];
-        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]),
-                         ref_orient3d(p[0], p[1], p[2], p[3]));
-        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]),
-                         ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+        int ro = ref_orient3d(p[0], p[1], p[2], p[3]), ri = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
+        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ro);
+        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ri);
+        for (int st = 0; st <= 3; st++) {
+            int x = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (x != 2)
+                ck_assert_int_eq(x, ro);
+            x = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (x != 2)
+                ck_assert_int_eq(x, ri);
+        }
         ck_assert_int_eq(pred_orient2d(p[0], p[1], p[2]), ref_orient2d(p[0], p[1], p[2]));
         ck_assert_int_eq(pred_incircle(p[0], p[1], p[2], p[3]),
                          ref_incircle(p[0], p[1], p[2], p[3]));
