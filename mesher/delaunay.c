@@ -157,12 +157,12 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
 
 /* ------------------------------------------------------------ conflict */
 
-/* ft: t's flags (the caller has them at hand). */
 static inline __attribute__((always_inline)) int conflict(const tm_mesh *m, uint32_t t,
-                                                          uint16_t ft, const double p[3])
+                                                          const double p[3])
 {
     const uint32_t *v = m->tets[t].v;
-    if (!(ft & TM_F_GHOST))
+    /* One test instead of four branches: is any vertex the infinite one? */
+    if (((v[0] == TM_VINF) | (v[1] == TM_VINF) | (v[2] == TM_VINF) | (v[3] == TM_VINF)) == 0)
         return pred_insphere_sos_fast(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
     /* A ghost: in conflict iff p is beyond its hull face, or on the face's
      * plane and inside its (perturbed) circumcircle. */
@@ -177,7 +177,7 @@ static inline __attribute__((always_inline)) int conflict(const tm_mesh *m, uint
 
 int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
 {
-    return conflict(m, t, m->flags[t], p);
+    return conflict(m, t, p);
 }
 
 static uint32_t vertex_at(const tm_mesh *m, uint32_t t, const double *p)
@@ -291,7 +291,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     } else {
         if (t0 >= m->nslots || tm_is_dead(m, t0))
             return PDR_EINVAL;
-        int s = conflict(m, t0, m->flags[t0], p);
+        int s = conflict(m, t0, p);
         if (s == 0) {
             c->dup_vertex = vertex_at(m, t0, p);
             c->status = DT_DUPLICATE;
@@ -358,7 +358,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return r;
                 }
             }
-            int s = conflict(m, u, fu, p);
+            int s = conflict(m, u, p);
             if (s == 0) {
                 /* p is a vertex of u: only possible for a duplicate point
                  * (without DT_LOCATE, or equal to a ghost's hull vertex). */
@@ -629,7 +629,7 @@ static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
         if (!tm_is_special(b->outer))
             tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
         unsigned ghost = (q[0] == TM_VINF) | (q[1] == TM_VINF) | (q[2] == TM_VINF);
-        fl[n] = (uint16_t)(b->spare | ghost * TM_F_GHOST);
+        fl[n] = b->spare;
         if ((b->spare & TM_F_FACEMARK(3)) && m->marker)
             m->marker[4 * (size_t)n + 3] = (int32_t)q[3];
         nghost += ghost;
@@ -697,7 +697,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
             tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
         uint16_t ft = fl[t];
         unsigned ghost = (v0 == TM_VINF) | (v1 == TM_VINF) | (v2 == TM_VINF);
-        uint16_t nf = (uint16_t)(ghost * TM_F_GHOST);
+        uint16_t nf = 0;
         if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
             nf |= subseg_bits(ft, j);
             if (ft & TM_F_FACEMARK(j)) {
@@ -775,7 +775,6 @@ int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
         G->v[1] = T->v[f[2]];
         G->v[2] = T->v[f[1]];
         G->v[3] = TM_VINF;
-        m->flags[g[i]] = TM_F_GHOST;
         G->n[3] = tm_mklink(t, i);
         T->n[i] = tm_mklink(g[i], 3);
         m->nghost++;

@@ -371,7 +371,6 @@ int tm_add_ghosts(tm_mesh *m, size_t *open_edges)
             G->v[1] = T->v[tm_face_vtx[i][2]];
             G->v[2] = T->v[tm_face_vtx[i][1]];
             G->v[3] = TM_VINF;
-            m->flags[g] = TM_F_GHOST;
             G->n[3] = tm_mklink(t, i);
             m->tets[t].n[i] = tm_mklink(g, 3);
             m->nghost++;

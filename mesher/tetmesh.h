@@ -66,10 +66,9 @@
  * TM_F_FACEMARK(i) (face i carries a marker, e.g. is a subfacet: a fast
  * test before reading the optional marker array), TM_F_SUBSEG(e) (edge e is
  * a subsegment; set in every tetrahedron around that edge), TM_F_QUEUED
- * (on a work queue), TM_F_GHOST (the tet has the infinite vertex: a copy
- * of what the vertices say, so that the hot loops test the flags word they
- * load anyway; everything that makes a ghost sets it), and two spare bits
- * for the layers above.
+ * (on a work queue), and three spare bits for the layers above (the
+ * quality mesher uses TM_F_SPARE0 and TM_F_SPARE1). Ghosts are recognised
+ * by their vertices (tm_is_ghost), not by a flag.
  *
  * Optional arrays, allocated by tm_enable() only when a layer needs them,
  * so plain Delaunay stays lean: marker[4t+i] (int32 face marker, e.g. the
@@ -104,7 +103,7 @@ enum {
     TM_F_FACEMARK0 = 1u << 2, /* bits 2..5: face i marked */
     TM_F_SUBSEG0 = 1u << 6,   /* bits 6..11: edge e is a subsegment */
     TM_F_QUEUED = 1u << 12,
-    TM_F_GHOST = 1u << 13,
+    TM_F_SPARE0 = 1u << 13,
     TM_F_SPARE1 = 1u << 14,
     TM_F_SPARE2 = 1u << 15,
 };
@@ -232,7 +231,7 @@ static inline uint32_t tm_alloc_tet(tm_mesh *m)
 /* Puts t on the free list. Links of neighbours are not touched. */
 static inline void tm_free_tet(tm_mesh *m, uint32_t t)
 {
-    m->nghost -= (m->flags[t] & TM_F_GHOST) != 0;
+    m->nghost -= (uint32_t)tm_is_ghost(m, t);
     m->nlive--;
     m->flags[t] = TM_F_DEAD;
     m->tets[t].n[0] = m->free_head;
