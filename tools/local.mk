@@ -7,3 +7,5 @@ tools_am_bench_SOURCES = tools/am_bench.c
 tools_am_bench_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
 tools_am_bench_LDADD = libam.la $(ZMQ_LIBS)
 dist_noinst_SCRIPTS += tools/bench-runtime
+dist_noinst_SCRIPTS += tools/bench-delaunay
+EXTRA_DIST += bench/kernel.md
