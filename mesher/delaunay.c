@@ -745,6 +745,268 @@ int dt_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c)
     return rc;
 }
 
+/* ------------------------------------------------- fused bulk insertion */
+
+/* dt_build inserts points one after the other and always commits, so it
+ * does not need the cavity as a list of boundary faces: it creates each new
+ * tetrahedron the moment the search finds the boundary face it stands on
+ * (as HXT and Geogram do), and links the new tetrahedra around their edges
+ * through the edge table while their records are still in the cache.
+ *
+ * Cavity membership is a mark bit in the tetrahedron record itself (bit 31
+ * of v[0]), not TM_F_CAVITY in the flags array: the search reads the
+ * neighbour's vertices anyway for the conflict test, so the mark costs no
+ * extra memory access. Vertex numbers stay below 2^31 whenever the mesh can
+ * hold the tetrahedra (a tetrahedralization of n points has at least n - 3
+ * tetrahedra, and TM_MAX_TETS < 2^31); dt_build checks it. Marked records
+ * are never visible outside an insertion: every marked tetrahedron is
+ * deleted by it (or unmarked if it fails).
+ *
+ * Slots of deleted tetrahedra go to a private pool instead of the free
+ * list, and the next insertion takes its new tetrahedra from the pool first:
+ * a slot that goes from live to pool to live keeps flags 0 (bulk building
+ * sets no flag), so the flags array is not touched at all in the usual
+ * case, and the slots are the ones the previous insertion just had in the
+ * cache. Pool slots are dead but not on the free list and counted neither in
+ * nlive nor in nfree; dt_build hands them to the free list at the end
+ * (bulk_flush). The outer tetrahedra's links are redirected to the new
+ * tetrahedra only once the search has finished, so that a search that fails
+ * (out of memory) can be undone without a trace. */
+#define DT_MARK 0x80000000u
+
+struct dt_bulk {
+    uint32_t *pool; /* dead slots with flags 0, not on the free list */
+    size_t npool, cap_pool;
+    uint32_t loc_tet[DT_LOCAL_MAX]; /* a new tet on local vertex k */
+    uint32_t loc_old[DT_LOCAL_MAX]; /* its hint before the insertion */
+};
+
+static void bulk_flush(tm_mesh *m, struct dt_bulk *bk)
+{
+    for (size_t i = 0; i < bk->npool; i++) {
+        uint32_t t = bk->pool[i];
+        m->flags[t] = TM_F_DEAD;
+        m->tets[t].n[0] = m->free_head;
+        m->free_head = t;
+        m->nfree++;
+    }
+    bk->npool = 0;
+}
+
+/* A slot for a new tetrahedron: from the pool, else the free list, else the
+ * end (the caller made room). */
+static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
+{
+    if (__builtin_expect(bk->npool > 0, 1))
+        return bk->pool[--bk->npool];
+    uint32_t t;
+    if (m->free_head != TM_NONE) {
+        t = m->free_head;
+        m->free_head = m->tets[t].n[0];
+        m->nfree--;
+    } else {
+        t = m->nslots++;
+    }
+    m->flags[t] = 0;
+    return t;
+}
+
+/* Empties the edge-table entries of the new tetrahedra whose three
+ * vertices have local numbers (the vertex hints still hold them; every
+ * tetrahedron paired through the table is one of them), so that the table
+ * is empty again for the next insertion. */
+static void bulk_clear_table(tm_mesh *m, dt_cavity *c, size_t nn, uint32_t nloc)
+{
+    const uint32_t *hint = m->vhint;
+    for (size_t i = 0; i < nn; i++) {
+        const tm_tet *N = &m->tets[c->newtets[i]];
+        uint32_t k[3];
+        for (int s = 0; s < 3; s++)
+            k[s] = hint[N->v[s]] - LOCAL_TAG;
+        if (k[0] >= nloc || k[1] >= nloc || k[2] >= nloc)
+            continue; /* made after the table overflowed: not paired */
+        for (int e = 0; e < 3; e++) {
+            uint32_t a = k[(e + 1) % 3], b = k[(e + 2) % 3];
+            uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
+            c->edge_table[lo * DT_LOCAL_MAX + hi] = TM_LINK_UNSET;
+        }
+    }
+}
+
+/* Undoes a bulk insertion that failed half-way: the cavity is unmarked,
+ * the new slots are returned, the hints and the edge table restored. */
+static void bulk_undo(tm_mesh *m, dt_cavity *c, struct dt_bulk *bk, size_t nt, size_t nn,
+                      uint32_t nloc)
+{
+    bulk_clear_table(m, c, nn, nloc);
+    for (size_t i = 0; i < nt; i++)
+        m->tets[c->tets[i]].v[0] &= ~DT_MARK;
+    for (size_t i = 0; i < nn; i++) {
+        uint32_t t = c->newtets[i];
+        m->flags[t] = TM_F_DEAD;
+        m->tets[t].n[0] = m->free_head;
+        m->free_head = t;
+        m->nfree++;
+    }
+    for (uint32_t k = 0; k < nloc; k++)
+        m->vhint[c->loc_vert[k]] = bk->loc_old[k];
+}
+
+/* The local number of boundary vertex w (see commit_reusing_cavity), or
+ * DT_LOCAL_MAX when the boundary has too many vertices for the table. */
+static inline uint32_t bulk_local(tm_mesh *m, dt_cavity *c, struct dt_bulk *bk, uint32_t *nloc,
+                                  uint32_t w, uint32_t n)
+{
+    uint32_t *hint = m->vhint;
+    uint32_t k = hint[w] - LOCAL_TAG;
+    if (__builtin_expect(k < *nloc, 1))
+        return k;
+    if (*nloc == DT_LOCAL_MAX)
+        return DT_LOCAL_MAX;
+    k = (*nloc)++;
+    c->loc_vert[k] = w;
+    bk->loc_tet[k] = n;
+    bk->loc_old[k] = hint[w];
+    hint[w] = LOCAL_TAG + k;
+    return k;
+}
+
+/* Inserts vertex v (coordinates p) by walking from start. Returns 0 with
+ * c->status DT_OK or DT_DUPLICATE, or a negative error with the mesh as it
+ * was. */
+static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
+                       struct dt_bulk *bk)
+{
+    double p[3];
+    memcpy(p, X(m, v), sizeof p);
+    uint32_t t0;
+    int rc = dt_locate(m, p, start, &t0, NULL);
+    if (rc)
+        return rc < 0 ? rc : PDR_ETOPOLOGY; /* no boundary in a hull mesh */
+    if (!tm_is_ghost(m, t0) && (c->dup_vertex = vertex_at(m, t0, p)) != TM_NONE) {
+        c->status = DT_DUPLICATE;
+        return 0;
+    }
+    c->status = DT_OK;
+    /* Every real vertex of the mesh is different from p, so no conflict
+     * test below can return 0 (p is no vertex of any tetrahedron). */
+    tm_tet *tets = m->tets;
+    uint32_t *tab = c->edge_table;
+    size_t nt = 1, nn = 0;
+    uint32_t nloc = 0, overflow = 0;
+    int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
+    c->tets[0] = t0;
+    tets[t0].v[0] |= DT_MARK;
+    rc = 0;
+    for (size_t i = 0; i < nt; i++) {
+        /* Room for four more cavity tets and four new ones. */
+        if (__builtin_expect(nt + 4 > c->cap_tets || nn + 4 > c->cap_new ||
+                                 bk->npool + m->nfree + (m->tcap - m->nslots) < 4,
+                             0)) {
+            if (grow((void **)&c->tets, &c->cap_tets, nt + 4, sizeof *c->tets) ||
+                grow((void **)&c->newtets, &c->cap_new, nn + 4, sizeof *c->newtets) ||
+                (bk->npool + m->nfree + (m->tcap - m->nslots) < 4 &&
+                 tm_room(m, m->nfree + 4 + (m->tcap >> 3)))) {
+                rc = PDR_ENOMEM;
+                break;
+            }
+            tets = m->tets;
+        }
+        uint32_t t = c->tets[i];
+        const tm_tet *T = &tets[t];
+        uint32_t tv[4] = {T->v[0] & ~DT_MARK, T->v[1], T->v[2], T->v[3]};
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            if (__builtin_expect(tm_is_special(l), 0)) {
+                rc = PDR_ETOPOLOGY;
+                break;
+            }
+            uint32_t u = tm_ltet(l);
+            tm_tet *U = &tets[u];
+            uint32_t u0 = U->v[0], u1 = U->v[1], u2 = U->v[2], u3 = U->v[3];
+            if (u0 & DT_MARK)
+                continue;
+            int s, ug = ((u0 == TM_VINF) | (u1 == TM_VINF) | (u2 == TM_VINF) | (u3 == TM_VINF));
+            if (__builtin_expect(!ug, 1))
+                s = pred_insphere_sos_fast(X(m, u0), X(m, u1), X(m, u2), X(m, u3), p);
+            else
+                s = conflict(m, u, p);
+            if (s > 0) {
+                U->v[0] = u0 | DT_MARK;
+                c->tets[nt++] = u;
+                ghosts -= ug;
+                continue;
+            }
+            if (__builtin_expect(s == 0, 0)) {
+                rc = PDR_ETOPOLOGY;
+                break;
+            }
+            /* Face f bounds the cavity: the new tetrahedron (face, v). */
+            const uint8_t *fv = tm_face_vtx[f];
+            uint32_t a = tv[fv[0]], b = tv[fv[1]], d = tv[fv[2]];
+            uint32_t n = bulk_slot(m, bk);
+            tm_tet *N = &tets[n];
+            N->v[0] = a;
+            N->v[1] = b;
+            N->v[2] = d;
+            N->v[3] = v;
+            N->n[3] = l;
+            ghosts += (a == TM_VINF) | (b == TM_VINF) | (d == TM_VINF);
+            c->newtets[nn++] = n;
+            uint32_t ka = bulk_local(m, c, bk, &nloc, a, n);
+            uint32_t kb = bulk_local(m, c, bk, &nloc, b, n);
+            uint32_t kd = bulk_local(m, c, bk, &nloc, d, n);
+            if (__builtin_expect((ka | kb | kd) >= DT_LOCAL_MAX, 0))
+                overflow = 1;
+            if (__builtin_expect(!overflow, 1)) {
+                pair_faces(tab, tets, kb, kd, tm_mklink(n, 0));
+                pair_faces(tab, tets, ka, kd, tm_mklink(n, 1));
+                pair_faces(tab, tets, ka, kb, tm_mklink(n, 2));
+            }
+        }
+        if (rc)
+            break;
+    }
+    /* Everything that can fail comes before the first change to the mesh
+     * outside the new slots. */
+    if (!rc && (bk->npool + nt > bk->cap_pool &&
+                grow((void **)&bk->pool, &bk->cap_pool, bk->npool + nt, sizeof *bk->pool)))
+        rc = PDR_ENOMEM;
+    if (!rc && overflow) {
+        bulk_clear_table(m, c, nn, nloc);
+        c->nbnd = nn;
+        rc = link_by_hash(m, c);
+    }
+    if (rc) {
+        bulk_undo(m, c, bk, nt, nn, nloc);
+        return rc;
+    }
+    for (size_t i = 0; i < nn; i++) {
+        uint32_t n = c->newtets[i];
+        tm_link l = tets[n].n[3];
+        tets[tm_ltet(l)].n[tm_lface(l)] = tm_mklink(n, 3);
+    }
+    uint32_t *hint = m->vhint;
+    if (!overflow) {
+        for (uint32_t k = 0; k < nloc; k++)
+            hint[c->loc_vert[k]] = bk->loc_tet[k];
+    } else {
+        for (size_t i = 0; i < nn; i++) {
+            uint32_t n = c->newtets[i];
+            const tm_tet *N = &tets[n];
+            hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+        }
+    }
+    hint[v] = c->newtets[nn - 1];
+    memcpy(bk->pool + bk->npool, c->tets, nt * sizeof *c->tets);
+    bk->npool += nt;
+    m->nlive = m->nlive + (uint32_t)nn - (uint32_t)nt;
+    m->nghost = (uint32_t)((int64_t)m->nghost + ghosts);
+    c->ntets = nt;
+    c->nnew = nn;
+    return 0;
+}
+
 /* -------------------------------------------------------- bulk building */
 
 int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
@@ -900,12 +1162,19 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     st.inserted = 4;
     dt_cavity c;
     dt_cavity_init(&c);
+    struct dt_bulk bk;
+    memset(&bk, 0, sizeof bk);
+    /* The fused insertion needs the mark bit free in vertex numbers, no
+     * per-tet arrays to initialise, and its scratch arrays. */
+    int fused = m->nv <= DT_MARK && !m->marker && !m->lock && table_ready(&c, 0) &&
+                !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
+                !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
     uint32_t last = m->vhint[order[0]];
     for (i = 1; i < n && !rc; i++) {
         if (i == pick[1] || i == pick[2] || i == pick[3])
             continue;
         uint32_t v = order[i];
-        rc = dt_insert(m, v, last, &c);
+        rc = fused ? bulk_insert(m, v, last, &c, &bk) : dt_insert(m, v, last, &c);
         if (rc)
             break;
         if (c.status == DT_DUPLICATE) {
@@ -917,10 +1186,14 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
             break;
         }
         st.inserted++;
+        if (c.nnew > st.largest_cavity)
+            st.largest_cavity = c.nnew;
         last = m->vhint[v];
         if (opts && opts->progress && (i & 0xffff) == 0)
             opts->progress(opts->progress_arg, i, n);
     }
+    bulk_flush(m, &bk);
+    free(bk.pool);
     dt_cavity_free(&c);
     free(order);
     st.insert_seconds = pdr_now() - t1;
