@@ -452,8 +452,11 @@ struct dt_edge_slot {
 static int link_by_hash(tm_mesh *m, dt_cavity *c)
 {
     size_t nb = c->nbnd, cap = 64;
-    while (cap < 4 * nb)
+    int bits = 6;
+    while (cap < 4 * nb) {
         cap *= 2;
+        bits++;
+    }
     if (cap > c->cap_hash) {
         struct dt_edge_slot *h = realloc(c->edge_hash, cap * sizeof *h);
         if (!h)
@@ -470,7 +473,9 @@ static int link_by_hash(tm_mesh *m, dt_cavity *c)
             uint32_t a = tets[n].v[k == 0 ? 1 : 0], b = tets[n].v[k == 2 ? 1 : 2];
             uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
             uint64_t key = ((uint64_t)lo << 32 | hi) + 1;
-            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> 20) & (cap - 1);
+            /* The top bits of the product depend on every bit of the
+             * key (its low bits would ignore the first vertex). */
+            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> (64 - bits));
             while (h[j].key && h[j].key != key)
                 j = (j + 1) & (cap - 1);
             tm_link me = tm_mklink(n, k);
