@@ -782,8 +782,16 @@ int dt_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c)
 struct dt_bulk {
     uint32_t *pool; /* dead slots with flags 0, not on the free list */
     size_t npool, cap_pool;
-    uint32_t loc_tet[DT_LOCAL_MAX]; /* a new tet on local vertex k */
-    uint32_t loc_old[DT_LOCAL_MAX]; /* its hint before the insertion */
+    /* Local vertex k: its number and a new tetrahedron on it. Entry
+     * DT_LOCAL_MAX is a sink for the vertices that do not fit. */
+    uint32_t loc_vert[DT_LOCAL_MAX + 1];
+    uint32_t loc_tet[DT_LOCAL_MAX + 1];
+    /* half[a * DT_LOCAL_MAX + b]: the side face of the new tetrahedron
+     * whose boundary face has the directed edge a -> b. Entries are only
+     * read after this insertion wrote them, so it is never cleared. */
+    uint32_t *half;
+    uint8_t *ids; /* 3 local numbers per new tetrahedron */
+    size_t cap_ids;
 };
 
 static void bulk_flush(tm_mesh *m, struct dt_bulk *bk)
@@ -816,36 +824,13 @@ static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
     return t;
 }
 
-/* Empties the edge-table entries of the new tetrahedra whose three
- * vertices have local numbers (the vertex hints still hold them; every
- * tetrahedron paired through the table is one of them), so that the table
- * is empty again for the next insertion. */
-static void bulk_clear_table(tm_mesh *m, dt_cavity *c, size_t nn, uint32_t nloc)
-{
-    const uint32_t *hint = m->vhint;
-    for (size_t i = 0; i < nn; i++) {
-        const tm_tet *N = &m->tets[c->newtets[i]];
-        uint32_t k[3];
-        for (int s = 0; s < 3; s++)
-            k[s] = hint[N->v[s]] - LOCAL_TAG;
-        if (k[0] >= nloc || k[1] >= nloc || k[2] >= nloc)
-            continue; /* made after the table overflowed: not paired */
-        for (int e = 0; e < 3; e++) {
-            uint32_t a = k[(e + 1) % 3], b = k[(e + 2) % 3];
-            uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
-            c->edge_table[lo * DT_LOCAL_MAX + hi] = TM_LINK_UNSET;
-        }
-    }
-}
-
 /* Undoes a bulk insertion that failed half-way: the cavity is unmarked,
- * the new slots are returned, the hints and the edge table restored. */
-static void bulk_undo(tm_mesh *m, dt_cavity *c, struct dt_bulk *bk, size_t nt, size_t nn,
-                      uint32_t nloc)
+ * the new slots go to the free list, and every vertex whose hint holds a
+ * local number gets a cavity tetrahedron as its hint (each such vertex is
+ * on a face of one, and the cavity lives on). c->tets holds links (see
+ * bulk_insert). */
+static void bulk_undo(tm_mesh *m, dt_cavity *c, size_t nt, size_t nn)
 {
-    bulk_clear_table(m, c, nn, nloc);
-    for (size_t i = 0; i < nt; i++)
-        m->tets[c->tets[i]].v[0] &= ~DT_MARK;
     for (size_t i = 0; i < nn; i++) {
         uint32_t t = c->newtets[i];
         m->flags[t] = TM_F_DEAD;
@@ -853,32 +838,42 @@ static void bulk_undo(tm_mesh *m, dt_cavity *c, struct dt_bulk *bk, size_t nt, s
         m->free_head = t;
         m->nfree++;
     }
-    for (uint32_t k = 0; k < nloc; k++)
-        m->vhint[c->loc_vert[k]] = bk->loc_old[k];
+    for (size_t i = 0; i < nt; i++) {
+        uint32_t t = tm_ltet(c->tets[i]);
+        tm_tet *T = &m->tets[t];
+        T->v[0] &= ~DT_MARK;
+        for (int s = 0; s < 4; s++)
+            if (m->vhint[T->v[s]] >= LOCAL_TAG)
+                m->vhint[T->v[s]] = t;
+    }
 }
 
 /* The local number of boundary vertex w (see commit_reusing_cavity), or
- * DT_LOCAL_MAX when the boundary has too many vertices for the table. */
-static inline uint32_t bulk_local(tm_mesh *m, dt_cavity *c, struct dt_bulk *bk, uint32_t *nloc,
-                                  uint32_t w, uint32_t n)
+ * DT_LOCAL_MAX when the boundary has too many vertices for the table.
+ * Without branches: whether w is new is a coin toss. For a vertex seen
+ * before, the stores rewrite what is there (loc_tet gets another new
+ * tetrahedron on w, as good as the first). */
+static inline uint32_t bulk_local(uint32_t *hint, struct dt_bulk *bk, uint32_t *nloc, uint32_t w,
+                                  uint32_t n)
 {
-    uint32_t *hint = m->vhint;
-    uint32_t k = hint[w] - LOCAL_TAG;
-    if (__builtin_expect(k < *nloc, 1))
-        return k;
-    if (*nloc == DT_LOCAL_MAX)
-        return DT_LOCAL_MAX;
-    k = (*nloc)++;
-    c->loc_vert[k] = w;
+    uint32_t k = hint[w] - LOCAL_TAG, next = *nloc;
+    uint32_t fresh = -(uint32_t)(k >= next); /* all ones if w is new */
+    k ^= (k ^ next) & fresh;
+    bk->loc_vert[k] = w;
     bk->loc_tet[k] = n;
-    bk->loc_old[k] = hint[w];
     hint[w] = LOCAL_TAG + k;
+    *nloc = next + (fresh & (next < DT_LOCAL_MAX));
     return k;
 }
 
 /* Inserts vertex v (coordinates p) by walking from start. Returns 0 with
  * c->status DT_OK or DT_DUPLICATE, or a negative error with the mesh as it
- * was. */
+ * was.
+ *
+ * c->tets holds the cavity as links: (u << 2 | j) for a tetrahedron u
+ * reached through its face j, whose neighbour there is in the cavity
+ * already, so that face is not looked at again. The located tetrahedron
+ * is first, and all its faces are looked at. */
 static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                        struct dt_bulk *bk)
 {
@@ -896,20 +891,22 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     /* Every real vertex of the mesh is different from p, so no conflict
      * test below can return 0 (p is no vertex of any tetrahedron). */
     tm_tet *tets = m->tets;
-    uint32_t *tab = c->edge_table;
+    uint32_t *half = bk->half, *hint = m->vhint;
     size_t nt = 1, nn = 0;
     uint32_t nloc = 0, overflow = 0;
     int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
-    c->tets[0] = t0;
+    c->tets[0] = tm_mklink(t0, 0);
     tets[t0].v[0] |= DT_MARK;
     rc = 0;
     for (size_t i = 0; i < nt; i++) {
         /* Room for four more cavity tets and four new ones. */
         if (__builtin_expect(nt + 4 > c->cap_tets || nn + 4 > c->cap_new ||
+                                 3 * (nn + 4) > bk->cap_ids ||
                                  bk->npool + m->nfree + (m->tcap - m->nslots) < 4,
                              0)) {
             if (grow((void **)&c->tets, &c->cap_tets, nt + 4, sizeof *c->tets) ||
                 grow((void **)&c->newtets, &c->cap_new, nn + 4, sizeof *c->newtets) ||
+                grow((void **)&bk->ids, &bk->cap_ids, 3 * (nn + 4), 1) ||
                 (bk->npool + m->nfree + (m->tcap - m->nslots) < 4 &&
                  tm_room(m, m->nfree + 4 + (m->tcap >> 3)))) {
                 rc = PDR_ENOMEM;
@@ -917,20 +914,31 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
             }
             tets = m->tets;
         }
-        uint32_t t = c->tets[i];
+        uint32_t t = tm_ltet(c->tets[i]);
         const tm_tet *T = &tets[t];
         uint32_t tv[4] = {T->v[0] & ~DT_MARK, T->v[1], T->v[2], T->v[3]};
-        for (int f = 0; f < 4; f++) {
-            tm_link l = T->n[f];
-            if (__builtin_expect(tm_is_special(l), 0)) {
-                rc = PDR_ETOPOLOGY;
-                break;
-            }
+        tm_link tl[4] = {T->n[0], T->n[1], T->n[2], T->n[3]};
+        if (__builtin_expect((tl[0] >= TM_LINK_SPECIAL) | (tl[1] >= TM_LINK_SPECIAL) |
+                                 (tl[2] >= TM_LINK_SPECIAL) | (tl[3] >= TM_LINK_SPECIAL),
+                             0)) {
+            rc = PDR_ETOPOLOGY;
+            break;
+        }
+        /* The faces to look at: not the one we came through (unless t is
+         * the first), not those whose neighbour is in the cavity. Computed
+         * for all four at once, without branches; two faces of t never
+         * lead to the same tetrahedron, so the set stays right while the
+         * loop below marks neighbours. */
+        unsigned todo = 0xfu & ~((unsigned)(i > 0) << tm_lface(c->tets[i]));
+        for (int f = 0; f < 4; f++)
+            todo &= ~((tets[tm_ltet(tl[f])].v[0] >> 31) << f);
+        while (todo) {
+            int f = __builtin_ctz(todo);
+            todo &= todo - 1;
+            tm_link l = tl[f];
             uint32_t u = tm_ltet(l);
             tm_tet *U = &tets[u];
             uint32_t u0 = U->v[0], u1 = U->v[1], u2 = U->v[2], u3 = U->v[3];
-            if (u0 & DT_MARK)
-                continue;
             int s, ug = ((u0 == TM_VINF) | (u1 == TM_VINF) | (u2 == TM_VINF) | (u3 == TM_VINF));
             if (__builtin_expect(!ug, 1))
                 s = pred_insphere_sos_fast(X(m, u0), X(m, u1), X(m, u2), X(m, u3), p);
@@ -938,7 +946,7 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                 s = conflict(m, u, p);
             if (s > 0) {
                 U->v[0] = u0 | DT_MARK;
-                c->tets[nt++] = u;
+                c->tets[nt++] = l;
                 ghosts -= ug;
                 continue;
             }
@@ -957,17 +965,22 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
             N->v[3] = v;
             N->n[3] = l;
             ghosts += (a == TM_VINF) | (b == TM_VINF) | (d == TM_VINF);
+            uint32_t ka = bulk_local(hint, bk, &nloc, a, n);
+            uint32_t kb = bulk_local(hint, bk, &nloc, b, n);
+            uint32_t kd = bulk_local(hint, bk, &nloc, d, n);
+            overflow |= (ka | kb | kd) >= DT_LOCAL_MAX;
+            /* Face k of n holds the boundary edge opposite slot k: its
+             * directed edges are a->b (face 2), b->d (face 0), d->a (face
+             * 1). The sink number DT_LOCAL_MAX keeps the stores inside the
+             * table (of (DT_LOCAL_MAX + 1)^2 entries) when it overflows. */
+            half[ka * DT_LOCAL_MAX + kb] = tm_mklink(n, 2);
+            half[kb * DT_LOCAL_MAX + kd] = tm_mklink(n, 0);
+            half[kd * DT_LOCAL_MAX + ka] = tm_mklink(n, 1);
+            uint8_t *id = &bk->ids[3 * nn];
+            id[0] = (uint8_t)ka;
+            id[1] = (uint8_t)kb;
+            id[2] = (uint8_t)kd;
             c->newtets[nn++] = n;
-            uint32_t ka = bulk_local(m, c, bk, &nloc, a, n);
-            uint32_t kb = bulk_local(m, c, bk, &nloc, b, n);
-            uint32_t kd = bulk_local(m, c, bk, &nloc, d, n);
-            if (__builtin_expect((ka | kb | kd) >= DT_LOCAL_MAX, 0))
-                overflow = 1;
-            if (__builtin_expect(!overflow, 1)) {
-                pair_faces(tab, tets, kb, kd, tm_mklink(n, 0));
-                pair_faces(tab, tets, ka, kd, tm_mklink(n, 1));
-                pair_faces(tab, tets, ka, kb, tm_mklink(n, 2));
-            }
         }
         if (rc)
             break;
@@ -978,23 +991,33 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                 grow((void **)&bk->pool, &bk->cap_pool, bk->npool + nt, sizeof *bk->pool)))
         rc = PDR_ENOMEM;
     if (!rc && overflow) {
-        bulk_clear_table(m, c, nn, nloc);
         c->nbnd = nn;
         rc = link_by_hash(m, c);
     }
     if (rc) {
-        bulk_undo(m, c, bk, nt, nn, nloc);
+        bulk_undo(m, c, nt, nn);
         return rc;
+    }
+    if (!overflow) {
+        /* The side face over a -> b meets the neighbour's face over
+         * b -> a (the boundary is a closed oriented surface). */
+        for (size_t i = 0; i < nn; i++) {
+            tm_tet *N = &tets[c->newtets[i]];
+            const uint8_t *id = &bk->ids[3 * i];
+            uint32_t ka = id[0], kb = id[1], kd = id[2];
+            N->n[0] = half[kd * DT_LOCAL_MAX + kb];
+            N->n[1] = half[ka * DT_LOCAL_MAX + kd];
+            N->n[2] = half[kb * DT_LOCAL_MAX + ka];
+        }
     }
     for (size_t i = 0; i < nn; i++) {
         uint32_t n = c->newtets[i];
         tm_link l = tets[n].n[3];
         tets[tm_ltet(l)].n[tm_lface(l)] = tm_mklink(n, 3);
     }
-    uint32_t *hint = m->vhint;
     if (!overflow) {
         for (uint32_t k = 0; k < nloc; k++)
-            hint[c->loc_vert[k]] = bk->loc_tet[k];
+            hint[bk->loc_vert[k]] = bk->loc_tet[k];
     } else {
         for (size_t i = 0; i < nn; i++) {
             uint32_t n = c->newtets[i];
@@ -1003,7 +1026,9 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
         }
     }
     hint[v] = c->newtets[nn - 1];
-    memcpy(bk->pool + bk->npool, c->tets, nt * sizeof *c->tets);
+    uint32_t *pool = bk->pool + bk->npool;
+    for (size_t i = 0; i < nt; i++)
+        pool[i] = tm_ltet(c->tets[i]);
     bk->npool += nt;
     m->nlive = m->nlive + (uint32_t)nn - (uint32_t)nt;
     m->nghost = (uint32_t)((int64_t)m->nghost + ghosts);
@@ -1171,7 +1196,8 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     memset(&bk, 0, sizeof bk);
     /* The fused insertion needs the mark bit free in vertex numbers, no
      * per-tet arrays to initialise, and its scratch arrays. */
-    int fused = m->nv <= DT_MARK && !m->marker && !m->lock && table_ready(&c, 0) &&
+    bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
+    int fused = bk.half && m->nv <= DT_MARK && !m->marker && !m->lock &&
                 !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
                 !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
     uint32_t last = m->vhint[order[0]];
@@ -1199,6 +1225,8 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     }
     bulk_flush(m, &bk);
     free(bk.pool);
+    free(bk.half);
+    free(bk.ids);
     dt_cavity_free(&c);
     free(order);
     st.insert_seconds = pdr_now() - t1;
