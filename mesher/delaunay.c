@@ -948,6 +948,12 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                 U->v[0] = u0 | DT_MARK;
                 c->tets[nt++] = l;
                 ghosts -= ug;
+                /* u's neighbours are read when u's turn comes: start
+                 * loading them now (a special link loads slot 0). */
+                for (int k = 0; k < 4; k++) {
+                    tm_link q = U->n[k];
+                    __builtin_prefetch(&tets[q < TM_LINK_SPECIAL ? tm_ltet(q) : 0]);
+                }
                 continue;
             }
             if (__builtin_expect(s == 0, 0)) {
