@@ -853,8 +853,8 @@ static void bulk_undo(tm_mesh *m, dt_cavity *c, size_t nt, size_t nn)
  * Without branches: whether w is new is a coin toss. For a vertex seen
  * before, the stores rewrite what is there (loc_tet gets another new
  * tetrahedron on w, as good as the first). */
-static inline uint32_t bulk_local(uint32_t *hint, struct dt_bulk *bk, uint32_t *nloc, uint32_t w,
-                                  uint32_t n)
+static inline uint32_t bulk_local(uint32_t *restrict hint, struct dt_bulk *restrict bk,
+                                  uint32_t *restrict nloc, uint32_t w, uint32_t n)
 {
     uint32_t k = hint[w] - LOCAL_TAG, next = *nloc;
     uint32_t fresh = -(uint32_t)(k >= next); /* all ones if w is new */
@@ -898,21 +898,26 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     c->tets[0] = tm_mklink(t0, 0);
     tets[t0].v[0] |= DT_MARK;
     rc = 0;
+    /* The search may go on while nt + 4 <= lim_nt and nn + 4 <= lim_nn:
+     * room for four more cavity tets and four more new ones (arrays and
+     * slots; each new tet takes one slot). */
+    size_t lim_nt = 0, lim_nn = 0;
     for (size_t i = 0; i < nt; i++) {
-        /* Room for four more cavity tets and four new ones. */
-        if (__builtin_expect(nt + 4 > c->cap_tets || nn + 4 > c->cap_new ||
-                                 3 * (nn + 4) > bk->cap_ids ||
-                                 bk->npool + m->nfree + (m->tcap - m->nslots) < 4,
-                             0)) {
+        if (__builtin_expect(nt + 4 > lim_nt || nn + 4 > lim_nn, 0)) {
+            size_t slots = bk->npool + m->nfree + (m->tcap - m->nslots);
             if (grow((void **)&c->tets, &c->cap_tets, nt + 4, sizeof *c->tets) ||
                 grow((void **)&c->newtets, &c->cap_new, nn + 4, sizeof *c->newtets) ||
                 grow((void **)&bk->ids, &bk->cap_ids, 3 * (nn + 4), 1) ||
-                (bk->npool + m->nfree + (m->tcap - m->nslots) < 4 &&
-                 tm_room(m, m->nfree + 4 + (m->tcap >> 3)))) {
+                (slots < 4 && tm_room(m, m->nfree + 4 + (m->tcap >> 3)))) {
                 rc = PDR_ENOMEM;
                 break;
             }
             tets = m->tets;
+            slots = bk->npool + m->nfree + (m->tcap - m->nslots);
+            lim_nt = c->cap_tets;
+            lim_nn = c->cap_new < bk->cap_ids / 3 ? c->cap_new : bk->cap_ids / 3;
+            if (lim_nn > nn + slots)
+                lim_nn = nn + slots;
         }
         uint32_t t = tm_ltet(c->tets[i]);
         const tm_tet *T = &tets[t];
@@ -938,22 +943,31 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
             tm_link l = tl[f];
             uint32_t u = tm_ltet(l);
             tm_tet *U = &tets[u];
-            uint32_t u0 = U->v[0], u1 = U->v[1], u2 = U->v[2], u3 = U->v[3];
-            int s, ug = ((u0 == TM_VINF) | (u1 == TM_VINF) | (u2 == TM_VINF) | (u3 == TM_VINF));
-            if (__builtin_expect(!ug, 1))
-                s = pred_insphere_sos_fast(X(m, u0), X(m, u1), X(m, u2), X(m, u3), p);
-            else
-                s = conflict(m, u, p);
+            uint32_t u0 = U->v[0];
+            /* The filter first, ghost or not: the infinite vertex's
+             * coordinates are NaN, which makes the determinant NaN and the
+             * filter decline, so ghosts are told apart only on the rare
+             * path where the filter could not decide. */
+            int s = pred_insphere_filter_(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
+                                          X(m, U->v[3]), p);
+            int ug = 0;
+            if (__builtin_expect(s == 2, 0)) {
+                ug = tm_is_ghost(m, u);
+                s = ug ? conflict(m, u, p)
+                       : pred__insphere_sos_after_filter(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
+                                                         X(m, U->v[3]), p);
+            }
             if (s > 0) {
                 U->v[0] = u0 | DT_MARK;
                 c->tets[nt++] = l;
                 ghosts -= ug;
                 /* u's neighbours are read when u's turn comes: start
-                 * loading them now (a special link loads slot 0). */
-                for (int k = 0; k < 4; k++) {
-                    tm_link q = U->n[k];
-                    __builtin_prefetch(&tets[q < TM_LINK_SPECIAL ? tm_ltet(q) : 0]);
-                }
+                 * loading them now. The address is computed as an integer
+                 * (a special link, impossible here, would only prefetch
+                 * some address). */
+                for (int k = 0; k < 4; k++)
+                    __builtin_prefetch(
+                        (const void *)((uintptr_t)tets + (uintptr_t)tm_ltet(U->n[k]) * sizeof *tets));
                 continue;
             }
             if (__builtin_expect(s == 0, 0)) {

@@ -71,6 +71,10 @@ int pred_incircle(const double *a, const double *b, const double *c, const doubl
 int pred_insphere_sos(const double *a, const double *b, const double *c, const double *d,
                       const double *e);
 int pred_incircle_sos(const double *a, const double *b, const double *c, const double *d);
+/* pred_insphere_sos for a caller whose inlined filter (pred_insphere_filter_
+ * below) declined: the first filter is not run again. */
+int pred__insphere_sos_after_filter(const double *a, const double *b, const double *c,
+                                    const double *d, const double *e);
 /* e must be coplanar with the non-degenerate triangle abc (else the result
  * is the sign of an insphere test with an arbitrary fourth point). Returns
  * +1 if e is inside the perturbed circumcircle of abc, -1 if outside, 0 only
@@ -216,7 +220,7 @@ static inline int pred_insphere_sos_fast(const double *a, const double *b, const
                                          const double *d, const double *e)
 {
     int s = pred_insphere_filter_(a, b, c, d, e);
-    return s != 2 ? s : pred_insphere_sos(a, b, c, d, e);
+    return s != 2 ? s : pred__insphere_sos_after_filter(a, b, c, d, e);
 }
 
 /* Lexicographic comparison of 3D points: -1, 0, +1. */
