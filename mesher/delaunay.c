@@ -1215,9 +1215,11 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     struct dt_bulk bk;
     memset(&bk, 0, sizeof bk);
     /* The fused insertion needs the mark bit free in vertex numbers, no
-     * per-tet arrays to initialise, and its scratch arrays. */
+     * per-tet arrays to initialise, the infinite vertex at NaN (as tm_init
+     * leaves it) and its scratch arrays. */
     bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
     int fused = bk.half && m->nv <= DT_MARK && !m->marker && !m->lock &&
+                m->xyz[0] != m->xyz[0] && /* NaN: ghosts fail the filter */
                 !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
                 !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
     uint32_t last = m->vhint[order[0]];

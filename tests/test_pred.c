@@ -256,6 +256,13 @@ START_TEST(insphere_filter_is_the_scalar_formula)
         double d2 = scalar_insphere_det(p[0], p[1], p[2], p[3], p[4], &L2);
         if (memcmp(&d1, &d2, sizeof d1) || L1 != L2)
             ck_abort_msg("iteration %d: det %a vs scalar %a, L %a vs %a", it, d1, d2, L1, L2);
+        /* The bulk Delaunay search relies on this: a point at NaN (the
+         * infinite vertex of a ghost) in any of the four tet slots makes
+         * the filter decline. */
+        double nanp[3] = {NAN, NAN, NAN};
+        const double *q[4] = {p[0], p[1], p[2], p[3]};
+        q[it % 4] = nanp;
+        ck_assert_int_eq(pred_insphere_filter_(q[0], q[1], q[2], q[3], p[4]), 2);
     }
 }
 END_TEST
