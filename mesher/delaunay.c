@@ -792,6 +792,8 @@ struct dt_bulk {
     uint32_t *half;
     uint8_t *ids; /* 3 local numbers per new tetrahedron */
     size_t cap_ids;
+    uint32_t *bf; /* boundary faces: (cavity tet, face) and the link across */
+    size_t cap_bf;
 };
 
 static void bulk_flush(tm_mesh *m, struct dt_bulk *bk)
@@ -892,36 +894,31 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
      * test below can return 0 (p is no vertex of any tetrahedron). */
     tm_tet *tets = m->tets;
     uint32_t *half = bk->half, *hint = m->vhint;
-    size_t nt = 1, nn = 0;
+    size_t nt = 1, nb = 0, nn = 0;
     uint32_t nloc = 0, overflow = 0;
     int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
     c->tets[0] = tm_mklink(t0, 0);
     tets[t0].v[0] |= DT_MARK;
     rc = 0;
-    /* The search may go on while nt + 4 <= lim_nt and nn + 4 <= lim_nn:
-     * room for four more cavity tets and four more new ones (arrays and
-     * slots; each new tet takes one slot). */
-    size_t lim_nt = 0, lim_nn = 0;
+    /* 1. The search. Each conflict test's outcome is a coin toss, so the
+     * search does not branch on it: a tet in conflict is appended to the
+     * cavity, a boundary face (cavity tet and face, and the link across
+     * it) to bk->bf, both records are written and only the counts depend on
+     * the outcome. The loop goes on while nt + 4 <= lim_nt and
+     * nb + 4 <= lim_nb (room for four more of each). */
+    size_t lim_nt = 0, lim_nb = 0;
     for (size_t i = 0; i < nt; i++) {
-        if (__builtin_expect(nt + 4 > lim_nt || nn + 4 > lim_nn, 0)) {
-            size_t slots = bk->npool + m->nfree + (m->tcap - m->nslots);
+        if (__builtin_expect(nt + 4 > lim_nt || nb + 4 > lim_nb, 0)) {
             if (grow((void **)&c->tets, &c->cap_tets, nt + 4, sizeof *c->tets) ||
-                grow((void **)&c->newtets, &c->cap_new, nn + 4, sizeof *c->newtets) ||
-                grow((void **)&bk->ids, &bk->cap_ids, 3 * (nn + 4), 1) ||
-                (slots < 4 && tm_room(m, m->nfree + 4 + (m->tcap >> 3)))) {
+                grow((void **)&bk->bf, &bk->cap_bf, 2 * (nb + 4), sizeof *bk->bf)) {
                 rc = PDR_ENOMEM;
                 break;
             }
-            tets = m->tets;
-            slots = bk->npool + m->nfree + (m->tcap - m->nslots);
             lim_nt = c->cap_tets;
-            lim_nn = c->cap_new < bk->cap_ids / 3 ? c->cap_new : bk->cap_ids / 3;
-            if (lim_nn > nn + slots)
-                lim_nn = nn + slots;
+            lim_nb = bk->cap_bf / 2;
         }
         uint32_t t = tm_ltet(c->tets[i]);
         const tm_tet *T = &tets[t];
-        uint32_t tv[4] = {T->v[0] & ~DT_MARK, T->v[1], T->v[2], T->v[3]};
         tm_link tl[4] = {T->n[0], T->n[1], T->n[2], T->n[3]};
         if (__builtin_expect((tl[0] >= TM_LINK_SPECIAL) | (tl[1] >= TM_LINK_SPECIAL) |
                                  (tl[2] >= TM_LINK_SPECIAL) | (tl[3] >= TM_LINK_SPECIAL),
@@ -956,55 +953,85 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                 s = ug ? conflict(m, u, p)
                        : pred__insphere_sos_after_filter(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
                                                          X(m, U->v[3]), p);
+                if (s == 0) {
+                    rc = PDR_ETOPOLOGY;
+                    break;
+                }
             }
-            if (s > 0) {
-                U->v[0] = u0 | DT_MARK;
-                c->tets[nt++] = l;
-                ghosts -= ug;
-                /* u's neighbours are read when u's turn comes: start
-                 * loading them now. The address is computed as an integer
-                 * (a special link, impossible here, would only prefetch
-                 * some address). */
-                for (int k = 0; k < 4; k++)
-                    __builtin_prefetch(
-                        (const void *)((uintptr_t)tets + (uintptr_t)tm_ltet(U->n[k]) * sizeof *tets));
-                continue;
-            }
-            if (__builtin_expect(s == 0, 0)) {
-                rc = PDR_ETOPOLOGY;
-                break;
-            }
-            /* Face f bounds the cavity: the new tetrahedron (face, v). */
-            const uint8_t *fv = tm_face_vtx[f];
-            uint32_t a = tv[fv[0]], b = tv[fv[1]], d = tv[fv[2]];
-            uint32_t n = bulk_slot(m, bk);
-            tm_tet *N = &tets[n];
-            N->v[0] = a;
-            N->v[1] = b;
-            N->v[2] = d;
-            N->v[3] = v;
-            N->n[3] = l;
-            ghosts += (a == TM_VINF) | (b == TM_VINF) | (d == TM_VINF);
-            uint32_t ka = bulk_local(hint, bk, &nloc, a, n);
-            uint32_t kb = bulk_local(hint, bk, &nloc, b, n);
-            uint32_t kd = bulk_local(hint, bk, &nloc, d, n);
-            overflow |= (ka | kb | kd) >= DT_LOCAL_MAX;
-            /* Face k of n holds the boundary edge opposite slot k: its
-             * directed edges are a->b (face 2), b->d (face 0), d->a (face
-             * 1). The sink number DT_LOCAL_MAX keeps the stores inside the
-             * table (of (DT_LOCAL_MAX + 1)^2 entries) when it overflows. */
-            half[ka * DT_LOCAL_MAX + kb] = tm_mklink(n, 2);
-            half[kb * DT_LOCAL_MAX + kd] = tm_mklink(n, 0);
-            half[kd * DT_LOCAL_MAX + ka] = tm_mklink(n, 1);
-            uint8_t *id = &bk->ids[3 * nn];
-            id[0] = (uint8_t)ka;
-            id[1] = (uint8_t)kb;
-            id[2] = (uint8_t)kd;
-            c->newtets[nn++] = n;
+            uint32_t in = s > 0;
+            U->v[0] = u0 | (in << 31);
+            c->tets[nt] = l;
+            nt += in;
+            ghosts -= (int)in & ug;
+            /* A tet joining the cavity: its neighbours are read when its
+             * turn comes, start loading them now (for a boundary face,
+             * this loads t's neighbours again, which are in the cache).
+             * The address is computed as an integer (a special link,
+             * impossible here, would only prefetch some address). */
+            const tm_tet *P = in ? U : T;
+            uintptr_t base = (uintptr_t)tets;
+            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[0]) * sizeof *tets));
+            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[1]) * sizeof *tets));
+            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[2]) * sizeof *tets));
+            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[3]) * sizeof *tets));
+            uint32_t *b = &bk->bf[2 * nb];
+            b[0] = tm_mklink(t, f);
+            b[1] = l;
+            nb += in ^ 1u;
         }
         if (rc)
             break;
     }
+    /* 2. Room for the new tets (arrays and slots). */
+    if (!rc) {
+        size_t slots = bk->npool + m->nfree + (m->tcap - m->nslots);
+        if (grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets) ||
+            grow((void **)&bk->ids, &bk->cap_ids, 3 * nb, 1) ||
+            (slots < nb && tm_room(m, m->nfree + nb + (m->tcap >> 3))))
+            rc = PDR_ENOMEM;
+        tets = m->tets;
+    }
+    if (rc) {
+        for (size_t i = 0; i < nt; i++)
+            tets[tm_ltet(c->tets[i])].v[0] &= ~DT_MARK;
+        return rc;
+    }
+    /* 3. One new tet per boundary face, (face, v), its side faces entered
+     * in the half-edge table. */
+    for (size_t i = 0; i < nb; i++) {
+        /* The cavity tets are intact until the end (new tets take slots
+         * of earlier cavities); v[0] carries the cavity mark. */
+        const uint32_t *b = &bk->bf[2 * i];
+        const tm_tet *T = &tets[tm_ltet(b[0])];
+        const uint8_t *fv = tm_face_vtx[tm_lface(b[0])];
+        uint32_t a = T->v[fv[0]] & ~DT_MARK, bb = T->v[fv[1]] & ~DT_MARK,
+                 d = T->v[fv[2]] & ~DT_MARK;
+        uint32_t n = bulk_slot(m, bk);
+        tm_tet *N = &tets[n];
+        N->v[0] = a;
+        N->v[1] = bb;
+        N->v[2] = d;
+        N->v[3] = v;
+        N->n[3] = b[1];
+        ghosts += (a == TM_VINF) | (bb == TM_VINF) | (d == TM_VINF);
+        uint32_t ka = bulk_local(hint, bk, &nloc, a, n);
+        uint32_t kb = bulk_local(hint, bk, &nloc, bb, n);
+        uint32_t kd = bulk_local(hint, bk, &nloc, d, n);
+        overflow |= (ka | kb | kd) >= DT_LOCAL_MAX;
+        /* Face k of n holds the boundary edge opposite slot k: its directed
+         * edges are a->b (face 2), b->d (face 0), d->a (face 1). The sink
+         * number DT_LOCAL_MAX keeps the stores inside the table (of
+         * (DT_LOCAL_MAX + 1)^2 entries) when it overflows. */
+        half[ka * DT_LOCAL_MAX + kb] = tm_mklink(n, 2);
+        half[kb * DT_LOCAL_MAX + kd] = tm_mklink(n, 0);
+        half[kd * DT_LOCAL_MAX + ka] = tm_mklink(n, 1);
+        uint8_t *id = &bk->ids[3 * i];
+        id[0] = (uint8_t)ka;
+        id[1] = (uint8_t)kb;
+        id[2] = (uint8_t)kd;
+        c->newtets[i] = n;
+    }
+    nn = nb;
     /* Everything that can fail comes before the first change to the mesh
      * outside the new slots. */
     if (!rc && (bk->npool + nt > bk->cap_pool &&
@@ -1249,6 +1276,7 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     free(bk.pool);
     free(bk.half);
     free(bk.ids);
+    free(bk.bf);
     dt_cavity_free(&c);
     free(order);
     st.insert_seconds = pdr_now() - t1;
