@@ -792,7 +792,9 @@ struct dt_bulk {
     uint32_t *half;
     uint8_t *ids; /* 3 local numbers per new tetrahedron */
     size_t cap_ids;
-    uint32_t *bf; /* boundary faces: (cavity tet, face) and the link across */
+    uint32_t *fq; /* faces to look at: links out of cavity tets */
+    size_t cap_fq;
+    uint32_t *bf; /* boundary faces: links out of cavity tets */
     size_t cap_bf;
 };
 
@@ -894,93 +896,91 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
      * test below can return 0 (p is no vertex of any tetrahedron). */
     tm_tet *tets = m->tets;
     uint32_t *half = bk->half, *hint = m->vhint;
-    size_t nt = 1, nb = 0, nn = 0;
+    size_t nt = 1, nb = 0, nn = 0, nq = 4;
     uint32_t nloc = 0, overflow = 0;
     int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
     c->tets[0] = tm_mklink(t0, 0);
     tets[t0].v[0] |= DT_MARK;
+    if (bk->cap_fq < 4 && grow((void **)&bk->fq, &bk->cap_fq, 4, sizeof *bk->fq)) {
+        tets[t0].v[0] &= ~DT_MARK;
+        return PDR_ENOMEM;
+    }
+    uint32_t *fq = bk->fq, *bf = bk->bf;
+    for (int f = 0; f < 4; f++)
+        fq[f] = tets[t0].n[f];
     rc = 0;
-    /* 1. The search. Each conflict test's outcome is a coin toss, so the
-     * search does not branch on it: a tet in conflict is appended to the
-     * cavity, a boundary face (cavity tet and face, and the link across
-     * it) to bk->bf, both records are written and only the counts depend on
-     * the outcome. The loop goes on while nt + 4 <= lim_nt and
-     * nb + 4 <= lim_nb (room for four more of each). */
-    size_t lim_nt = 0, lim_nb = 0;
-    for (size_t i = 0; i < nt; i++) {
-        if (__builtin_expect(nt + 4 > lim_nt || nb + 4 > lim_nb, 0)) {
-            if (grow((void **)&c->tets, &c->cap_tets, nt + 4, sizeof *c->tets) ||
-                grow((void **)&bk->bf, &bk->cap_bf, 2 * (nb + 4), sizeof *bk->bf)) {
+    /* 1. The search, over a queue of faces of cavity tets, each given by
+     * its link (u << 2 | j: the neighbour u across it, and the face's
+     * number j in u). A neighbour in the cavity already is skipped; any
+     * other is tested. Each test's outcome is a coin toss, so the search
+     * does not branch on it: a tet in conflict is marked, appended to the
+     * cavity and its three other faces to the queue; a tet not in
+     * conflict makes the face a boundary face, appended to bk->bf (as the
+     * same link); both records are written and only the counts depend on
+     * the outcome. The loop goes on while there is room for three more
+     * queued faces, one cavity tet and one boundary face. */
+    size_t lim_q = 0, lim_t = 0, lim_b = 0;
+    for (size_t q = 0; q < nq; q++) {
+        if (__builtin_expect(nq + 3 > lim_q || nt + 1 > lim_t || nb + 1 > lim_b, 0)) {
+            if (grow((void **)&bk->fq, &bk->cap_fq, nq + 3, sizeof *bk->fq) ||
+                grow((void **)&c->tets, &c->cap_tets, nt + 1, sizeof *c->tets) ||
+                grow((void **)&bk->bf, &bk->cap_bf, nb + 1, sizeof *bk->bf)) {
                 rc = PDR_ENOMEM;
                 break;
             }
-            lim_nt = c->cap_tets;
-            lim_nb = bk->cap_bf / 2;
+            fq = bk->fq;
+            bf = bk->bf;
+            lim_q = bk->cap_fq;
+            lim_t = c->cap_tets;
+            lim_b = bk->cap_bf;
         }
-        uint32_t t = tm_ltet(c->tets[i]);
-        const tm_tet *T = &tets[t];
-        tm_link tl[4] = {T->n[0], T->n[1], T->n[2], T->n[3]};
-        if (__builtin_expect((tl[0] >= TM_LINK_SPECIAL) | (tl[1] >= TM_LINK_SPECIAL) |
-                                 (tl[2] >= TM_LINK_SPECIAL) | (tl[3] >= TM_LINK_SPECIAL),
-                             0)) {
-            rc = PDR_ETOPOLOGY;
+        tm_link l = fq[q];
+        if (__builtin_expect(tm_is_special(l), 0)) {
+            rc = PDR_ETOPOLOGY; /* no boundary in a hull mesh */
             break;
         }
-        /* The faces to look at: not the one we came through (unless t is
-         * the first), not those whose neighbour is in the cavity. Computed
-         * for all four at once, without branches; two faces of t never
-         * lead to the same tetrahedron, so the set stays right while the
-         * loop below marks neighbours. */
-        unsigned todo = 0xfu & ~((unsigned)(i > 0) << tm_lface(c->tets[i]));
-        for (int f = 0; f < 4; f++)
-            todo &= ~((tets[tm_ltet(tl[f])].v[0] >> 31) << f);
-        while (todo) {
-            int f = __builtin_ctz(todo);
-            todo &= todo - 1;
-            tm_link l = tl[f];
-            uint32_t u = tm_ltet(l);
-            tm_tet *U = &tets[u];
-            uint32_t u0 = U->v[0];
-            /* The filter first, ghost or not: the infinite vertex's
-             * coordinates are NaN, which makes the determinant NaN and the
-             * filter decline, so ghosts are told apart only on the rare
-             * path where the filter could not decide. */
-            int s = pred_insphere_filter_(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
-                                          X(m, U->v[3]), p);
-            int ug = 0;
-            if (__builtin_expect(s == 2, 0)) {
-                ug = tm_is_ghost(m, u);
-                s = ug ? conflict(m, u, p)
-                       : pred__insphere_sos_after_filter(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
-                                                         X(m, U->v[3]), p);
-                if (s == 0) {
-                    rc = PDR_ETOPOLOGY;
-                    break;
-                }
+        uint32_t u = tm_ltet(l);
+        tm_tet *U = &tets[u];
+        uint32_t u0 = U->v[0];
+        if (u0 & DT_MARK)
+            continue;
+        /* The filter first, ghost or not: the infinite vertex's
+         * coordinates are NaN, which makes the determinant NaN and the
+         * filter decline, so ghosts are told apart only on the rare path
+         * where the filter could not decide. */
+        int s = pred_insphere_filter_(X(m, u0), X(m, U->v[1]), X(m, U->v[2]), X(m, U->v[3]), p);
+        int ug = 0;
+        if (__builtin_expect(s == 2, 0)) {
+            ug = tm_is_ghost(m, u);
+            s = ug ? conflict(m, u, p)
+                   : pred__insphere_sos_after_filter(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
+                                                     X(m, U->v[3]), p);
+            if (s == 0) {
+                rc = PDR_ETOPOLOGY;
+                break;
             }
-            uint32_t in = s > 0;
-            U->v[0] = u0 | (in << 31);
-            c->tets[nt] = l;
-            nt += in;
-            ghosts -= (int)in & ug;
-            /* A tet joining the cavity: its neighbours are read when its
-             * turn comes, start loading them now (for a boundary face,
-             * this loads t's neighbours again, which are in the cache).
-             * The address is computed as an integer (a special link,
-             * impossible here, would only prefetch some address). */
-            const tm_tet *P = in ? U : T;
-            uintptr_t base = (uintptr_t)tets;
-            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[0]) * sizeof *tets));
-            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[1]) * sizeof *tets));
-            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[2]) * sizeof *tets));
-            __builtin_prefetch((const void *)(base + (uintptr_t)tm_ltet(P->n[3]) * sizeof *tets));
-            uint32_t *b = &bk->bf[2 * nb];
-            b[0] = tm_mklink(t, f);
-            b[1] = l;
-            nb += in ^ 1u;
         }
-        if (rc)
-            break;
+        uint32_t in = s > 0;
+        U->v[0] = u0 | (in << 31);
+        c->tets[nt] = l;
+        nt += in;
+        ghosts -= (int)in & ug;
+        unsigned j = tm_lface(l);
+        tm_link l1 = U->n[(j + 1) & 3], l2 = U->n[(j + 2) & 3], l3 = U->n[(j + 3) & 3];
+        fq[nq] = l1;
+        fq[nq + 1] = l2;
+        fq[nq + 2] = l3;
+        nq += 3 * in;
+        /* The queued neighbours are read soon: start loading them (for a
+         * boundary face, slot 0 instead, which is hot). The addresses are
+         * integers (a special link, impossible here, would only prefetch
+         * some address). */
+        uintptr_t base = (uintptr_t)tets, keep = -(uintptr_t)in;
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l1) * sizeof *tets) & keep)));
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l2) * sizeof *tets) & keep)));
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l3) * sizeof *tets) & keep)));
+        bf[nb] = l;
+        nb += in ^ 1u;
     }
     /* 2. Room for the new tets (arrays and slots). */
     if (!rc) {
@@ -999,20 +999,19 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     /* 3. One new tet per boundary face, (face, v), its side faces entered
      * in the half-edge table. */
     for (size_t i = 0; i < nb; i++) {
-        /* The cavity tets are intact until the end (new tets take slots
-         * of earlier cavities); v[0] carries the cavity mark. */
-        const uint32_t *b = &bk->bf[2 * i];
-        const tm_tet *T = &tets[tm_ltet(b[0])];
-        const uint8_t *fv = tm_face_vtx[tm_lface(b[0])];
-        uint32_t a = T->v[fv[0]] & ~DT_MARK, bb = T->v[fv[1]] & ~DT_MARK,
-                 d = T->v[fv[2]] & ~DT_MARK;
+        /* The face is face j of the outer tet u, which is not in the
+         * cavity; seen from the cavity it has the opposite orientation. */
+        tm_link l = bf[i];
+        const tm_tet *U = &tets[tm_ltet(l)];
+        const uint8_t *fv = tm_face_vtx[tm_lface(l)];
+        uint32_t a = U->v[fv[0]], bb = U->v[fv[2]], d = U->v[fv[1]];
         uint32_t n = bulk_slot(m, bk);
         tm_tet *N = &tets[n];
         N->v[0] = a;
         N->v[1] = bb;
         N->v[2] = d;
         N->v[3] = v;
-        N->n[3] = b[1];
+        N->n[3] = l;
         ghosts += (a == TM_VINF) | (bb == TM_VINF) | (d == TM_VINF);
         uint32_t ka = bulk_local(hint, bk, &nloc, a, n);
         uint32_t kb = bulk_local(hint, bk, &nloc, bb, n);
@@ -1277,6 +1276,7 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     free(bk.half);
     free(bk.ids);
     free(bk.bf);
+    free(bk.fq);
     dt_cavity_free(&c);
     free(order);
     st.insert_seconds = pdr_now() - t1;
