@@ -753,30 +753,36 @@ int dt_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c)
 /* ------------------------------------------------- fused bulk insertion */
 
 /* dt_build inserts points one after the other and always commits, so it
- * does not need the cavity as a list of boundary faces: it creates each new
- * tetrahedron the moment the search finds the boundary face it stands on
- * (as HXT and Geogram do), and links the new tetrahedra around their edges
- * through the edge table while their records are still in the cache.
+ * has an insertion of its own (bulk_insert) that keeps no public cavity
+ * record and is shaped for speed (measurements in bench/kernel.md):
  *
- * Cavity membership is a mark bit in the tetrahedron record itself (bit 31
- * of v[0]), not TM_F_CAVITY in the flags array: the search reads the
- * neighbour's vertices anyway for the conflict test, so the mark costs no
- * extra memory access. Vertex numbers stay below 2^31 whenever the mesh can
- * hold the tetrahedra (a tetrahedralization of n points has at least n - 3
- * tetrahedra, and TM_MAX_TETS < 2^31); dt_build checks it. Marked records
- * are never visible outside an insertion: every marked tetrahedron is
- * deleted by it (or unmarked if it fails).
- *
- * Slots of deleted tetrahedra go to a private pool instead of the free
- * list, and the next insertion takes its new tetrahedra from the pool first:
- * a slot that goes from live to pool to live keeps flags 0 (bulk building
- * sets no flag), so the flags array is not touched at all in the usual
- * case, and the slots are the ones the previous insertion just had in the
- * cache. Pool slots are dead but not on the free list and counted neither in
- * nlive nor in nfree; dt_build hands them to the free list at the end
- * (bulk_flush). The outer tetrahedra's links are redirected to the new
- * tetrahedra only once the search has finished, so that a search that fails
- * (out of memory) can be undone without a trace. */
+ * - The search runs over a flat queue of faces (links out of cavity
+ *   tetrahedra) and does not branch on the outcome of a conflict test (a
+ *   coin toss for the branch predictor): the cavity record and the
+ *   boundary record are both written, only the counts move. It prefetches
+ *   the neighbours of every tetrahedron that joins the cavity.
+ * - Cavity membership is a mark bit in the tetrahedron record itself (bit
+ *   31 of v[0]), not TM_F_CAVITY in the flags array: the search reads the
+ *   neighbour's record anyway, so the mark costs no extra memory access.
+ *   Vertex numbers stay below 2^31 whenever the mesh can hold the
+ *   tetrahedra (a tetrahedralization of n points has at least n - 3
+ *   tetrahedra, and TM_MAX_TETS < 2^31); dt_build checks it. Marked records
+ *   are never visible outside an insertion: every marked tetrahedron is
+ *   deleted by it (or unmarked if it fails).
+ * - The new tetrahedra are made from the boundary list afterwards and
+ *   linked around their edges through a half-edge table indexed by small
+ *   local vertex numbers, filled and read without branches.
+ * - Slots of deleted tetrahedra go to a private pool instead of the free
+ *   list, and the next insertion takes its new tetrahedra from the pool
+ *   first: a slot that goes from live to pool to live keeps flags 0 (bulk
+ *   building sets no flag), so the flags array is not touched at all in
+ *   the usual case, and the slots are the ones the previous insertion just
+ *   had in the cache. Pool slots are dead but not on the free list and
+ *   counted neither in nlive nor in nfree; dt_build hands them to the free
+ *   list at the end (bulk_flush).
+ * - The outer tetrahedra's links are redirected to the new tetrahedra only
+ *   once nothing can fail any more, so that an insertion that fails (out
+ *   of memory) is undone without a trace. */
 #define DT_MARK 0x80000000u
 
 struct dt_bulk {
@@ -872,12 +878,9 @@ static inline uint32_t bulk_local(uint32_t *restrict hint, struct dt_bulk *restr
 
 /* Inserts vertex v (coordinates p) by walking from start. Returns 0 with
  * c->status DT_OK or DT_DUPLICATE, or a negative error with the mesh as it
- * was.
- *
- * c->tets holds the cavity as links: (u << 2 | j) for a tetrahedron u
- * reached through its face j, whose neighbour there is in the cavity
- * already, so that face is not looked at again. The located tetrahedron
- * is first, and all its faces are looked at. */
+ * was. c->tets gets the cavity as links (u << 2 | j: tetrahedron u, reached
+ * through its face j; the located tetrahedron first, with j = 0),
+ * c->newtets the new tetrahedra. */
 static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
                        struct dt_bulk *bk)
 {
