@@ -48,5 +48,8 @@ pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 pdr_LDFLAGS = $(AM_LDFLAGS) -static
 
 # The Delaunay kernel: exact predicates.
-noinst_HEADERS += mesher/pred.h
-libpdrmesh_la_SOURCES += mesher/pred.c
+noinst_HEADERS += mesher/pred.h mesher/tetmesh.h mesher/delaunay.h \
+	mesher/spatial_sort.h mesher/verify.h mesher/io_tetgen.h
+libpdrmesh_la_SOURCES += mesher/pred.c mesher/tetmesh.c mesher/delaunay.c \
+	mesher/spatial_sort.c mesher/verify.c mesher/io_tetgen.c
+pdr_SOURCES += mesher/cmd_delaunay.c mesher/cmd_check.c

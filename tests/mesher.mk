@@ -59,3 +59,9 @@ EXTRA_DIST += \
 	tests/data/plc/truncated.poly \
 	tests/data/plc/unknown.xyz \
 	tests/data/plc/zero-area.poly
+
+check_PROGRAMS += tests/test_delaunay
+TESTS += tests/test_delaunay
+tests_test_delaunay_SOURCES = tests/test_delaunay.c
+tests_test_delaunay_CFLAGS = $(UNIT_CFLAGS)
+tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm

@@ -1,0 +1,621 @@
+/* delaunay.c -- point location, cavity search, retriangulation, bulk build. */
+#include "config.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "delaunay.h"
+#include "pdr_util.h"
+#include "pred.h"
+#include "spatial_sort.h"
+
+#define X(m, v) ((m)->xyz + 3 * (size_t)(v))
+
+static int grow(void **p, size_t *cap, size_t need, size_t size)
+{
+    if (need <= *cap)
+        return 0;
+    size_t c = *cap ? *cap * 2 : 64;
+    while (c < need)
+        c *= 2;
+    void *q = realloc(*p, c * size);
+    if (!q)
+        return PDR_ENOMEM;
+    *p = q;
+    *cap = c;
+    return 0;
+}
+
+void dt_cavity_init(dt_cavity *c)
+{
+    memset(c, 0, sizeof *c);
+}
+
+void dt_cavity_free(dt_cavity *c)
+{
+    free(c->tets);
+    free(c->bnd);
+    free(c->newtets);
+    free(c->stack);
+    free(c->held);
+    memset(c, 0, sizeof *c);
+}
+
+static uint32_t xorshift(tm_mesh *m)
+{
+    uint64_t x = m->rng;
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    m->rng = x;
+    return (uint32_t)(x >> 32);
+}
+
+static uint32_t any_live_tet(const tm_mesh *m)
+{
+    for (uint32_t t = m->nslots; t-- > 0;)
+        if (!tm_is_dead(m, t))
+            return t;
+    return TM_NONE;
+}
+
+/* ------------------------------------------------------------ location */
+
+/* Visibility walk: from t, cross a face whose plane separates t from p
+ * (exact orient3d < 0), until no face does. The faces are tried from a
+ * random one on, which makes the walk terminate with probability 1 on any
+ * triangulation (on a Delaunay one it terminates anyway); the face we came
+ * through is skipped. */
+int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
+              tm_link *exit_link)
+{
+    uint32_t t = start;
+    if (t == TM_NONE || t >= m->nslots || tm_is_dead(m, t))
+        t = any_live_tet(m);
+    if (t == TM_NONE)
+        return PDR_EINVAL;
+    int from = -1;
+    size_t limit = (size_t)m->nlive * 4 + 64;
+    for (size_t steps = 0; steps < limit; steps++) {
+        const tm_tet *T = &m->tets[t];
+        int k = tm_ghost_slot(m, t);
+        if (k >= 0) {
+            const uint8_t *f = tm_face_vtx[k];
+            if (from == k ||
+                pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) > 0) {
+                *tet = t;
+                return 0;
+            }
+            /* p is not beyond this hull face: continue inside. */
+            tm_link l = T->n[k];
+            if (tm_is_special(l)) {
+                *tet = t;
+                if (exit_link)
+                    *exit_link = l;
+                return 1;
+            }
+            t = tm_ltet(l);
+            from = tm_lface(l);
+            continue;
+        }
+        uint32_t r = xorshift(m);
+        int moved = 0;
+        for (int i = 0; i < 4; i++) {
+            int fi = (int)((r + (uint32_t)i) & 3u);
+            if (fi == from)
+                continue;
+            const uint8_t *f = tm_face_vtx[fi];
+            if (pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) < 0) {
+                tm_link l = T->n[fi];
+                if (tm_is_special(l)) {
+                    *tet = t;
+                    if (exit_link)
+                        *exit_link = l;
+                    return 1;
+                }
+                t = tm_ltet(l);
+                from = tm_lface(l);
+                moved = 1;
+                break;
+            }
+        }
+        if (!moved) {
+            *tet = t;
+            return 0;
+        }
+    }
+    return PDR_ETOPOLOGY;
+}
+
+/* ------------------------------------------------------------ conflict */
+
+int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
+{
+    const uint32_t *v = m->tets[t].v;
+    if (v[0] && v[1] && v[2] && v[3])
+        return pred_insphere_sos(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
+    /* A ghost: in conflict iff p is beyond its hull face, or on the face's
+     * plane and inside its (perturbed) circumcircle. */
+    int k = v[0] == TM_VINF ? 0 : v[1] == TM_VINF ? 1 : v[2] == TM_VINF ? 2 : 3;
+    const uint8_t *f = tm_face_vtx[k];
+    const double *a = X(m, v[f[0]]), *b = X(m, v[f[1]]), *c = X(m, v[f[2]]);
+    int o = pred_orient3d(a, b, c, p);
+    if (o)
+        return o;
+    return pred_incircle3d_sos(a, b, c, p);
+}
+
+static uint32_t vertex_at(const tm_mesh *m, uint32_t t, const double *p)
+{
+    for (int s = 0; s < 4; s++) {
+        uint32_t v = m->tets[t].v[s];
+        if (v != TM_VINF && !pred_lexcmp3(X(m, v), p))
+            return v;
+    }
+    return TM_NONE;
+}
+
+/* -------------------------------------------------------------- search */
+
+static void clear_marks(tm_mesh *m, dt_cavity *c)
+{
+    for (size_t i = 0; i < c->ntets; i++)
+        m->flags[c->tets[i]] &= (uint16_t)~TM_F_CAVITY;
+    c->pending = 0;
+}
+
+void dt_cavity_unlock(tm_mesh *m, dt_cavity *c)
+{
+    if (m->lock)
+        for (size_t i = 0; i < c->nheld; i++)
+            if (m->lock[c->held[i]] == c->lock_owner)
+                m->lock[c->held[i]] = 0;
+    c->nheld = 0;
+}
+
+void dt_cavity_abandon(tm_mesh *m, dt_cavity *c)
+{
+    if (c->pending)
+        clear_marks(m, c);
+    dt_cavity_unlock(m, c);
+}
+
+/* Returns 1 if t is free or ours (taking it if free), 0 if locked by
+ * someone else, PDR_ENOMEM. */
+static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
+{
+    uint32_t owner = m->lock[t];
+    if (owner == c->lock_owner)
+        return 1;
+    if (owner != 0)
+        return 0;
+    if (grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
+        return PDR_ENOMEM;
+    m->lock[t] = c->lock_owner;
+    c->held[c->nheld++] = t;
+    return 1;
+}
+
+static int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
+{
+    if (c->nbnd == c->cap_bnd &&
+        grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 1, sizeof *c->bnd))
+        return PDR_ENOMEM;
+    dt_bface *b = &c->bnd[c->nbnd++];
+    b->tet = t;
+    b->face = (uint8_t)f;
+    b->reason = (uint8_t)reason;
+    b->spare = 0;
+    b->outer = outer;
+    return 0;
+}
+
+static int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
+{
+    if ((c->ntets == c->cap_tets &&
+         grow((void **)&c->tets, &c->cap_tets, c->ntets + 1, sizeof *c->tets)) ||
+        (*sp == c->cap_stack &&
+         grow((void **)&c->stack, &c->cap_stack, *sp + 1, sizeof *c->stack)))
+        return PDR_ENOMEM;
+    m->flags[t] |= TM_F_CAVITY;
+    c->tets[c->ntets++] = t;
+    c->stack[(*sp)++] = t;
+    return 0;
+}
+
+int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned flags,
+                     dt_cavity *c)
+{
+    if (c->pending)
+        dt_cavity_abandon(m, c);
+    memcpy(c->p, p, sizeof c->p);
+    c->status = DT_OK;
+    c->ntets = c->nbnd = c->nnew = 0;
+    c->located = c->dup_vertex = c->blocker = TM_NONE;
+    int lock = (flags & DT_LOCK) && m->lock;
+    if (lock)
+        c->nheld = 0;
+
+    uint32_t t0 = start;
+    if (flags & DT_LOCATE) {
+        tm_link exit = TM_LINK_NONE;
+        int rc = dt_locate(m, p, start, &t0, &exit);
+        if (rc < 0)
+            return rc;
+        if (rc == 1) {
+            c->status = DT_OUTSIDE_DOMAIN;
+            c->located = t0;
+            c->exit_link = exit;
+            return 0;
+        }
+        if (!tm_is_ghost(m, t0) && (c->dup_vertex = vertex_at(m, t0, p)) != TM_NONE) {
+            c->status = DT_DUPLICATE;
+            return 0;
+        }
+    } else {
+        if (t0 >= m->nslots || tm_is_dead(m, t0))
+            return PDR_EINVAL;
+        int s = dt_conflict(m, t0, p);
+        if (s == 0) {
+            c->dup_vertex = vertex_at(m, t0, p);
+            c->status = DT_DUPLICATE;
+            return 0;
+        }
+        if (s < 0)
+            return PDR_EINVAL;
+    }
+    c->located = t0;
+    if (lock) {
+        int r = take_lock(m, c, t0);
+        if (r <= 0) {
+            c->status = DT_LOCKED;
+            c->blocker = t0;
+            return r < 0 ? r : 0;
+        }
+    }
+
+    size_t sp = 0;
+    int rc = add_cavity_tet(m, c, t0, &sp);
+    c->pending = 1;
+    uint16_t *fl = m->flags;
+    int stop_marked = (flags & DT_STOP_MARKED) != 0;
+    while (!rc && sp > 0) {
+        uint32_t t = c->stack[--sp];
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4 && !rc; f++) {
+            tm_link l = T->n[f];
+            if (tm_is_special(l)) {
+                rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
+                continue;
+            }
+            if (stop_marked && (fl[t] & TM_F_FACEMARK(f))) {
+                rc = add_bface(c, t, f, DT_BND_MARKED, l);
+                continue;
+            }
+            uint32_t u = tm_ltet(l);
+            if (fl[u] & TM_F_CAVITY)
+                continue;
+            if (lock) {
+                int r = take_lock(m, c, u);
+                if (r <= 0) {
+                    clear_marks(m, c);
+                    c->status = DT_LOCKED;
+                    c->blocker = u;
+                    return r;
+                }
+            }
+            int s = dt_conflict(m, u, p);
+            if (s > 0) {
+                rc = add_cavity_tet(m, c, u, &sp);
+            } else if (s < 0) {
+                rc = add_bface(c, t, f, DT_BND_OUTSIDE, l);
+            } else {
+                /* p is a vertex of u: only possible for a duplicate point
+                 * (without DT_LOCATE, or equal to a ghost's hull vertex). */
+                clear_marks(m, c);
+                c->dup_vertex = vertex_at(m, u, p);
+                c->status = DT_DUPLICATE;
+                if (c->dup_vertex == TM_NONE)
+                    return PDR_ETOPOLOGY;
+                return 0;
+            }
+        }
+    }
+    if (rc) {
+        clear_marks(m, c);
+        return rc;
+    }
+    return 0;
+}
+
+int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
+{
+    for (size_t i = 0; i < c->nbnd; i++) {
+        const tm_tet *T = &m->tets[c->bnd[i].tet];
+        const uint8_t *f = tm_face_vtx[c->bnd[i].face];
+        uint32_t a = T->v[f[0]], b = T->v[f[1]], d = T->v[f[2]];
+        if (a == TM_VINF || b == TM_VINF || d == TM_VINF)
+            continue; /* a new ghost: no orientation to check */
+        if (pred_orient3d(X(m, a), X(m, b), X(m, d), c->p) <= 0)
+            return 0;
+    }
+    return 1;
+}
+
+/* -------------------------------------------------------------- commit */
+
+static int slot_of(const tm_tet *T, uint32_t v)
+{
+    return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : 3;
+}
+
+/* Moves the subsegment bits of face j of a cavity tetrahedron (flags ft) to
+ * the new tetrahedron's edges among its slots 0,1,2. */
+static uint16_t subseg_bits(uint16_t ft, int j)
+{
+    const uint8_t *f = tm_face_vtx[j];
+    uint16_t out = 0;
+    if (ft & TM_F_SUBSEG(tm_edge_of[f[0]][f[1]]))
+        out |= TM_F_SUBSEG(0); /* slots 0-1 */
+    if (ft & TM_F_SUBSEG(tm_edge_of[f[0]][f[2]]))
+        out |= TM_F_SUBSEG(1); /* slots 0-2 */
+    if (ft & TM_F_SUBSEG(tm_edge_of[f[1]][f[2]]))
+        out |= TM_F_SUBSEG(3); /* slots 1-2 */
+    return out;
+}
+
+int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
+{
+    if (!c->pending || c->status != DT_OK)
+        return PDR_EINVAL;
+    size_t nb = c->nbnd;
+    int rc = tm_room(m, nb);
+    if (!rc)
+        rc = grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
+    if (rc)
+        return rc;
+
+    tm_tet *tets = m->tets;
+    uint16_t *fl = m->flags;
+    /* 1. One new tetrahedron per boundary face, linked to the outside; the
+     * cavity tetrahedron's link across that face is redirected to it, so
+     * that step 2 can find it. */
+    for (size_t i = 0; i < nb; i++) {
+        const dt_bface *b = &c->bnd[i];
+        uint32_t t = b->tet;
+        int j = b->face;
+        uint32_t n = tm_alloc_tet(m);
+        tm_tet *T = &tets[t], *N = &tets[n];
+        const uint8_t *f = tm_face_vtx[j];
+        N->v[0] = T->v[f[0]];
+        N->v[1] = T->v[f[1]];
+        N->v[2] = T->v[f[2]];
+        N->v[3] = v;
+        N->n[0] = N->n[1] = N->n[2] = TM_LINK_UNSET;
+        N->n[3] = b->outer;
+        if (!tm_is_special(b->outer))
+            tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
+        uint16_t ft = fl[t];
+        if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
+            uint16_t nf = subseg_bits(ft, j);
+            if (ft & TM_F_FACEMARK(j)) {
+                nf |= TM_F_FACEMARK(3);
+                if (m->marker)
+                    m->marker[4 * (size_t)n + 3] = m->marker[4 * (size_t)t + (size_t)j];
+            }
+            fl[n] = nf;
+        }
+        if (!(N->v[0] && N->v[1] && N->v[2]))
+            m->nghost++;
+        T->n[j] = tm_mklink(n, 3);
+        for (int s = 0; s < 4; s++)
+            m->vhint[N->v[s]] = n;
+        c->newtets[i] = n;
+    }
+    /* 2. Links between new tetrahedra. Face k (k < 3) of a new tet holds v
+     * and the edge {a,b} of its boundary face. The other new tet on that
+     * edge sits on the next boundary face met when turning around {a,b}
+     * through the cavity, starting from the cavity tet's other face on
+     * {a,b}: every link out of a cavity tet now leads to a new tet. */
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        tm_tet *N = &tets[n];
+        uint32_t t = c->bnd[i].tet;
+        int j = c->bnd[i].face;
+        const uint8_t *f = tm_face_vtx[j];
+        for (int k = 0; k < 3; k++) {
+            if (N->n[k] != TM_LINK_UNSET)
+                continue;
+            int sa = f[(k + 1) % 3], sb = f[(k + 2) % 3];
+            uint32_t a = tets[t].v[sa], b = tets[t].v[sb];
+            uint32_t cur = t;
+            int ex = 6 - j - sa - sb;
+            for (;;) {
+                tm_link l = tets[cur].n[ex];
+                uint32_t u = tm_ltet(l);
+                if (!(fl[u] & TM_F_CAVITY)) {
+                    const tm_tet *U = &tets[u];
+                    int k2 = (U->v[0] != a && U->v[0] != b) ? 0
+                             : (U->v[1] != a && U->v[1] != b) ? 1
+                                                              : 2;
+                    N->n[k] = tm_mklink(u, k2);
+                    tets[u].n[k2] = tm_mklink(n, k);
+                    break;
+                }
+                const tm_tet *U = &tets[u];
+                int uf = tm_lface(l);
+                ex = 6 - uf - slot_of(U, a) - slot_of(U, b);
+                cur = u;
+            }
+        }
+    }
+    /* 3. The cavity goes to the free list. */
+    for (size_t i = 0; i < c->ntets; i++)
+        tm_free_tet(m, c->tets[i]);
+    c->nnew = nb;
+    c->pending = 0;
+    return 0;
+}
+
+int dt_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c)
+{
+    double p[3];
+    memcpy(p, X(m, v), sizeof p);
+    int rc = dt_cavity_search(m, p, start, DT_LOCATE, c);
+    if (rc || c->status != DT_OK)
+        return rc;
+    rc = dt_cavity_commit(m, v, c);
+    if (rc)
+        dt_cavity_abandon(m, c);
+    return rc;
+}
+
+/* -------------------------------------------------------- bulk building */
+
+int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
+{
+    int o = pred_orient3d(X(m, a), X(m, b), X(m, c), X(m, d));
+    if (o == 0)
+        return PDR_EGEOMETRY;
+    if (o < 0) {
+        uint32_t x = a;
+        a = b;
+        b = x;
+    }
+    int rc = tm_room(m, 5);
+    if (rc)
+        return rc;
+    uint32_t t = tm_alloc_tet(m);
+    tm_tet *T = &m->tets[t];
+    T->v[0] = a;
+    T->v[1] = b;
+    T->v[2] = c;
+    T->v[3] = d;
+    uint32_t g[4];
+    for (int i = 0; i < 4; i++) {
+        g[i] = tm_alloc_tet(m);
+        tm_tet *G = &m->tets[g[i]];
+        const uint8_t *f = tm_face_vtx[i];
+        G->v[0] = T->v[f[0]];
+        G->v[1] = T->v[f[2]];
+        G->v[2] = T->v[f[1]];
+        G->v[3] = TM_VINF;
+        G->n[3] = tm_mklink(t, i);
+        T->n[i] = tm_mklink(g[i], 3);
+        m->nghost++;
+    }
+    /* Ghost faces j < 3 contain vertex 0 and a hull edge: match them. */
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 3; j++) {
+            const tm_tet *G = &m->tets[g[i]];
+            uint32_t e0 = G->v[(j + 1) % 3], e1 = G->v[(j + 2) % 3];
+            for (int i2 = 0; i2 < 4; i2++) {
+                if (i2 == i)
+                    continue;
+                const tm_tet *H = &m->tets[g[i2]];
+                for (int j2 = 0; j2 < 3; j2++) {
+                    uint32_t f0 = H->v[(j2 + 1) % 3], f1 = H->v[(j2 + 2) % 3];
+                    if ((f0 == e0 && f1 == e1) || (f0 == e1 && f1 == e0))
+                        m->tets[g[i]].n[j] = tm_mklink(g[i2], j2);
+                }
+            }
+        }
+    for (int s = 0; s < 4; s++)
+        m->vhint[T->v[s]] = t;
+    m->vhint[TM_VINF] = g[0];
+    return 0;
+}
+
+static int collinear(const double *a, const double *b, const double *c)
+{
+    double a2[3][2] = {{a[0], a[1]}, {a[1], a[2]}, {a[2], a[0]}};
+    double b2[3][2] = {{b[0], b[1]}, {b[1], b[2]}, {b[2], b[0]}};
+    double c2[3][2] = {{c[0], c[1]}, {c[1], c[2]}, {c[2], c[0]}};
+    for (int k = 0; k < 3; k++)
+        if (pred_orient2d(a2[k], b2[k], c2[k]))
+            return 0;
+    return 1;
+}
+
+int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
+{
+    dt_build_stats st;
+    memset(&st, 0, sizeof st);
+    size_t n = m->nv - 1;
+    if (n < 4)
+        return PDR_EGEOMETRY;
+    /* About 6.7 tetrahedra per point for random points; untouched
+     * reserve costs address space only. */
+    int rc = tm_room(m, n * 7 + 64);
+    if (rc)
+        return rc;
+    uint32_t *order = malloc(n * sizeof *order);
+    if (!order)
+        return PDR_ENOMEM;
+    double t0 = pdr_now();
+    rc = ss_brio_hilbert(X(m, 1), n, opts ? opts->seed : 0, 0, order);
+    if (rc) {
+        free(order);
+        return rc;
+    }
+    for (size_t i = 0; i < n; i++)
+        order[i] += 1; /* point i is vertex i+1 */
+    double t1 = pdr_now();
+    st.sort_seconds = t1 - t0;
+
+    /* The first four points in general position, in insertion order. */
+    size_t pick[4] = {0, 0, 0, 0};
+    int found = 1;
+    size_t i = 1;
+    while (i < n && !pred_lexcmp3(X(m, order[i]), X(m, order[0])))
+        i++;
+    pick[1] = i;
+    while (i < n && collinear(X(m, order[0]), X(m, order[pick[1]]), X(m, order[i])))
+        i++;
+    pick[2] = i;
+    while (i < n && !pred_orient3d(X(m, order[0]), X(m, order[pick[1]]), X(m, order[pick[2]]),
+                                   X(m, order[i])))
+        i++;
+    pick[3] = i;
+    if (i >= n)
+        found = 0;
+    if (!found) {
+        free(order);
+        return PDR_EGEOMETRY;
+    }
+    rc = dt_init_simplex(m, order[0], order[pick[1]], order[pick[2]], order[pick[3]]);
+    if (rc) {
+        free(order);
+        return rc;
+    }
+    st.inserted = 4;
+    dt_cavity c;
+    dt_cavity_init(&c);
+    uint32_t last = m->vhint[order[0]];
+    for (i = 1; i < n && !rc; i++) {
+        if (i == pick[1] || i == pick[2] || i == pick[3])
+            continue;
+        uint32_t v = order[i];
+        rc = dt_insert(m, v, last, &c);
+        if (rc)
+            break;
+        if (c.status == DT_DUPLICATE) {
+            st.duplicates++;
+            continue;
+        }
+        if (c.status != DT_OK) { /* cannot happen on a convex hull */
+            rc = PDR_ETOPOLOGY;
+            break;
+        }
+        st.inserted++;
+        last = m->vhint[v];
+        if (opts && opts->progress && (i & 0xffff) == 0)
+            opts->progress(opts->progress_arg, i, n);
+    }
+    dt_cavity_free(&c);
+    free(order);
+    st.insert_seconds = pdr_now() - t1;
+    if (stats)
+        *stats = st;
+    return rc;
+}

@@ -1,0 +1,151 @@
+/* spatial_sort.c -- Hilbert curve keys and the BRIO insertion order. */
+#include "config.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pdr_error.h"
+#include "spatial_sort.h"
+
+#define KEY_BITS 19 /* per axis: 2^57 cells, plenty for 2^32 points */
+
+/* Spreads the low 21 bits of x so that bit i moves to bit 3i. */
+static uint64_t spread3(uint64_t x)
+{
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+}
+
+/* Skilling's method (J. Skilling, "Programming the Hilbert curve", AIP
+ * Conf. Proc. 707, 2004): turn the coordinates into the "transposed"
+ * Hilbert index in place, whose bits, read across the three words from the
+ * most significant level down, are the index. */
+uint64_t ss_hilbert3(uint32_t x, uint32_t y, uint32_t z, int bits)
+{
+    uint32_t X[3] = {x, y, z};
+    uint32_t M = 1u << (bits - 1);
+    for (uint32_t Q = M; Q > 1; Q >>= 1) {
+        uint32_t P = Q - 1;
+        for (int i = 0; i < 3; i++) {
+            if (X[i] & Q) {
+                X[0] ^= P; /* invert the low bits */
+            } else {        /* exchange the low bits of X[0] and X[i] */
+                uint32_t t = (X[0] ^ X[i]) & P;
+                X[0] ^= t;
+                X[i] ^= t;
+            }
+        }
+    }
+    X[1] ^= X[0]; /* Gray encode */
+    X[2] ^= X[1];
+    uint32_t t = 0;
+    for (uint32_t Q = M; Q > 1; Q >>= 1)
+        if (X[2] & Q)
+            t ^= Q - 1;
+    for (int i = 0; i < 3; i++)
+        X[i] ^= t;
+    return spread3(X[0]) << 2 | spread3(X[1]) << 1 | spread3(X[2]);
+}
+
+static uint64_t splitmix(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+typedef struct kv {
+    uint64_t key;
+    uint32_t idx;
+} kv;
+
+/* LSD radix sort by key, 8 bits a pass, skipping passes where every key
+ * has the same digit. */
+static void radix_sort(kv *a, kv *tmp, size_t n)
+{
+    for (int shift = 0; shift < 64; shift += 8) {
+        size_t count[257] = {0};
+        for (size_t i = 0; i < n; i++)
+            count[((a[i].key >> shift) & 0xff) + 1]++;
+        int trivial = 0;
+        for (int d = 1; d <= 256; d++)
+            if (count[d] == n)
+                trivial = 1;
+        if (trivial)
+            continue;
+        for (int d = 0; d < 256; d++)
+            count[d + 1] += count[d];
+        for (size_t i = 0; i < n; i++)
+            tmp[count[(a[i].key >> shift) & 0xff]++] = a[i];
+        memcpy(a, tmp, n * sizeof *a);
+    }
+}
+
+int ss_brio_hilbert(const double *xyz, size_t n, uint64_t seed, size_t min_round,
+                    uint32_t *order)
+{
+    if (n == 0)
+        return 0;
+    if (min_round == 0)
+        min_round = 1000;
+    kv *a = malloc(n * sizeof *a), *tmp = malloc(n * sizeof *tmp);
+    if (!a || !tmp) {
+        free(a);
+        free(tmp);
+        return PDR_ENOMEM;
+    }
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = xyz[k];
+    for (size_t i = 1; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double c = xyz[3 * i + k];
+            if (c < lo[k])
+                lo[k] = c;
+            if (c > hi[k])
+                hi[k] = c;
+        }
+    double ext = 0;
+    for (int k = 0; k < 3; k++)
+        if (hi[k] - lo[k] > ext)
+            ext = hi[k] - lo[k];
+    /* One scale for all axes keeps the cells cubes. */
+    double cells = (double)((1u << KEY_BITS) - 1);
+    double scale = ext > 0 && isfinite(ext) ? cells / ext : 0;
+
+    int rounds = 0; /* index of the last round */
+    while (rounds < 60 && (n >> (rounds + 1)) >= min_round)
+        rounds++;
+    uint64_t s = seed;
+    const uint64_t curve_max = (UINT64_C(1) << (3 * KEY_BITS)) - 1;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t q[3];
+        for (int k = 0; k < 3; k++) {
+            double c = (xyz[3 * i + k] - lo[k]) * scale;
+            q[k] = c >= cells ? (uint32_t)cells : c > 0 ? (uint32_t)c : 0;
+        }
+        uint64_t h = ss_hilbert3(q[0], q[1], q[2], KEY_BITS);
+        /* Geometric: half of the points in the last round, a quarter in
+         * the one before, ... the rest in round 0. */
+        uint64_t r = splitmix(&s) | (UINT64_C(1) << 63);
+        int z = __builtin_ctzll(r);
+        int round = z >= rounds ? 0 : rounds - z;
+        if ((rounds - round) & 1)
+            h = curve_max - h;
+        a[i].key = ((uint64_t)round << (3 * KEY_BITS)) | h;
+        a[i].idx = (uint32_t)i;
+    }
+    radix_sort(a, tmp, n);
+    for (size_t i = 0; i < n; i++)
+        order[i] = a[i].idx;
+    free(a);
+    free(tmp);
+    return 0;
+}

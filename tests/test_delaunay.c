@@ -1,0 +1,582 @@
+/* Unit tests of the mesh, the Delaunay kernel, the spatial sort and the
+ * verifier. Every tetrahedralization built here is re-checked by vf_check
+ * (exact predicates); the verifier itself is shown to fail on corrupted
+ * meshes. */
+#include "config.h"
+
+#include <math.h>
+#include <stdint.h>
+
+#include "delaunay.h"
+#include "pred.h"
+#include "spatial_sort.h"
+#include "tetmesh.h"
+#include "unit.h"
+#include "verify.h"
+
+static uint64_t rng_state;
+static uint64_t rnd(void)
+{
+    uint64_t z = (rng_state += 0x9e3779b97f4a7c15u);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9u;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebu;
+    return z ^ (z >> 31);
+}
+static double rnd01(void) { return (double)(rnd() >> 11) * 0x1p-53; }
+
+static void add(tm_mesh *m, double x, double y, double z)
+{
+    double p[3] = {x, y, z};
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(m, p, &v), 0);
+}
+
+/* Builds the tetrahedralization of m's vertices and checks it fully. */
+static void build_and_check(tm_mesh *m, size_t expect_dups)
+{
+    dt_build_opts o = {.seed = 7};
+    dt_build_stats st;
+    ck_assert_int_eq(dt_build(m, &o, &st), 0);
+    ck_assert_uint_eq(st.duplicates, expect_dups);
+    ck_assert_uint_eq(st.inserted + st.duplicates, m->nv - 1);
+    vf_report r = {0};
+    ck_assert_int_eq(vf_check(m, VF_ALL, &r), 0);
+    if (vf_defects(&r))
+        vf_print(&r, stderr);
+    ck_assert_uint_eq(vf_defects(&r), 0);
+    ck_assert_uint_eq(r.used_vertices, st.inserted);
+    ck_assert_uint_eq(r.duplicates, expect_dups);
+    ck_assert_uint_gt(r.tets, 0);
+    ck_assert_uint_eq(r.hull_faces, m->nghost);
+    ck_assert_uint_gt(r.probes, 0);
+}
+
+START_TEST(random_points)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    rng_state = 1;
+    for (int i = 0; i < 3000; i++)
+        add(&m, rnd01(), rnd01(), rnd01());
+    build_and_check(&m, 0);
+    /* Euler: for a triangulated ball V - E + F - T = 1, and for random
+     * points T is about 6.5 V. */
+    ck_assert_uint_gt(m.nlive - m.nghost, 5 * 3000);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(grid_8x8x8)
+{
+    /* Every cube's eight corners are cospherical and many points are
+     * coplanar with hull faces: symbolic perturbation decides all ties. */
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    for (int i = 0; i < 8; i++)
+        for (int j = 0; j < 8; j++)
+            for (int k = 0; k < 8; k++)
+                add(&m, i, j, k);
+    build_and_check(&m, 0);
+    /* 7^3 cubes, each split into 5 or 6 tets of total volume 1: the tet
+     * count is between 5 and 6 per cube. */
+    size_t real = m.nlive - m.nghost;
+    ck_assert_uint_ge(real, 5 * 343);
+    ck_assert_uint_le(real, 6 * 343);
+    /* The hull is the cube's surface: 6 faces of 7x7 squares, 2 triangles
+     * each. */
+    ck_assert_uint_eq(m.nghost, 6 * 49 * 2);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(points_on_a_sphere)
+{
+    /* All lattice points of x^2+y^2+z^2 = 2*3*5*7*11*... exactly
+     * cospherical: every insphere test is a tie. */
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    int n = 0;
+    for (int x = -20; x <= 20; x++)
+        for (int y = -20; y <= 20; y++)
+            for (int z = -20; z <= 20; z++)
+                if (x * x + y * y + z * z == 339) {
+                    add(&m, x, y, z);
+                    n++;
+                }
+    ck_assert_int_gt(n, 50);
+    build_and_check(&m, 0);
+    /* Nothing inside: every tet touches... the center is covered once. */
+    tm_free(&m);
+
+    /* Random points on the unit sphere (near-cospherical) plus the center. */
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    rng_state = 2;
+    for (int i = 0; i < 1500; i++) {
+        double z = 2 * rnd01() - 1, t = 2 * M_PI * rnd01(), r = sqrt(1 - z * z);
+        add(&m, r * cos(t), r * sin(t), z);
+    }
+    add(&m, 0, 0, 0);
+    build_and_check(&m, 0);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(points_on_a_few_planes)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    rng_state = 3;
+    /* Three parallel planes with random points, a tilted plane with grid
+     * points, and a plane containing a hull face. */
+    for (int i = 0; i < 400; i++)
+        add(&m, rnd01(), rnd01(), (double)(i % 3) * 0.5);
+    for (int i = 0; i < 10; i++)
+        for (int j = 0; j < 10; j++)
+            add(&m, i * 0.125, j * 0.125, (i + j) * 0.0625);
+    for (int i = 0; i < 50; i++)
+        add(&m, rnd01() * 2 - 0.5, -0.5, rnd01());
+    build_and_check(&m, 0);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(duplicates_are_skipped_and_counted)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    rng_state = 4;
+    double pts[500][3];
+    for (int i = 0; i < 500; i++) {
+        for (int k = 0; k < 3; k++)
+            pts[i][k] = rnd01();
+        add(&m, pts[i][0], pts[i][1], pts[i][2]);
+    }
+    for (int i = 0; i < 500; i += 5)
+        add(&m, pts[i][0], pts[i][1], pts[i][2]);
+    build_and_check(&m, 100);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(degenerate_inputs_are_refused)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    for (int i = 0; i < 20; i++)
+        add(&m, i, 2 * i, 0.5 * i + 3); /* collinear */
+    ck_assert_int_eq(dt_build(&m, NULL, NULL), PDR_EGEOMETRY);
+    tm_free(&m);
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    for (int i = 0; i < 10; i++)
+        for (int j = 0; j < 10; j++)
+            add(&m, i, j, i + j); /* coplanar */
+    ck_assert_int_eq(dt_build(&m, NULL, NULL), PDR_EGEOMETRY);
+    tm_free(&m);
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    add(&m, 0, 0, 0);
+    add(&m, 1, 0, 0);
+    add(&m, 0, 1, 0);
+    ck_assert_int_eq(dt_build(&m, NULL, NULL), PDR_EGEOMETRY);
+    tm_free(&m);
+}
+END_TEST
+
+static void random_mesh(tm_mesh *m, int n, uint64_t seed, unsigned features)
+{
+    ck_assert_int_eq(tm_init(m, features), 0);
+    rng_state = seed;
+    for (int i = 0; i < n; i++)
+        add(m, rnd01(), rnd01(), rnd01());
+    ck_assert_int_eq(dt_build(m, NULL, NULL), 0);
+}
+
+static void assert_clean(const tm_mesh *m)
+{
+    vf_report r = {0};
+    ck_assert_int_eq(vf_check(m, VF_ALL, &r), 0);
+    if (vf_defects(&r))
+        vf_print(&r, stderr);
+    ck_assert_uint_eq(vf_defects(&r), 0);
+    for (uint32_t t = 0; t < m->nslots; t++)
+        ck_assert(!(m->flags[t] & TM_F_CAVITY));
+}
+
+START_TEST(search_then_abandon_leaves_the_mesh_unchanged)
+{
+    tm_mesh m;
+    random_mesh(&m, 800, 5, 0);
+    uint32_t live = m.nlive, slots = m.nslots;
+    dt_cavity c;
+    dt_cavity_init(&c);
+    double p[3] = {0.5, 0.5, 0.5};
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert_uint_gt(c.ntets, 0);
+    ck_assert_uint_ge(c.nbnd, 4);
+    for (size_t i = 0; i < c.ntets; i++) {
+        ck_assert(m.flags[c.tets[i]] & TM_F_CAVITY);
+        ck_assert_int_gt(dt_conflict(&m, c.tets[i], p), 0);
+    }
+    for (size_t i = 0; i < c.nbnd; i++) {
+        ck_assert_int_eq(c.bnd[i].reason, DT_BND_OUTSIDE);
+        ck_assert_int_lt(dt_conflict(&m, tm_ltet(c.bnd[i].outer), p), 0);
+    }
+    ck_assert(dt_cavity_is_star(&m, &c));
+    dt_cavity_abandon(&m, &c);
+    ck_assert_uint_eq(m.nlive, live);
+    ck_assert_uint_eq(m.nslots, slots);
+    assert_clean(&m);
+
+    /* Now commit the same point: Euler for a star of a point inside. */
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    size_t ncav = c.ntets, nb = c.nbnd;
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+    ck_assert_int_eq(dt_cavity_commit(&m, v, &c), 0);
+    ck_assert_uint_eq(c.nnew, nb);
+    ck_assert_uint_eq(m.nlive, live - ncav + nb);
+    for (size_t i = 0; i < c.nnew; i++)
+        ck_assert_uint_eq(m.tets[c.newtets[i]].v[3], v);
+    assert_clean(&m);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(single_insertions_inside_and_outside_the_hull)
+{
+    tm_mesh m;
+    random_mesh(&m, 500, 6, 0);
+    dt_cavity c;
+    dt_cavity_init(&c);
+    rng_state = 60;
+    for (int i = 0; i < 300; i++) {
+        /* Some inside, some far outside (the hull grows), some on the
+         * planes of the cube's faces. */
+        double p[3] = {rnd01() * 3 - 1, rnd01() * 3 - 1, rnd01() * 3 - 1};
+        if (i % 3 == 0)
+            p[i % 9 / 3] = 2.0;
+        uint32_t v;
+        ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+        ck_assert_int_eq(dt_insert(&m, v, m.vhint[v - 1], &c), 0);
+        ck_assert_int_eq(c.status, DT_OK);
+    }
+    assert_clean(&m);
+    /* Inserting an existing vertex again is refused. */
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, tm_xyz(&m, 17), &v), 0);
+    ck_assert_int_eq(dt_insert(&m, v, TM_NONE, &c), 0);
+    ck_assert_int_eq(c.status, DT_DUPLICATE);
+    ck_assert_uint_eq(c.dup_vertex, 17);
+    ck_assert_uint_eq(m.vhint[v], TM_NONE);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+/* Finds the live tet and face holding the vertex set {a,b,c}. */
+static int find_face(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *t, int *f)
+{
+    for (uint32_t u = 0; u < m->nslots; u++) {
+        if (tm_is_dead(m, u))
+            continue;
+        for (int i = 0; i < 4; i++) {
+            int hits = 0;
+            for (int s = 0; s < 3; s++) {
+                uint32_t w = m->tets[u].v[tm_face_vtx[i][s]];
+                hits += w == a || w == b || w == c;
+            }
+            if (hits == 3) {
+                *t = u;
+                *f = i;
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+START_TEST(marked_faces_stop_the_search_and_move_with_commit)
+{
+    tm_mesh m;
+    random_mesh(&m, 600, 7, TM_FEAT_MARKERS);
+    dt_cavity c;
+    dt_cavity_init(&c);
+    double p[3] = {0.41, 0.52, 0.47};
+    /* Mark an interior face inside p's cavity: the search must stop there. */
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    ck_assert_uint_gt(c.ntets, 2);
+    uint32_t t = TM_NONE;
+    int f = -1;
+    for (size_t i = 0; i < c.ntets && t == TM_NONE; i++)
+        for (int j = 0; j < 4; j++) {
+            tm_link l = m.tets[c.tets[i]].n[j];
+            if (c.tets[i] != c.located && !tm_is_ghost(&m, c.tets[i]) &&
+                (m.flags[tm_ltet(l)] & TM_F_CAVITY) && tm_ltet(l) == c.located) {
+                t = c.tets[i];
+                f = j;
+                break;
+            }
+        }
+    ck_assert_uint_ne(t, TM_NONE);
+    dt_cavity_abandon(&m, &c);
+    uint32_t fa = m.tets[t].v[tm_face_vtx[f][0]], fb = m.tets[t].v[tm_face_vtx[f][1]],
+             fc = m.tets[t].v[tm_face_vtx[f][2]];
+    tm_mark_face(&m, t, f, 42);
+
+    ck_assert_int_eq(dt_cavity_search(&m, p, c.located, DT_STOP_MARKED, &c), 0);
+    int marked = 0;
+    for (size_t i = 0; i < c.nbnd; i++)
+        if (c.bnd[i].reason == DT_BND_MARKED) {
+            marked++;
+            ck_assert_int_eq(tm_face_marker(&m, c.bnd[i].tet, c.bnd[i].face), 42);
+        }
+    /* Reported from each side the search reached (a lone marked face in
+     * the middle of the volume can be walked around). */
+    ck_assert_int_ge(marked, 1);
+    ck_assert_int_le(marked, 2);
+    /* The cavity is cut by the marked face; commit only if p still sees
+     * every boundary face (then the marker must move to the new tet). */
+    if (dt_cavity_is_star(&m, &c)) {
+        uint32_t v;
+        ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+        ck_assert_int_eq(dt_cavity_commit(&m, v, &c), 0);
+        uint32_t t2;
+        int f2;
+        ck_assert(find_face(&m, fa, fb, fc, &t2, &f2));
+        ck_assert_int_eq(tm_face_marker(&m, t2, f2), 42);
+        tm_link l = m.tets[t2].n[f2];
+        ck_assert_int_eq(tm_face_marker(&m, tm_ltet(l), tm_lface(l)), 42);
+        vf_report r = {0};
+        vf_check(&m, VF_TOPOLOGY | VF_ORIENTATION | VF_HULL, &r);
+        ck_assert_uint_eq(vf_defects(&r), 0);
+    } else {
+        dt_cavity_abandon(&m, &c);
+        assert_clean(&m);
+    }
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(special_links_are_reported_once_each)
+{
+    tm_mesh m;
+    random_mesh(&m, 400, 8, 0);
+    /* Without ghosts, the hull faces become domain boundary faces. */
+    tm_remove_ghosts(&m);
+    ck_assert_uint_eq(m.nghost, 0);
+    /* Turn one interior face into a remote face on both sides. */
+    dt_cavity c;
+    dt_cavity_init(&c);
+    double p[3] = {0.5, 0.5, 0.5};
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    uint32_t t = c.located;
+    dt_cavity_abandon(&m, &c);
+    tm_link l = m.tets[t].n[0];
+    ck_assert(!tm_is_special(l));
+    m.tets[t].n[0] = TM_LINK_REMOTE(7);
+    m.tets[tm_ltet(l)].n[tm_lface(l)] = TM_LINK_REMOTE(8);
+    ck_assert_int_eq(dt_cavity_search(&m, p, t, 0, &c), 0);
+    int remote = 0;
+    for (size_t i = 0; i < c.nbnd; i++)
+        if (c.bnd[i].reason == DT_BND_REMOTE) {
+            ck_assert(c.bnd[i].outer == TM_LINK_REMOTE(7) || c.bnd[i].outer == TM_LINK_REMOTE(8));
+            remote |= c.bnd[i].outer == TM_LINK_REMOTE(7) ? 1 : 2;
+            ck_assert_uint_eq(c.bnd[i].tet, c.bnd[i].outer == TM_LINK_REMOTE(7) ? t : tm_ltet(l));
+        }
+    ck_assert_int_ne(remote, 0); /* each side reported at most once (bits) */
+    for (size_t i = 0; i < c.nbnd; i++)
+        for (size_t j = 0; j < i; j++)
+            ck_assert(c.bnd[i].tet != c.bnd[j].tet || c.bnd[i].face != c.bnd[j].face);
+    dt_cavity_abandon(&m, &c);
+    /* A point near a corner reaches the domain boundary. */
+    double q[3] = {0.001, 0.002, 0.001};
+    ck_assert_int_eq(dt_cavity_search(&m, q, m.vhint[1], DT_LOCATE, &c), 0);
+    if (c.status == DT_OK) {
+        int domain = 0;
+        for (size_t i = 0; i < c.nbnd; i++)
+            domain += c.bnd[i].reason == DT_BND_DOMAIN;
+        ck_assert_int_gt(domain, 0);
+        dt_cavity_abandon(&m, &c);
+    } else {
+        ck_assert_int_eq(c.status, DT_OUTSIDE_DOMAIN);
+    }
+    vf_report r = {0};
+    vf_check(&m, VF_TOPOLOGY, &r);
+    ck_assert_uint_eq(r.remote_faces, 2);
+    ck_assert_uint_gt(r.domain_faces, 0);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(locked_tets_block_the_search)
+{
+    tm_mesh m;
+    random_mesh(&m, 300, 9, TM_FEAT_LOCKS);
+    dt_cavity c;
+    dt_cavity_init(&c);
+    c.lock_owner = 1;
+    double p[3] = {0.5, 0.5, 0.5};
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_LOCK, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert_uint_ge(c.nheld, c.ntets + 1);
+    uint32_t t = c.tets[c.ntets - 1];
+    dt_cavity_abandon(&m, &c);
+    for (uint32_t u = 0; u < m.nslots; u++)
+        ck_assert_uint_eq(m.lock[u], 0);
+    m.lock[t] = 2; /* another cavity holds it */
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_LOCK, &c), 0);
+    ck_assert_int_eq(c.status, DT_LOCKED);
+    ck_assert_uint_eq(c.blocker, t);
+    dt_cavity_abandon(&m, &c);
+    for (uint32_t u = 0; u < m.nslots; u++)
+        ck_assert_uint_eq(m.lock[u], u == t ? 2 : 0);
+    m.lock[t] = 0;
+    assert_clean(&m);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(verifier_finds_corruption)
+{
+    tm_mesh m;
+    random_mesh(&m, 300, 10, 0);
+    assert_clean(&m);
+    uint32_t t = 0;
+    while (tm_is_dead(&m, t) || tm_is_ghost(&m, t))
+        t++;
+    /* Swapping two vertices inverts the tet and breaks its faces. */
+    uint32_t x = m.tets[t].v[0];
+    m.tets[t].v[0] = m.tets[t].v[1];
+    m.tets[t].v[1] = x;
+    vf_report r = {0};
+    vf_check(&m, VF_ALL, &r);
+    ck_assert_uint_eq(r.inverted, 1);
+    ck_assert_uint_gt(r.face_mismatch, 0);
+    m.tets[t].v[1] = m.tets[t].v[0];
+    m.tets[t].v[0] = x;
+    /* An asymmetric link. */
+    tm_link saved = m.tets[t].n[2];
+    m.tets[t].n[2] = m.tets[t].n[3];
+    memset(&r, 0, sizeof r);
+    vf_check(&m, VF_ALL, &r);
+    ck_assert_uint_gt(r.bad_link, 0);
+    m.tets[t].n[2] = saved;
+    /* Moving a vertex breaks the Delaunay property (or orientation). */
+    uint32_t v = m.tets[t].v[2];
+    double keep[3];
+    memcpy(keep, tm_xyz(&m, v), sizeof keep);
+    m.xyz[3 * v] += 0.3;
+    memset(&r, 0, sizeof r);
+    vf_check(&m, VF_ALL, &r);
+    ck_assert_uint_gt(r.not_delaunay + r.inverted + r.folded, 0);
+    memcpy(m.xyz + 3 * v, keep, sizeof keep);
+    /* Deleting a tet opens a hole: faces without neighbours. */
+    assert_clean(&m);
+    tm_delete_tet(&m, t);
+    memset(&r, 0, sizeof r);
+    vf_check(&m, VF_ALL, &r);
+    ck_assert_uint_eq(r.domain_faces, 4);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(link_faces_and_ghosts_rebuild_the_same_mesh)
+{
+    tm_mesh m;
+    random_mesh(&m, 500, 11, 0);
+    size_t tets = m.nlive - m.nghost, ghosts = m.nghost;
+    tm_remove_ghosts(&m);
+    for (uint32_t t = 0; t < m.nslots; t++)
+        if (!tm_is_dead(&m, t))
+            for (int i = 0; i < 4; i++)
+                m.tets[t].n[i] = TM_LINK_UNSET;
+    size_t bad = 9, open = 9;
+    ck_assert_int_eq(tm_link_faces(&m, &bad), 0);
+    ck_assert_uint_eq(bad, 0);
+    ck_assert_int_eq(tm_add_ghosts(&m, &open), 0);
+    ck_assert_uint_eq(open, 0);
+    ck_assert_uint_eq(m.nghost, ghosts);
+    ck_assert_uint_eq(m.nlive - m.nghost, tets);
+    tm_rebuild_hints(&m);
+    assert_clean(&m);
+    /* ...and the rebuilt mesh takes further insertions. */
+    dt_cavity c;
+    dt_cavity_init(&c);
+    double p[3] = {0.3, 0.3, 0.3};
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+    ck_assert_int_eq(dt_insert(&m, v, TM_NONE, &c), 0);
+    assert_clean(&m);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(hilbert_curve_steps_to_neighbours)
+{
+    /* Along the curve, consecutive cells of an 8x8x8 grid are adjacent. */
+    static int cell[512][3];
+    for (int x = 0; x < 8; x++)
+        for (int y = 0; y < 8; y++)
+            for (int z = 0; z < 8; z++) {
+                uint64_t h = ss_hilbert3((uint32_t)x, (uint32_t)y, (uint32_t)z, 3);
+                ck_assert_uint_lt(h, 512);
+                cell[h][0] = x;
+                cell[h][1] = y;
+                cell[h][2] = z;
+            }
+    for (int i = 1; i < 512; i++) {
+        int d = abs(cell[i][0] - cell[i - 1][0]) + abs(cell[i][1] - cell[i - 1][1]) +
+                abs(cell[i][2] - cell[i - 1][2]);
+        ck_assert_int_eq(d, 1);
+    }
+    /* BRIO gives a permutation. */
+    double xyz[3 * 5000];
+    rng_state = 12;
+    for (int i = 0; i < 3 * 5000; i++)
+        xyz[i] = rnd01();
+    uint32_t order[5000];
+    static unsigned char seen[5000];
+    ck_assert_int_eq(ss_brio_hilbert(xyz, 5000, 1, 100, order), 0);
+    for (int i = 0; i < 5000; i++) {
+        ck_assert_uint_lt(order[i], 5000);
+        ck_assert(!seen[order[i]]);
+        seen[order[i]] = 1;
+    }
+}
+END_TEST
+
+static Suite *delaunay_suite(void)
+{
+    Suite *s = suite_create("delaunay");
+    TCase *tc = tcase_create("build");
+    tcase_set_timeout(tc, 120);
+    tcase_add_test(tc, random_points);
+    tcase_add_test(tc, grid_8x8x8);
+    tcase_add_test(tc, points_on_a_sphere);
+    tcase_add_test(tc, points_on_a_few_planes);
+    tcase_add_test(tc, duplicates_are_skipped_and_counted);
+    tcase_add_test(tc, degenerate_inputs_are_refused);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("insert");
+    tcase_set_timeout(tc, 120);
+    tcase_add_test(tc, search_then_abandon_leaves_the_mesh_unchanged);
+    tcase_add_test(tc, single_insertions_inside_and_outside_the_hull);
+    tcase_add_test(tc, marked_faces_stop_the_search_and_move_with_commit);
+    tcase_add_test(tc, special_links_are_reported_once_each);
+    tcase_add_test(tc, locked_tets_block_the_search);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("verify");
+    tcase_set_timeout(tc, 120);
+    tcase_add_test(tc, verifier_finds_corruption);
+    tcase_add_test(tc, link_faces_and_ghosts_rebuild_the_same_mesh);
+    tcase_add_test(tc, hilbert_curve_steps_to_neighbours);
+    suite_add_tcase(s, tc);
+    return s;
+}
+
+UNIT_MAIN(delaunay_suite)
