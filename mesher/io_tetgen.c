@@ -344,6 +344,30 @@ int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
     return close_w(&of, w, diag);
 }
 
+int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr, long first,
+                      pdr_diag *diag)
+{
+    outfile of;
+    wbuf *w;
+    int rc = open_w(path, &of, &w, diag);
+    if (rc)
+        return rc;
+    wstr(w, "# written by pdr\n");
+    wlong(w, (long)m->nt);
+    wlong(w, 4);
+    wlong(w, attr ? 1 : 0);
+    wnl(w);
+    for (size_t t = 0; t < m->nt; t++) {
+        wlong(w, (long)t + first);
+        for (int s = 0; s < 4; s++)
+            wlong(w, (long)m->tet[t][s] + first);
+        if (attr)
+            wdouble(w, attr[t]);
+        wnl(w);
+    }
+    return close_w(&of, w, diag);
+}
+
 int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
 {
     outfile of;
