@@ -14,7 +14,8 @@
     X(info, "print the version, build configuration and libraries")          \
     X(delaunay, "Delaunay tetrahedralization of a point set (.node)")        \
     X(check, "verify a tetrahedral mesh (.node/.ele) with exact predicates") \
-    X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")
+    X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")   \
+    X(mesh, "quality tetrahedral mesh of a PLC (.poly/.smesh/.off/.stl)")
 
 #define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
 PDR_COMMANDS(PDR_CMD_DECLARE)
