@@ -471,10 +471,7 @@ int pdr_cmd_mesh(int argc, char **argv)
     }
     size_t v0 = r.m.nv;
     if (!mo_only) {
-        rc = ref_queue_all_tets(&r);
-        if (!rc)
-            rc = ref_run(&r, 1);
-        if (rc)
+        if ((rc = ref_refine(&r)))
             goto fail;
     }
     double t_ref = pdr_now();

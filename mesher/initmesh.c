@@ -246,136 +246,6 @@ double im_paper_d(const plc *p)
     return sqrt(best) / M_SQRT2;
 }
 
-/* ---------------------------------------------------- classification */
-
-static int push(uint32_t **st, size_t *n, size_t *cap, uint32_t t)
-{
-    if (*n == *cap) {
-        size_t c = *cap ? *cap * 2 : 1024;
-        uint32_t *s = realloc(*st, c * sizeof *s);
-        if (!s)
-            return PDR_ENOMEM;
-        *st = s;
-        *cap = c;
-    }
-    (*st)[(*n)++] = t;
-    return 0;
-}
-
-/* Spreads state s (and region g) from the tetrahedra on the stack over
- * faces that are not subfacets. */
-static int flood(ref_mesher *r, uint8_t *state, uint8_t s, uint16_t g, uint32_t **st, size_t *n,
-                 size_t *cap)
-{
-    tm_mesh *m = &r->m;
-    while (*n) {
-        uint32_t t = (*st)[--*n];
-        for (int k = 0; k < 4; k++) {
-            if (m->flags[t] & TM_F_FACEMARK(k))
-                continue;
-            tm_link l = m->tets[t].n[k];
-            if (tm_is_special(l))
-                continue;
-            uint32_t u = tm_ltet(l);
-            if (state[u])
-                continue;
-            state[u] = s;
-            if (r->region && s == 2)
-                r->region[u] = g;
-            if (push(st, n, cap, u))
-                return PDR_ENOMEM;
-        }
-    }
-    return 0;
-}
-
-/* Seeds the flood at the tetrahedron containing point x; returns 1 if it
- * was seeded, 0 if x is outside the hull or already classified. */
-static int seed(ref_mesher *r, const double *x, uint8_t *state, uint8_t s, uint16_t g,
-                uint32_t **st, size_t *n, size_t *cap, int *rc)
-{
-    tm_mesh *m = &r->m;
-    uint32_t t;
-    tm_link exit;
-    int l = dt_locate(m, x, TM_NONE, &t, &exit);
-    *rc = 0;
-    if (l != 0) {
-        *rc = l < 0 ? l : 0;
-        return 0;
-    }
-    if (tm_is_ghost(m, t) || state[t])
-        return 0;
-    state[t] = s;
-    if (r->region && s == 2)
-        r->region[t] = g;
-    *rc = push(st, n, cap, t);
-    if (!*rc)
-        *rc = flood(r, state, s, g, st, n, cap);
-    return 1;
-}
-
-int im_classify(ref_mesher *r, size_t *unreached, pdr_diag *diag)
-{
-    tm_mesh *m = &r->m;
-    const plc *p = r->p;
-    int rc = ref_region_room(r);
-    if (rc)
-        return rc;
-    uint8_t *state = calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */
-    uint32_t *st = NULL;
-    size_t n = 0, cap = 0;
-    if (!state)
-        return PDR_ENOMEM;
-    if (r->region)
-        memset(r->region, 0, r->region_cap * sizeof *r->region);
-    /* Outside: everything reachable from the hull without crossing a
-     * subfacet. */
-    for (uint32_t t = 0; t < m->nslots && !rc; t++)
-        if (!tm_is_dead(m, t) && tm_is_ghost(m, t)) {
-            state[t] = 1;
-            rc = push(&st, &n, &cap, t);
-        }
-    if (!rc)
-        rc = flood(r, state, 1, 0, &st, &n, &cap);
-    for (size_t h = 0; h < p->nhole && !rc; h++)
-        seed(r, p->holes[h].xyz, state, 1, 0, &st, &n, &cap, &rc);
-    size_t lost = 0;
-    for (size_t j = 0; j < p->nregion && !rc; j++) {
-        uint32_t t;
-        tm_link exit;
-        int l = dt_locate(m, p->regions[j].xyz, TM_NONE, &t, &exit);
-        if (l < 0) {
-            rc = l;
-            break;
-        }
-        if (l != 0 || tm_is_ghost(m, t) || state[t] == 1) {
-            lost++;
-            pdr_diag_add(diag, p->path, p->regions[j].line,
-                         "warning: region point %zu lies outside the domain; ignored", j + 1);
-            continue;
-        }
-        if (state[t] == 2)
-            continue; /* a region already seeded by an earlier point */
-        seed(r, p->regions[j].xyz, state, 2, (uint16_t)(j + 1), &st, &n, &cap, &rc);
-    }
-    if (!rc) {
-        for (uint32_t t = 0; t < m->nslots; t++) {
-            if (tm_is_dead(m, t))
-                continue;
-            if (state[t] == 1)
-                m->flags[t] |= REF_F_EXTERIOR;
-            else
-                m->flags[t] &= (uint16_t)~REF_F_EXTERIOR;
-        }
-        r->classified = 1;
-    }
-    if (unreached)
-        *unreached = lost;
-    free(st);
-    free(state);
-    return rc;
-}
-
 /* ------------------------------------------------------------- build */
 
 double im_interior_volume(const ref_mesher *r)
@@ -525,7 +395,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
     s.recovery_seconds = t2 - t1;
-    rc = im_classify(r, &s.unreached_regions, diag);
+    rc = ref_classify(r, &s.unreached_regions, NULL, diag);
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)
@@ -542,9 +412,7 @@ int im_mo_size(ref_mesher *r, size_t ntets)
     /* Delaunay refinement under a volume bound a leaves tetrahedra of
      * about a / 2.5 on average (measured on the model problems). */
     r->o.maxvol = 2.5 * vol / (double)ntets;
-    int rc = ref_queue_all_tets(r);
-    if (!rc)
-        rc = ref_run(r, 1);
+    int rc = ref_refine(r);
     r->o.maxvol = save;
     return rc;
 }

@@ -63,10 +63,6 @@ typedef struct im_stats {
  * outside the domain) go to diag too. */
 int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag);
 
-/* Flags exterior and hole tetrahedra and assigns regions (used by
- * im_build; public so tests can rebuild the classification). */
-int im_classify(ref_mesher *r, size_t *unreached, pdr_diag *diag);
-
 /* The paper's d: the smallest distance between two disjoint features of p
  * (vertices, segments, facets), divided by sqrt 2; INFINITY if there is
  * no such pair. p must be validated. */

@@ -591,6 +591,8 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
     double q = ref_tet_ratio2(a, b, c, d, &vol, &lmax2, cc);
     if (ratio2)
         *ratio2 = q;
+    if (flat_on_facet(r, v))
+        return 3;
     if (r->b2 > 0 && q >= r->b2)
         return 1;
     double mv = region_maxvol(r, t);
@@ -600,8 +602,6 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
         return 1;
     if (r->sin_min > 0 && min_dihedral_sin(a, b, c, d) < r->sin_min)
         return 2;
-    if (flat_on_facet(r, v))
-        return 3;
     return 0;
 }
 
@@ -1063,7 +1063,8 @@ static int add_root(void *arg, uint32_t s)
  * (a breadth-first walk over the faces containing a) until one has b and
  * c too (c == TM_NONE: edge ab). Slow, used where no cavity tells where
  * to look (the initial mesh, rare repairs). */
-static int find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout)
+static int find_in_star4(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d,
+                         uint32_t *tout)
 {
     uint32_t start = m->vhint[a];
     if (start == TM_NONE)
@@ -1076,7 +1077,8 @@ static int find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, ui
         uint32_t t = stack[head++];
         const tm_tet *T = &m->tets[t];
         int sa = slot_in(T, a);
-        if (slot_in(T, b) >= 0 && (c == TM_NONE || slot_in(T, c) >= 0)) {
+        if (slot_in(T, b) >= 0 && (c == TM_NONE || slot_in(T, c) >= 0) &&
+            (d == TM_NONE || slot_in(T, d) >= 0)) {
             *tout = t;
             found = 1;
             break;
@@ -1106,6 +1108,11 @@ static int find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, ui
     if (stack != stackbuf)
         free(stack);
     return found;
+}
+
+static int find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout)
+{
+    return find_in_star4(m, a, b, c, TM_NONE, tout);
 }
 
 static int set_subseg_bit(const tm_mesh *m, uint32_t t, void *arg)
@@ -1221,6 +1228,47 @@ static int repair_and_queue(ref_mesher *r, uint32_t *ids, size_t n)
     return rc;
 }
 
+/* Gives tetrahedron dst the region (and exterior flag) of src. */
+static void copy_region(ref_mesher *r, uint32_t dst, uint32_t src)
+{
+    tm_mesh *m = &r->m;
+    if ((m->flags[src] & REF_F_EXTERIOR) || tm_is_ghost(m, src))
+        m->flags[dst] |= REF_F_EXTERIOR;
+    else
+        m->flags[dst] &= (uint16_t)~REF_F_EXTERIOR;
+    if (r->region)
+        r->region[dst] = r->region[src];
+}
+
+/* Regions of the new tetrahedra of a boundary insertion, once their
+ * subfacets are marked. commit_point gave each the region of the cavity
+ * tetrahedron it was built on: both lie on the same side of that face,
+ * next to it, which is the right region wherever "the same side of a
+ * face" means "the same side of the facet". A tetrahedron lying flat on a
+ * facet that is not axis-aligned (four vertices cocircular up to rounding)
+ * has no such side: it takes the region of a neighbour across an
+ * unmarked face, to which it is joined without crossing a facet. (Spreading
+ * regions across unmarked faces in general would be wrong while a subfacet
+ * is missing: the faces where it should be are not marked yet.) */
+static int reclassify_new(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    const dt_cavity *c = &r->cav;
+    for (size_t i = 0; i < c->nnew; i++) {
+        uint32_t n = c->newtets[i];
+        if (tm_is_ghost(m, n) || !flat_on_facet(r, m->tets[n].v))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[n].n[k];
+            if ((m->flags[n] & TM_F_FACEMARK(k)) || tm_is_special(l))
+                continue;
+            copy_region(r, n, tm_ltet(l));
+            break;
+        }
+    }
+    return 0;
+}
+
 /* After committing vertex v for a boundary split: replaces the 2D cavity
  * (r->list) by the fan of v over its boundary edges (r->bedge), replaces
  * subsegment split_id (if not BD_NONE) by its two halves, attaches the new
@@ -1318,6 +1366,8 @@ static int update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
             }
         }
     }
+    if (!rc && r->classified)
+        rc = reclassify_new(r);
     return rc;
 }
 
@@ -1336,7 +1386,7 @@ enum { SPLIT_DONE = 0, SPLIT_DEFERRED = 1, SPLIT_REFUSED = 2 };
  * at a power-of-two distance from it nearest to the midpoint (Ruppert's
  * concentric shells: splits from both sides of an acute corner then meet
  * on common spheres and do not cascade). */
-static void split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3])
+void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3])
 {
     const tm_mesh *m = &r->m;
     const double *pa = X(m, a), *pb = X(m, b);
@@ -1393,7 +1443,7 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     *result = SPLIT_REFUSED;
     int missing = (S.flags & BD_F_MISSING) != 0;
     double p[3];
-    split_point(r, S.v[0], S.v[1], p);
+    ref__split_point(r, S.v[0], S.v[1], p);
     int rc = dt_cavity_search(m, p, m->vhint[S.v[0]], DT_LOCATE, &r->cav);
     if (rc)
         return rc;
@@ -1431,6 +1481,7 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     if (g > 0)
         r->anomalies++; /* not expected for a point on the segment */
     uint32_t v;
+    r->last_op = "subsegment point";
     rc = commit_point(r, any, BD_V_SEGMENT, S.seg, rins, &v);
     if (rc) {
         list_clear(r);
@@ -1547,6 +1598,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0;
     }
     uint32_t v;
+    r->last_op = r->forced ? "subfacet point (forced 2D cavity)" : "subfacet point";
     rc = commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
     if (rc) {
         list_clear(r);
@@ -1630,6 +1682,10 @@ static int split_tet(ref_mesher *r, uint32_t t)
              * r/sqrt(2)): its splits are then never smaller than a
              * fixed fraction of the size bound. */
             double floor = fmin(sqrt(lmin) * fmin(1.0, 0.9 * r->o.ratio / M_SQRT2), 0.5 * rp);
+            /* A flat tetrahedron lying on a facet is a rounding artifact
+             * that only the split of that facet's subfacet removes. */
+            if (why == 3)
+                floor = 0;
             int outcome = SPLIT_REFUSED;
             if (d.action == REF_SPLIT_SUBSEGS) {
                 size_t done;
@@ -1653,6 +1709,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
         }
     }
     uint32_t v;
+    r->last_op = any & (TM_F_FACEMARKS | TM_F_SUBSEGS) ? "circumcentre (cavity with marks)"
+                                                        : "circumcentre";
     rc = commit_point(r, any, BD_V_VOLUME, 0, rp, &v);
     if (rc) {
         dt_cavity_abandon(m, &r->cav);
@@ -1700,25 +1758,27 @@ int ref_run(ref_mesher *r, int tets)
     while (!rc) {
         if ((++iter & 0x3fff) == 0 && r->o.progress)
             r->o.progress(r->o.progress_arg, r);
-        if (cons && ref_consistency(r, stderr)) {
-            fprintf(stderr, "pdr: refinement tables disagree with the mesh after step %zu\n",
-                    iter);
+        if (cons && ref_consistency(r, stderr, 0)) {
+            fprintf(stderr, "pdr: refinement tables disagree with the mesh after step %zu (%s)\n",
+                    iter, r->last_op);
             abort();
         }
         if (trace && iter % trace == 0)
             fprintf(stderr,
-                    "trace %zu: nv %u segq %zu facq %zu tetq %zu | seg %zu fac %zu tet %zu "
+                    "trace %zu (%s): nv %u segq %zu facq %zu tetq %zu | seg %zu fac %zu tet %zu "
                     "rej %zu tol %zu gave %zu miss %zu anom %zu flips %zu\n",
-                    iter, r->m.nv, r->segq.n - r->segq.head, r->facq.n - r->facq.head,
+                    iter, r->last_op ? r->last_op : "-", r->m.nv, r->segq.n - r->segq.head, r->facq.n - r->facq.head,
                     r->tetq.n - r->tetq.head, r->st.seg_points, r->st.fac_points,
                     r->st.tet_points, r->st.rejected, r->st.tolerated, r->st.gave_up,
                     r->st.missing_recovered, r->anomalies, r->flips);
         float rmin;
         if (!q_empty(&r->segq)) {
             uint32_t id = q_pop(&r->segq, 0, &rmin);
+            r->last_op = "subsegment";
             rc = process_seg(r, id, rmin);
         } else if (!q_empty(&r->facq)) {
             uint32_t id = q_pop(&r->facq, 0, &rmin);
+            r->last_op = "subfacet";
             rc = process_fac(r, id, rmin);
         } else if (tets && r->classified && !q_empty(&r->tetq)) {
             uint32_t t = q_pop(&r->tetq, lifo, NULL);
@@ -1727,11 +1787,170 @@ int ref_run(ref_mesher *r, int tets)
             m->flags[t] &= (uint16_t)~TM_F_QUEUED;
             if (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP))
                 continue;
+            r->last_op = "tetrahedron";
             rc = split_tet(r, t);
         } else {
             break;
         }
     }
+    return rc;
+}
+
+/* ---------------------------------------------------- classification */
+
+/* Classification is a flood fill over faces that are not subfacets: from
+ * the ghosts (the outside), from every hole point, and, with a region
+ * number, from every region point; what is left is inside, with no
+ * region. */
+
+static int push(uint32_t **st, size_t *n, size_t *cap, uint32_t t)
+{
+    if (*n == *cap) {
+        size_t c = *cap ? *cap * 2 : 1024;
+        uint32_t *s = realloc(*st, c * sizeof *s);
+        if (!s)
+            return PDR_ENOMEM;
+        *st = s;
+        *cap = c;
+    }
+    (*st)[(*n)++] = t;
+    return 0;
+}
+
+/* Spreads state s (and region g) from the tetrahedra on the stack over
+ * faces that are not subfacets. */
+static int flood(ref_mesher *r, uint8_t *state, uint8_t s, uint16_t g, uint32_t **st, size_t *n,
+                 size_t *cap)
+{
+    tm_mesh *m = &r->m;
+    while (*n) {
+        uint32_t t = (*st)[--*n];
+        for (int k = 0; k < 4; k++) {
+            if (m->flags[t] & TM_F_FACEMARK(k))
+                continue;
+            tm_link l = m->tets[t].n[k];
+            if (tm_is_special(l))
+                continue;
+            uint32_t u = tm_ltet(l);
+            if (state[u])
+                continue;
+            state[u] = s;
+            if (r->region && s == 2)
+                r->region[u] = g;
+            if (push(st, n, cap, u))
+                return PDR_ENOMEM;
+        }
+    }
+    return 0;
+}
+
+/* Seeds the flood at the tetrahedron containing point x; returns 1 if it
+ * was seeded, 0 if x is outside the hull or already classified. */
+static int seed(ref_mesher *r, const double *x, uint8_t *state, uint8_t s, uint16_t g,
+                uint32_t **st, size_t *n, size_t *cap, int *rc)
+{
+    tm_mesh *m = &r->m;
+    uint32_t t;
+    tm_link exit;
+    int l = dt_locate(m, x, TM_NONE, &t, &exit);
+    *rc = 0;
+    if (l != 0) {
+        *rc = l < 0 ? l : 0;
+        return 0;
+    }
+    if (tm_is_ghost(m, t) || state[t])
+        return 0;
+    state[t] = s;
+    if (r->region && s == 2)
+        r->region[t] = g;
+    *rc = push(st, n, cap, t);
+    if (!*rc)
+        *rc = flood(r, state, s, g, st, n, cap);
+    return 1;
+}
+
+int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *diag)
+{
+    tm_mesh *m = &r->m;
+    const plc *p = r->p;
+    int rc = ref_region_room(r);
+    if (rc)
+        return rc;
+    uint8_t *state = calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */
+    uint32_t *st = NULL;
+    size_t n = 0, cap = 0;
+    if (!state)
+        return PDR_ENOMEM;
+    /* the previous regions, to count changes: a copy of the region array
+     * (the exterior flags stay on the mesh until the end) */
+    uint16_t *old = NULL;
+    if (r->region && r->classified) {
+        old = malloc(r->region_cap * sizeof *old);
+        if (!old) {
+            free(state);
+            return PDR_ENOMEM;
+        }
+        memcpy(old, r->region, r->region_cap * sizeof *old);
+    }
+    if (r->region)
+        memset(r->region, 0, r->region_cap * sizeof *r->region);
+    /* Outside: everything reachable from the hull without crossing a
+     * subfacet. */
+    for (uint32_t t = 0; t < m->nslots && !rc; t++)
+        if (!tm_is_dead(m, t) && tm_is_ghost(m, t)) {
+            state[t] = 1;
+            rc = push(&st, &n, &cap, t);
+        }
+    if (!rc)
+        rc = flood(r, state, 1, 0, &st, &n, &cap);
+    for (size_t h = 0; h < p->nhole && !rc; h++)
+        seed(r, p->holes[h].xyz, state, 1, 0, &st, &n, &cap, &rc);
+    size_t lost = 0;
+    for (size_t j = 0; j < p->nregion && !rc; j++) {
+        uint32_t t;
+        tm_link exit;
+        int l = dt_locate(m, p->regions[j].xyz, TM_NONE, &t, &exit);
+        if (l < 0) {
+            rc = l;
+            break;
+        }
+        if (l != 0 || tm_is_ghost(m, t) || state[t] == 1) {
+            lost++;
+            if (diag)
+                pdr_diag_add(diag, p->path, p->regions[j].line,
+                             "warning: region point %zu lies outside the domain; ignored", j + 1);
+            continue;
+        }
+        if (state[t] == 2)
+            continue; /* a region already seeded by an earlier point */
+        seed(r, p->regions[j].xyz, state, 2, (uint16_t)(j + 1), &st, &n, &cap, &rc);
+    }
+    size_t nchanged = 0;
+    if (!rc) {
+        for (uint32_t t = 0; t < m->nslots; t++) {
+            if (tm_is_dead(m, t))
+                continue;
+            uint16_t was = m->flags[t] & REF_F_EXTERIOR;
+            if (state[t] == 1)
+                m->flags[t] |= REF_F_EXTERIOR;
+            else
+                m->flags[t] &= (uint16_t)~REF_F_EXTERIOR;
+            if (r->classified && !tm_is_ghost(m, t) &&
+                (was != (m->flags[t] & REF_F_EXTERIOR) ||
+                 (old && state[t] != 1 && old[t] != r->region[t]))) {
+                nchanged++;
+                m->flags[t] &= (uint16_t)~REF_F_GIVEUP;
+            }
+        }
+        r->classified = 1;
+    }
+    if (unreached)
+        *unreached = lost;
+    if (changed)
+        *changed = nchanged;
+    free(old);
+    free(st);
+    free(state);
     return rc;
 }
 
@@ -1781,11 +2000,17 @@ int ref_queue_boundary(ref_mesher *r)
     return rc;
 }
 
-size_t ref_consistency(const ref_mesher *r, FILE *log)
+size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
 {
     const tm_mesh *m = &r->m;
     const bd_set *bd = &r->bd;
     size_t bad = 0;
+    /* While a subfacet is missing, the marks do not yet separate the
+     * regions there: check regions only when none is. */
+    int regions = r->classified && check_regions;
+    for (uint32_t i = 0; i < bd->nfacs && regions; i++)
+        if ((bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING)
+            regions = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
         if (tm_is_dead(m, t))
             continue;
@@ -1800,6 +2025,26 @@ size_t ref_consistency(const ref_mesher *r, FILE *log)
                 (int32_t)bd->facs[id].facet + 1 != m->marker[4 * (size_t)t + (size_t)k]) {
                 if (log)
                     fprintf(log, "marked face %u %u %u of tet %u is no live subfacet\n", a, b, c, t);
+                bad++;
+            }
+        }
+        /* regions change only across subfacets */
+        for (int k = 0; k < 4 && regions; k++) {
+            tm_link l = T->n[k];
+            if (tm_is_special(l) || (m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            uint32_t u = tm_ltet(l);
+            int et = (m->flags[t] & REF_F_EXTERIOR) || tm_is_ghost(m, t);
+            int eu = (m->flags[u] & REF_F_EXTERIOR) || tm_is_ghost(m, u);
+            if (et != eu || (r->region && !et && r->region[t] != r->region[u])) {
+                if (log)
+                    fprintf(log,
+                            "tets %u (%u %u %u %u, flags %x) and %u (%u %u %u %u, flags %x) "
+                            "differ in region across unmarked face %d (regions %d %d)\n",
+                            t, T->v[0], T->v[1], T->v[2], T->v[3], m->flags[t], u,
+                            m->tets[u].v[0], m->tets[u].v[1], m->tets[u].v[2], m->tets[u].v[3],
+                            m->flags[u], k, r->region ? r->region[t] : -1,
+                            r->region ? r->region[u] : -1);
                 bad++;
             }
         }
@@ -1837,6 +2082,29 @@ size_t ref_consistency(const ref_mesher *r, FILE *log)
         }
     }
     return bad;
+}
+
+int ref_refine(ref_mesher *r)
+{
+    int rc = ref_queue_all_tets(r);
+    if (!rc)
+        rc = ref_run(r, 1);
+    /* Regions follow the tetrahedra through every insertion; a flat
+     * tetrahedron on a facet that is not axis-aligned can pass on the
+     * wrong one (see reclassify_new). A fresh classification of the
+     * finished mesh is cheap: when it moves a tetrahedron, refinement
+     * resumes (that tetrahedron may need it now), at most a few times. */
+    for (int round = 0; round < 4 && !rc; round++) {
+        size_t changed = 0;
+        rc = ref_classify(r, NULL, &changed, NULL);
+        if (rc || !changed)
+            break;
+        r->st.reclassified += changed;
+        rc = ref_queue_all_tets(r);
+        if (!rc)
+            rc = ref_run(r, 1);
+    }
+    return rc;
 }
 
 size_t ref_interior_tets(const ref_mesher *r)
@@ -1976,29 +2244,52 @@ int ref_export(const ref_mesher *r, ref_output *out)
     for (uint32_t v = 1; v < m->nv; v++)
         if (out->vmap[v] != UINT32_MAX)
             memcpy(out->xyz[out->vmap[v]], X(m, v), sizeof out->xyz[0]);
-    size_t nf = 0;
-    for (uint32_t i = 0; i < bd->nfacs; i++) {
-        const bd_subfac *s = &bd->facs[i];
-        if (!(s->flags & BD_F_DEAD) && out->vmap[s->v[0]] != UINT32_MAX &&
-            out->vmap[s->v[1]] != UINT32_MAX && out->vmap[s->v[2]] != UINT32_MAX)
-            nf++;
-    }
-    out->tri = malloc((nf ? nf : 1) * sizeof *out->tri);
-    out->tri_marker = malloc((nf ? nf : 1) * sizeof *out->tri_marker);
-    out->tri_facet = malloc((nf ? nf : 1) * sizeof *out->tri_facet);
-    if (!out->tri || !out->tri_marker || !out->tri_facet)
-        goto nomem;
-    size_t j = 0;
-    for (uint32_t i = 0; i < bd->nfacs; i++) {
-        const bd_subfac *s = &bd->facs[i];
-        if ((s->flags & BD_F_DEAD) || out->vmap[s->v[0]] == UINT32_MAX ||
-            out->vmap[s->v[1]] == UINT32_MAX || out->vmap[s->v[2]] == UINT32_MAX)
-            continue;
-        for (int q = 0; q < 3; q++)
-            out->tri[j][q] = out->vmap[s->v[q]];
-        out->tri_marker[j] = r->p->facets[s->facet].marker;
-        out->tri_facet[j] = (int32_t)s->facet;
-        j++;
+    /* Subfacets with an interior tetrahedron on at least one side (a facet
+     * with the outside or a hole on both sides bounds nothing), taken from
+     * the marked faces of the interior tetrahedra, in the facet
+     * triangulation's orientation. */
+    size_t nf = 0, capf = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        if (pass == 1) {
+            capf = nf ? nf : 1;
+            out->tri = malloc(capf * sizeof *out->tri);
+            out->tri_marker = malloc(capf * sizeof *out->tri_marker);
+            out->tri_facet = malloc(capf * sizeof *out->tri_facet);
+            if (!out->tri || !out->tri_marker || !out->tri_facet)
+                goto nomem;
+            nf = 0;
+        }
+        for (uint32_t t = 0; t < m->nslots; t++) {
+            uint16_t fl = m->flags[t];
+            if (!(fl & TM_F_FACEMARKS) || (fl & (TM_F_DEAD | REF_F_EXTERIOR)) || tm_is_ghost(m, t))
+                continue;
+            const tm_tet *T = &m->tets[t];
+            for (int fi = 0; fi < 4; fi++) {
+                if (!(fl & TM_F_FACEMARK(fi)))
+                    continue;
+                tm_link l = T->n[fi];
+                if (!tm_is_special(l)) {
+                    uint32_t u = tm_ltet(l);
+                    if (u < t && !(m->flags[u] & REF_F_EXTERIOR) && !tm_is_ghost(m, u))
+                        continue; /* listed from u */
+                }
+                if (pass == 0) {
+                    nf++;
+                    continue;
+                }
+                uint32_t a = T->v[tm_face_vtx[fi][0]], b = T->v[tm_face_vtx[fi][1]],
+                         c = T->v[tm_face_vtx[fi][2]];
+                uint32_t id = bd_find_subfac(bd, a, b, c);
+                uint32_t tv[3] = {a, b, c};
+                const uint32_t *q = id != BD_NONE ? bd->facs[id].v : tv;
+                for (int j = 0; j < 3; j++)
+                    out->tri[nf][j] = out->vmap[q[j]];
+                int32_t f = m->marker[4 * (size_t)t + (size_t)fi] - 1;
+                out->tri_marker[nf] = r->p->facets[f].marker;
+                out->tri_facet[nf] = f;
+                nf++;
+            }
+        }
     }
     mesh_export *e = &out->view;
     e->nv = nv;

@@ -151,6 +151,7 @@ typedef struct ref_stats {
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
+    size_t reclassified; /* tetrahedra the final classification moved */
     /* after ref_count_bad() */
     size_t left_ratio;   /* interior tetrahedra with ratio >= bound */
     size_t left_ratio_angle;  /* ... left because their split needed a
@@ -214,6 +215,7 @@ typedef struct ref_mesher {
                           does not delete */
     size_t anomalies;  /* 2D cavities that were not star-shaped */
     size_t flips;      /* facet triangulation edges flipped to match T */
+    const char *last_op; /* what the last step split (for debugging) */
     uint32_t *miss;    /* new subfacets missing from T */
     size_t nmiss, cap_miss;
 } ref_mesher;
@@ -233,6 +235,20 @@ void ref_free(ref_mesher *r);
  * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY. */
 int ref_run(ref_mesher *r, int tets);
 
+/* Flags exterior and hole tetrahedra and assigns regions by flood fill
+ * over faces that are not subfacets, from the convex hull, the hole
+ * points and the region points (see initmesh.h). *unreached (if not NULL)
+ * counts region points outside the domain, each warned about in diag (if
+ * not NULL); *changed (if not NULL) counts tetrahedra whose region or
+ * exterior flag changed, on a mesh classified before. Returns 0 or
+ * PDR_ENOMEM/PDR_ETOPOLOGY. */
+int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *diag);
+
+/* The quality refinement of a classified mesh: queues the bad
+ * tetrahedra and splits until none is left (or those left are counted);
+ * then classifies again and resumes if that moved a tetrahedron. */
+int ref_refine(ref_mesher *r);
+
 /* Queues every bad interior tetrahedron (after classification). */
 int ref_queue_all_tets(ref_mesher *r);
 
@@ -246,9 +262,11 @@ void ref_count_bad(ref_mesher *r);
 
 /* Checks that the marks on the mesh and the subsegment/subfacet tables
  * agree (every mark is a live, present piece; every present subfacet is a
- * marked face). Returns the number of disagreements, each described on log
- * when not NULL. Slow: for tests and debugging. */
-size_t ref_consistency(const ref_mesher *r, FILE *log);
+ * marked face) and, with check_regions and no subfacet missing, that
+ * regions change only across subfacets. Returns the number of
+ * disagreements, each described on log when not NULL. Slow: for tests
+ * and debugging. */
+size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions);
 
 /* Number of interior (non-exterior, non-ghost) tetrahedra. */
 size_t ref_interior_tets(const ref_mesher *r);
@@ -270,6 +288,9 @@ typedef struct ref_quality {
 } ref_quality;
 
 void ref_quality_range(const mesh_export *e, ref_quality *q);
+
+/* Internal, for the tests: the point that splits subsegment ab. */
+void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
 /* ----------------------------------------------------------- export */
 

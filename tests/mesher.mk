@@ -65,3 +65,10 @@ TESTS += tests/test_delaunay
 tests_test_delaunay_SOURCES = tests/test_delaunay.c
 tests_test_delaunay_CFLAGS = $(UNIT_CFLAGS)
 tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+
+# The quality mesher (refine branch).
+check_PROGRAMS += tests/test_refine
+TESTS += tests/test_refine
+tests_test_refine_SOURCES = tests/test_refine.c
+tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
+tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
