@@ -29,6 +29,7 @@ static void usage(FILE *f)
             "  -o, --output BASE  write BASE.node and BASE.ele (TetGen format, numbered\n"
             "                     from the input's first index; 1 with --random)\n"
             "      --faces        also write the convex hull faces to BASE.face\n"
+            "      --points-only  write BASE.node (with --random: the points) and stop\n"
             "      --random N     use N points uniform in [0,1)^3 instead of a file\n"
             "      --seed S       seed of --random and of the insertion order (default 1)\n"
             "      --check        verify the result with exact predicates (as pdr check)\n"
@@ -81,6 +82,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
 {
     static const struct option opts[] = {{"output", required_argument, NULL, 'o'},
                                          {"faces", no_argument, NULL, 'F'},
+                                         {"points-only", no_argument, NULL, 'P'},
                                          {"random", required_argument, NULL, 'r'},
                                          {"seed", required_argument, NULL, 's'},
                                          {"check", no_argument, NULL, 'c'},
@@ -88,7 +90,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
                                          {"help", no_argument, NULL, 'h'},
                                          {NULL, 0, NULL, 0}};
     const char *out = NULL;
-    int faces = 0, check = 0, quiet = 0;
+    int faces = 0, check = 0, quiet = 0, points_only = 0;
     long long nrandom = -1;
     unsigned long long seed = 1;
     int c;
@@ -101,6 +103,9 @@ int pdr_cmd_delaunay(int argc, char **argv)
             break;
         case 'F':
             faces = 1;
+            break;
+        case 'P':
+            points_only = 1;
             break;
         case 'r':
             nrandom = strtoll(optarg, &end, 10);
@@ -144,8 +149,8 @@ int pdr_cmd_delaunay(int argc, char **argv)
         }
         in = argv[optind];
     }
-    if (faces && !out) {
-        pdr_cli_error("delaunay", "--faces needs -o BASE");
+    if ((faces || points_only) && !out) {
+        pdr_cli_error("delaunay", "--%s needs -o BASE", faces ? "faces" : "points-only");
         return PDR_EXIT_USAGE;
     }
 
@@ -164,7 +169,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
             goto done;
         }
     } else {
-        nodes.n = (size_t)nrandom;
+        nodes.n = nrandom > 0 && nrandom < (1LL << 34) ? (size_t)nrandom : 0;
         nodes.first = 1;
         nodes.xyz = calloc(nodes.n * 3 + 1, sizeof(double));
         if (!nodes.xyz) {
@@ -176,6 +181,17 @@ int pdr_cmd_delaunay(int argc, char **argv)
             nodes.xyz[i] = (double)(splitmix(&s) >> 11) * 0x1p-53;
     }
     double t_read = pdr_now();
+    if (points_only) {
+        pnode = join(out, ".node");
+        if (!pnode || tg_write_node(pnode, &nodes, &diag)) {
+            pdr_diag_print(&diag, stderr);
+            goto done;
+        }
+        if (!quiet)
+            printf("points:               %zu (written to %s)\n", nodes.n, pnode);
+        status = PDR_EXIT_OK;
+        goto done;
+    }
     if (nodes.n < 4) {
         if (in)
             pdr_cli_error("delaunay", "%s: %zu point%s: a tetrahedralization needs at least 4",
@@ -200,8 +216,12 @@ int pdr_cmd_delaunay(int argc, char **argv)
         pdr_cli_error("delaunay", "%s", pdr_strerror(rc));
         goto done;
     }
+    if (!out) { /* the mesh has its own copy: keep the peak memory down */
+        free(nodes.xyz);
+        nodes.xyz = NULL;
+    }
     struct progress prog = {t_read, 0, quiet, isatty(2), 0};
-    dt_build_opts bo = {.seed = seed, .progress = show_progress, .progress_arg = &prog};
+    dt_build_opts bo = {.seed = seed, .renumber = 1, .progress = show_progress, .progress_arg = &prog};
     dt_build_stats st;
     rc = dt_build(&m, &bo, &st);
     if (prog.shown && prog.tty)

@@ -33,6 +33,10 @@ void dt_cavity_init(dt_cavity *c)
 
 void dt_cavity_free(dt_cavity *c)
 {
+    free(c->edge_table);
+    free(c->loc_ids);
+    free(c->tri);
+    free(c->edge_hash);
     free(c->tets);
     free(c->bnd);
     free(c->newtets);
@@ -98,6 +102,22 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
             from = tm_lface(l);
             continue;
         }
+        /* The four vertices relative to p, once for all faces; the filter
+         * bound uses column maxima over all four rows, a valid (slightly
+         * looser) bound for each face (pred.c). */
+        double q[4][3], mx = 0, my = 0, mz = 0;
+        for (int s = 0; s < 4; s++) {
+            const double *x = X(m, T->v[s]);
+            q[s][0] = x[0] - p[0];
+            q[s][1] = x[1] - p[1];
+            q[s][2] = x[2] - p[2];
+            mx = pred_max_(mx, __builtin_fabs(q[s][0]));
+            my = pred_max_(my, __builtin_fabs(q[s][1]));
+            mz = pred_max_(mz, __builtin_fabs(q[s][2]));
+        }
+        double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
+        double bound = lo >= 0x1p-330 && hi <= 0x1p+330 ? (48.0 * PRED_EPS_) * mx * my * mz
+                                                          : __builtin_inf();
         uint32_t r = xorshift(m);
         int moved = 0;
         for (int i = 0; i < 4; i++) {
@@ -105,7 +125,15 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
             if (fi == from)
                 continue;
             const uint8_t *f = tm_face_vtx[fi];
-            if (pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]), X(m, T->v[f[2]]), p) < 0) {
+            const double *u = q[f[0]], *v = q[f[1]], *w = q[f[2]];
+            /* orient3d(face, p) = -det[u; v; w] */
+            double det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) +
+                         u[2] * (v[0] * w[1] - v[1] * w[0]);
+            int o = det > bound    ? -1
+                    : det < -bound ? 1
+                                   : pred_orient3d(X(m, T->v[f[0]]), X(m, T->v[f[1]]),
+                                                   X(m, T->v[f[2]]), p);
+            if (o < 0) {
                 tm_link l = T->n[fi];
                 if (tm_is_special(l)) {
                     *tet = t;
@@ -129,11 +157,13 @@ int dt_locate(tm_mesh *m, const double p[3], uint32_t start, uint32_t *tet,
 
 /* ------------------------------------------------------------ conflict */
 
-int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
+static inline __attribute__((always_inline)) int conflict(const tm_mesh *m, uint32_t t,
+                                                          const double p[3])
 {
     const uint32_t *v = m->tets[t].v;
-    if (v[0] && v[1] && v[2] && v[3])
-        return pred_insphere_sos(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
+    /* One test instead of four branches: is any vertex the infinite one? */
+    if (((v[0] == TM_VINF) | (v[1] == TM_VINF) | (v[2] == TM_VINF) | (v[3] == TM_VINF)) == 0)
+        return pred_insphere_sos_fast(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), p);
     /* A ghost: in conflict iff p is beyond its hull face, or on the face's
      * plane and inside its (perturbed) circumcircle. */
     int k = v[0] == TM_VINF ? 0 : v[1] == TM_VINF ? 1 : v[2] == TM_VINF ? 2 : 3;
@@ -143,6 +173,11 @@ int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
     if (o)
         return o;
     return pred_incircle3d_sos(a, b, c, p);
+}
+
+int dt_conflict(const tm_mesh *m, uint32_t t, const double p[3])
+{
+    return conflict(m, t, p);
 }
 
 static uint32_t vertex_at(const tm_mesh *m, uint32_t t, const double *p)
@@ -196,7 +231,7 @@ static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
     return 1;
 }
 
-static int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
+static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
 {
     if (c->nbnd == c->cap_bnd &&
         grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 1, sizeof *c->bnd))
@@ -210,7 +245,7 @@ static int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
     return 0;
 }
 
-static int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
+static inline int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
 {
     if ((c->ntets == c->cap_tets &&
          grow((void **)&c->tets, &c->cap_tets, c->ntets + 1, sizeof *c->tets)) ||
@@ -229,6 +264,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     if (c->pending)
         dt_cavity_abandon(m, c);
     memcpy(c->p, p, sizeof c->p);
+    c->flags = flags;
     c->status = DT_OK;
     c->ntets = c->nbnd = c->nnew = 0;
     c->located = c->dup_vertex = c->blocker = TM_NONE;
@@ -255,7 +291,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     } else {
         if (t0 >= m->nslots || tm_is_dead(m, t0))
             return PDR_EINVAL;
-        int s = dt_conflict(m, t0, p);
+        int s = conflict(m, t0, p);
         if (s == 0) {
             c->dup_vertex = vertex_at(m, t0, p);
             c->status = DT_DUPLICATE;
@@ -280,20 +316,38 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     uint16_t *fl = m->flags;
     int stop_marked = (flags & DT_STOP_MARKED) != 0;
     while (!rc && sp > 0) {
+        /* Room for the four faces of t, so that the appends below need no
+         * checks. */
+        if ((c->ntets + 4 > c->cap_tets &&
+             grow((void **)&c->tets, &c->cap_tets, c->ntets + 4, sizeof *c->tets)) ||
+            (sp + 4 > c->cap_stack &&
+             grow((void **)&c->stack, &c->cap_stack, sp + 4, sizeof *c->stack)) ||
+            (c->nbnd + 4 > c->cap_bnd &&
+             grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 4, sizeof *c->bnd))) {
+            rc = PDR_ENOMEM;
+            break;
+        }
         uint32_t t = c->stack[--sp];
         const tm_tet *T = &m->tets[t];
-        for (int f = 0; f < 4 && !rc; f++) {
+        uint16_t ft = fl[t];
+        /* Start the memory loads of all four neighbours before testing the
+         * first one. */
+        for (int f = 0; f < 4; f++)
+            if (!tm_is_special(T->n[f]))
+                __builtin_prefetch(&m->tets[tm_ltet(T->n[f])]);
+        for (int f = 0; f < 4; f++) {
             tm_link l = T->n[f];
             if (tm_is_special(l)) {
                 rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
                 continue;
             }
-            if (stop_marked && (fl[t] & TM_F_FACEMARK(f))) {
+            if (stop_marked && (ft & TM_F_FACEMARK(f))) {
                 rc = add_bface(c, t, f, DT_BND_MARKED, l);
                 continue;
             }
             uint32_t u = tm_ltet(l);
-            if (fl[u] & TM_F_CAVITY)
+            uint16_t fu = fl[u];
+            if (fu & TM_F_CAVITY)
                 continue;
             if (lock) {
                 int r = take_lock(m, c, u);
@@ -304,12 +358,8 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return r;
                 }
             }
-            int s = dt_conflict(m, u, p);
-            if (s > 0) {
-                rc = add_cavity_tet(m, c, u, &sp);
-            } else if (s < 0) {
-                rc = add_bface(c, t, f, DT_BND_OUTSIDE, l);
-            } else {
+            int s = conflict(m, u, p);
+            if (s == 0) {
                 /* p is a vertex of u: only possible for a duplicate point
                  * (without DT_LOCATE, or equal to a ghost's hull vertex). */
                 clear_marks(m, c);
@@ -319,6 +369,22 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                     return PDR_ETOPOLOGY;
                 return 0;
             }
+            /* In conflict: u joins the cavity; else face f bounds it. The
+             * outcome is a coin toss for the branch predictor, so both
+             * records are written and only the counters depend on it. */
+            unsigned in = s > 0;
+            c->tets[c->ntets] = u;
+            c->stack[sp] = u;
+            fl[u] = (uint16_t)(fu | in * TM_F_CAVITY);
+            c->ntets += in;
+            sp += in;
+            dt_bface *b = &c->bnd[c->nbnd];
+            b->tet = t;
+            b->face = (uint8_t)f;
+            b->reason = DT_BND_OUTSIDE;
+            b->spare = 0;
+            b->outer = l;
+            c->nbnd += !in;
         }
     }
     if (rc) {
@@ -344,9 +410,11 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
 
 /* -------------------------------------------------------------- commit */
 
-static int slot_of(const tm_tet *T, uint32_t v)
+/* Slot of vertex v in T (v must be there), without branches: the
+ * comparisons are unpredictable and this runs in the innermost loop. */
+static inline int slot_of(const tm_tet *T, uint32_t v)
 {
-    return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : 3;
+    return (T->v[1] == v) + 2 * (T->v[2] == v) + 3 * (T->v[3] == v);
 }
 
 /* Moves the subsegment bits of face j of a cavity tetrahedron (flags ft) to
@@ -364,59 +432,67 @@ static uint16_t subseg_bits(uint16_t ft, int j)
     return out;
 }
 
-int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
-{
-    if (!c->pending || c->status != DT_OK)
-        return PDR_EINVAL;
-    size_t nb = c->nbnd;
-    int rc = tm_room(m, nb);
-    if (!rc)
-        rc = grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
-    if (rc)
-        return rc;
+/* Links the side faces of the new tetrahedra (faces 0-2, which contain
+ * the new vertex). Face k of a new tet holds v and the edge {a,b} of its
+ * boundary face. The other new tet on that edge sits on the next boundary
+ * face met when turning around {a,b} through the cavity, starting from the
+ * cavity tet's other face on {a,b}: every link out of a cavity tet now
+ * leads to a new tet. */
+/* Large cavities (more than DT_LOCAL_MAX boundary vertices; points far
+ * outside the hull, or degenerate point sets such as points on a curve,
+ * where one insertion can replace thousands of tets): the same pairing with
+ * an open-addressing hash on the edge's two vertex numbers. Turning around
+ * edges would cost the number of tets around each edge, which is then
+ * unbounded. Returns PDR_ENOMEM (nothing changed) if the table cannot grow. */
+struct dt_edge_slot {
+    uint64_t key; /* (lo << 32 | hi) + 1; 0 = empty */
+    tm_link link; /* waiting face, or TM_LINK_UNSET once paired */
+};
 
-    tm_tet *tets = m->tets;
-    uint16_t *fl = m->flags;
-    /* 1. One new tetrahedron per boundary face, linked to the outside; the
-     * cavity tetrahedron's link across that face is redirected to it, so
-     * that step 2 can find it. */
-    for (size_t i = 0; i < nb; i++) {
-        const dt_bface *b = &c->bnd[i];
-        uint32_t t = b->tet;
-        int j = b->face;
-        uint32_t n = tm_alloc_tet(m);
-        tm_tet *T = &tets[t], *N = &tets[n];
-        const uint8_t *f = tm_face_vtx[j];
-        N->v[0] = T->v[f[0]];
-        N->v[1] = T->v[f[1]];
-        N->v[2] = T->v[f[2]];
-        N->v[3] = v;
-        N->n[0] = N->n[1] = N->n[2] = TM_LINK_UNSET;
-        N->n[3] = b->outer;
-        if (!tm_is_special(b->outer))
-            tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
-        uint16_t ft = fl[t];
-        if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
-            uint16_t nf = subseg_bits(ft, j);
-            if (ft & TM_F_FACEMARK(j)) {
-                nf |= TM_F_FACEMARK(3);
-                if (m->marker)
-                    m->marker[4 * (size_t)n + 3] = m->marker[4 * (size_t)t + (size_t)j];
-            }
-            fl[n] = nf;
-        }
-        if (!(N->v[0] && N->v[1] && N->v[2]))
-            m->nghost++;
-        T->n[j] = tm_mklink(n, 3);
-        for (int s = 0; s < 4; s++)
-            m->vhint[N->v[s]] = n;
-        c->newtets[i] = n;
+static int link_by_hash(tm_mesh *m, dt_cavity *c)
+{
+    size_t nb = c->nbnd, cap = 64;
+    while (cap < 4 * nb)
+        cap *= 2;
+    if (cap > c->cap_hash) {
+        struct dt_edge_slot *h = realloc(c->edge_hash, cap * sizeof *h);
+        if (!h)
+            return PDR_ENOMEM;
+        c->edge_hash = h;
+        c->cap_hash = cap;
     }
-    /* 2. Links between new tetrahedra. Face k (k < 3) of a new tet holds v
-     * and the edge {a,b} of its boundary face. The other new tet on that
-     * edge sits on the next boundary face met when turning around {a,b}
-     * through the cavity, starting from the cavity tet's other face on
-     * {a,b}: every link out of a cavity tet now leads to a new tet. */
+    struct dt_edge_slot *h = c->edge_hash;
+    memset(h, 0, cap * sizeof *h);
+    tm_tet *tets = m->tets;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = tets[n].v[k == 0 ? 1 : 0], b = tets[n].v[k == 2 ? 1 : 2];
+            uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
+            uint64_t key = ((uint64_t)lo << 32 | hi) + 1;
+            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> 20) & (cap - 1);
+            while (h[j].key && h[j].key != key)
+                j = (j + 1) & (cap - 1);
+            tm_link me = tm_mklink(n, k);
+            if (h[j].key == key && h[j].link != TM_LINK_UNSET) {
+                tm_link e = h[j].link;
+                tets[n].n[k] = e;
+                tets[tm_ltet(e)].n[tm_lface(e)] = me;
+                h[j].link = TM_LINK_UNSET;
+            } else {
+                h[j].key = key;
+                h[j].link = me;
+            }
+        }
+    }
+    return 0;
+}
+
+static void link_by_rotation(tm_mesh *m, dt_cavity *c)
+{
+    tm_tet *tets = m->tets;
+    const uint16_t *fl = m->flags;
+    size_t nb = c->nbnd;
     for (size_t i = 0; i < nb; i++) {
         uint32_t n = c->newtets[i];
         tm_tet *N = &tets[n];
@@ -434,10 +510,12 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
                 tm_link l = tets[cur].n[ex];
                 uint32_t u = tm_ltet(l);
                 if (!(fl[u] & TM_F_CAVITY)) {
+                    /* u is new: slots 0..2 hold a, b and one more, slot 3
+                     * the new vertex; its face k2 is the one without that
+                     * third vertex... i.e. opposite it: k2 = 3 - (a's slot
+                     * + b's slot). */
                     const tm_tet *U = &tets[u];
-                    int k2 = (U->v[0] != a && U->v[0] != b) ? 0
-                             : (U->v[1] != a && U->v[1] != b) ? 1
-                                                              : 2;
+                    int k2 = 3 - slot_of(U, a) - slot_of(U, b);
                     N->n[k] = tm_mklink(u, k2);
                     tets[u].n[k2] = tm_mklink(n, k);
                     break;
@@ -449,7 +527,204 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
             }
         }
     }
-    /* 3. The cavity goes to the free list. */
+}
+
+#define DT_LOCAL_MAX 64
+#define LOCAL_TAG 0xC0000000u /* vhint values >= this are never tets */
+
+/* Side faces of the new tetrahedra are linked with an edge table: each
+ * boundary vertex gets a small local number (kept for a moment in its vhint
+ * slot, tagged so it cannot be mistaken for a tet), and the first new face
+ * on edge {a,b} waits in table[min][max] for the second. The table is used
+ * unless the boundary has more than DT_LOCAL_MAX vertices or the cavity was
+ * cut by marked faces (its boundary might then not be a simple surface);
+ * link_by_rotation() does those. */
+static inline void pair_faces(uint32_t *table, tm_tet *tets, uint32_t a, uint32_t b, tm_link me)
+{
+    uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
+    uint32_t *slot = &table[lo * DT_LOCAL_MAX + hi];
+    /* First face on the edge: wait in the table. Second: link both and
+     * empty the entry. Without branches (the order is a coin toss): the
+     * first face links to itself until its partner overwrites that. */
+    uint32_t e = *slot;
+    int first = e == TM_LINK_UNSET;
+    *slot = first ? me : TM_LINK_UNSET;
+    tets[tm_ltet(me)].n[tm_lface(me)] = e;
+    tets[first ? tm_ltet(me) : tm_ltet(e)].n[first ? tm_lface(me) : tm_lface(e)] = me;
+}
+
+static int table_ready(dt_cavity *c, size_t nb)
+{
+    if (c->flags & DT_STOP_MARKED)
+        return 0;
+    if (!c->edge_table) {
+        c->edge_table = malloc(DT_LOCAL_MAX * DT_LOCAL_MAX * sizeof *c->edge_table);
+        if (!c->edge_table)
+            return 0;
+        for (size_t i = 0; i < DT_LOCAL_MAX * DT_LOCAL_MAX; i++)
+            c->edge_table[i] = TM_LINK_UNSET;
+    }
+    return !grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1);
+}
+
+/* The usual commit: everything needed from the cavity (face vertices,
+ * marks) is copied out first, so the cavity's slots can be freed before the
+ * new tetrahedra are made, and are reused by them while they are still in
+ * the cache. Returns 0, having changed nothing but vertex hints, when the
+ * edge table cannot be used (the general path then rewrites the hints). */
+static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
+{
+    size_t nb = c->nbnd;
+    if (!table_ready(c, nb) || grow((void **)&c->tri, &c->cap_tri, 4 * nb, sizeof *c->tri))
+        return 0;
+    tm_tet *tets = m->tets;
+    uint16_t *fl = m->flags;
+    uint32_t *hint = m->vhint;
+    uint32_t nloc = 0;
+    for (size_t i = 0; i < nb; i++) {
+        dt_bface *b = &c->bnd[i];
+        uint32_t t = b->tet;
+        int j = b->face;
+        const tm_tet *T = &tets[t];
+        const uint8_t *f = tm_face_vtx[j];
+        uint32_t *q = &c->tri[4 * i];
+        q[0] = T->v[f[0]];
+        q[1] = T->v[f[1]];
+        q[2] = T->v[f[2]];
+        uint16_t ft = fl[t], nf = 0;
+        if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
+            nf = subseg_bits(ft, j);
+            if (ft & TM_F_FACEMARK(j)) {
+                nf |= TM_F_FACEMARK(3);
+                q[3] = m->marker ? (uint32_t)m->marker[4 * (size_t)t + (size_t)j] : 0;
+            }
+        }
+        b->spare = nf;
+        uint8_t *ids = &c->loc_ids[3 * i];
+        for (int s = 0; s < 3; s++) {
+            uint32_t w = q[s], k = hint[w] - LOCAL_TAG;
+            if (k >= nloc || c->loc_vert[k] != w) {
+                if (nloc == DT_LOCAL_MAX)
+                    return 0;
+                k = nloc++;
+                c->loc_vert[k] = w;
+                hint[w] = LOCAL_TAG + k;
+            }
+            ids[s] = (uint8_t)k;
+        }
+    }
+    for (size_t i = 0; i < c->ntets; i++)
+        tm_free_tet(m, c->tets[i]);
+    uint32_t nghost = 0;
+    for (size_t i = 0; i < nb; i++) {
+        const dt_bface *b = &c->bnd[i];
+        const uint32_t *q = &c->tri[4 * i];
+        uint32_t n = tm_alloc_tet(m);
+        tm_tet *N = &tets[n];
+        N->v[0] = q[0];
+        N->v[1] = q[1];
+        N->v[2] = q[2];
+        N->v[3] = v;
+        N->n[3] = b->outer;
+        if (!tm_is_special(b->outer))
+            tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
+        unsigned ghost = (q[0] == TM_VINF) | (q[1] == TM_VINF) | (q[2] == TM_VINF);
+        fl[n] = b->spare;
+        if ((b->spare & TM_F_FACEMARK(3)) && m->marker)
+            m->marker[4 * (size_t)n + 3] = (int32_t)q[3];
+        nghost += ghost;
+        c->newtets[i] = n;
+    }
+    m->nghost += nghost;
+    uint32_t *tab = c->edge_table;
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const uint8_t *l = &c->loc_ids[3 * i];
+        pair_faces(tab, tets, l[1], l[2], tm_mklink(n, 0));
+        pair_faces(tab, tets, l[0], l[2], tm_mklink(n, 1));
+        pair_faces(tab, tets, l[0], l[1], tm_mklink(n, 2));
+    }
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const tm_tet *N = &tets[n];
+        hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+    }
+    if (nb)
+        hint[v] = c->newtets[nb - 1];
+    return 1;
+}
+
+int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
+{
+    if (!c->pending || c->status != DT_OK)
+        return PDR_EINVAL;
+    size_t nb = c->nbnd;
+    int rc = tm_room(m, nb);
+    if (!rc)
+        rc = grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
+    if (rc)
+        return rc;
+    if (commit_reusing_cavity(m, v, c)) {
+        c->nnew = nb;
+        c->pending = 0;
+        return 0;
+    }
+
+    /* The general path: new slots, cavity kept intact until the end so
+     * that links can be found by turning around edges if need be. */
+    tm_tet *tets = m->tets;
+    uint16_t *fl = m->flags;
+    uint32_t *hint = m->vhint;
+    uint32_t nghost = 0;
+    /* 1. One new tetrahedron per boundary face, linked to the outside; the
+     * cavity tetrahedron's link across that face is redirected to it, which
+     * is how link_by_rotation() recognises the new tets. */
+    for (size_t i = 0; i < nb; i++) {
+        const dt_bface *b = &c->bnd[i];
+        uint32_t t = b->tet;
+        int j = b->face;
+        uint32_t n = tm_alloc_tet(m);
+        tm_tet *T = &tets[t], *N = &tets[n];
+        const uint8_t *f = tm_face_vtx[j];
+        uint32_t v0 = T->v[f[0]], v1 = T->v[f[1]], v2 = T->v[f[2]];
+        N->v[0] = v0;
+        N->v[1] = v1;
+        N->v[2] = v2;
+        N->v[3] = v;
+        N->n[0] = N->n[1] = N->n[2] = TM_LINK_UNSET;
+        N->n[3] = b->outer;
+        if (!tm_is_special(b->outer))
+            tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
+        uint16_t ft = fl[t];
+        unsigned ghost = (v0 == TM_VINF) | (v1 == TM_VINF) | (v2 == TM_VINF);
+        uint16_t nf = 0;
+        if (ft & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
+            nf |= subseg_bits(ft, j);
+            if (ft & TM_F_FACEMARK(j)) {
+                nf |= TM_F_FACEMARK(3);
+                if (m->marker)
+                    m->marker[4 * (size_t)n + 3] = m->marker[4 * (size_t)t + (size_t)j];
+            }
+        }
+        fl[n] = nf;
+        nghost += ghost;
+        T->n[j] = tm_mklink(n, 3);
+        c->newtets[i] = n;
+    }
+    m->nghost += nghost;
+    /* 2. Links between the new tetrahedra. */
+    if ((c->flags & DT_STOP_MARKED) || link_by_hash(m, c))
+        link_by_rotation(m, c);
+    /* 3. Vertex hints (this also clears local numbers left by an attempt of
+     * commit_reusing_cavity), and the cavity
+     * goes to the free list. */
+    for (size_t i = 0; i < nb; i++) {
+        uint32_t n = c->newtets[i];
+        const tm_tet *N = &tets[n];
+        hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+    }
+    if (nb)
+        hint[v] = c->newtets[nb - 1];
     for (size_t i = 0; i < c->ntets; i++)
         tm_free_tet(m, c->tets[i]);
     c->nnew = nb;
@@ -537,6 +812,33 @@ static int collinear(const double *a, const double *b, const double *c)
     return 1;
 }
 
+/* Moves vertex order[i] to number i+1, recording old numbers in gid. */
+static int renumber(tm_mesh *m, uint32_t *order, size_t n)
+{
+    int rc = tm_enable(m, TM_FEAT_GIDS);
+    if (rc)
+        return rc;
+    double *xyz = malloc((n + 1) * 3 * sizeof *xyz);
+    uint64_t *gid = malloc((n + 1) * sizeof *gid);
+    if (!xyz || !gid) {
+        free(xyz);
+        free(gid);
+        return PDR_ENOMEM;
+    }
+    memcpy(xyz, m->xyz, 3 * sizeof *xyz);
+    gid[0] = m->gid[0];
+    for (size_t i = 0; i < n; i++) {
+        memcpy(xyz + 3 * (i + 1), X(m, order[i]), 3 * sizeof *xyz);
+        gid[i + 1] = m->gid[order[i]];
+        order[i] = (uint32_t)(i + 1);
+    }
+    memcpy(m->xyz, xyz, (n + 1) * 3 * sizeof *xyz);
+    memcpy(m->gid, gid, (n + 1) * sizeof *gid);
+    free(xyz);
+    free(gid);
+    return 0;
+}
+
 int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
 {
     dt_build_stats st;
@@ -560,6 +862,13 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     }
     for (size_t i = 0; i < n; i++)
         order[i] += 1; /* point i is vertex i+1 */
+    if (opts && opts->renumber) {
+        rc = renumber(m, order, n);
+        if (rc) {
+            free(order);
+            return rc;
+        }
+    }
     double t1 = pdr_now();
     st.sort_seconds = t1 - t0;
 

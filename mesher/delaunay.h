@@ -97,6 +97,18 @@ typedef struct dt_cavity {
     size_t cap_stack;
     uint32_t *held;      /* DT_LOCK: tets whose lock this search took */
     size_t nheld, cap_held;
+    unsigned flags;      /* of the last search */
+    /* Commit scratch: local numbers of the boundary vertices and a table
+     * edge (local a, local b) -> first new face seen on it; every entry is
+     * consumed by the second face, so it is empty between commits. */
+    uint32_t *edge_table; /* DT_LOCAL_MAX^2 links, TM_LINK_UNSET = empty */
+    uint32_t loc_vert[64];
+    uint8_t *loc_ids;     /* 3 per boundary face */
+    size_t cap_loc_ids;
+    uint32_t *tri;        /* 4 per boundary face: its vertices, its marker */
+    size_t cap_tri;
+    struct dt_edge_slot *edge_hash; /* large cavities: edge -> face */
+    size_t cap_hash;
 } dt_cavity;
 
 void dt_cavity_init(dt_cavity *c);
@@ -142,6 +154,11 @@ int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d);
 
 typedef struct dt_build_opts {
     uint64_t seed; /* BRIO rounds */
+    /* Renumber the vertices in insertion order, so that vertices close in
+     * space are close in memory (fewer cache misses). The vertex numbers
+     * change: gid[v] (TM_FEAT_GIDS, enabled if needed) keeps the number
+     * vertex v had before, and the writers in io_tetgen.h use it. */
+    int renumber;
     /* Called about every 2^16 insertions if not NULL. */
     void (*progress)(void *arg, size_t done, size_t total);
     void *progress_arg;

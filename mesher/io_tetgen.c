@@ -317,6 +317,12 @@ int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag)
     return close_w(&of, w, diag);
 }
 
+/* The vertex's number in the input (dt_build may have renumbered). */
+static uint64_t orig(const tm_mesh *m, uint32_t v)
+{
+    return m->gid ? m->gid[v] : v;
+}
+
 int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
 {
     outfile of;
@@ -338,7 +344,7 @@ int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
             continue;
         wlong(w, idx++);
         for (int s = 0; s < 4; s++)
-            wlong(w, (long)m->tets[t].v[s] - 1 + first);
+            wlong(w, (long)orig(m, m->tets[t].v[s]) - 1 + first);
         wnl(w);
     }
     return close_w(&of, w, diag);
@@ -409,7 +415,7 @@ int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag
                 }
                 wlong(w, idx++);
                 for (int s = 0; s < 3; s++)
-                    wlong(w, (long)f[s] - 1 + first);
+                    wlong(w, (long)orig(m, f[s]) - 1 + first);
                 wnl(w);
             }
         }

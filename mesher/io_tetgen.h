@@ -48,8 +48,8 @@ int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag);
 int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, size_t *ntets,
                 pdr_diag *diag);
 
-/* Writes the live real tetrahedra of m; mesh vertex v is point v-1, written
- * as v - 1 + first. */
+/* Writes the live real tetrahedra of m; mesh vertex v is point o-1, written
+ * as o - 1 + first, where o = gid[v] if m has global ids, else v. */
 int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag);
 /* Writes the tetrahedra of a mesh_export view, vertex i written as
  * i + first, with one attribute per tetrahedron (the region attribute)

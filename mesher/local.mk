@@ -40,7 +40,8 @@ libpdrmesh_la_LIBADD = $(METIS_LIBS) -lm
 bin_PROGRAMS += pdr
 pdr_SOURCES = \
 	mesher/pdr.c \
-	mesher/cmd_info.c
+	mesher/cmd_info.c \
+	mesher/cmd_run.c
 pdr_SOURCES += mesher/cmd_domain.c
 pdr_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
 pdr_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \

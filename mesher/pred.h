@@ -3,20 +3,23 @@
  *
  * Every predicate returns the exact sign (-1, 0 or +1) of a determinant of
  * its double arguments, for every finite double input: no tolerance, no
- * overflow or underflow caveat. Each is evaluated in up to three stages:
+ * overflow or underflow caveat. Each is evaluated in stages, the first
+ * that can decide giving the answer:
  *
- *   1. a floating-point filter with a certified (proved) error bound; it
- *      decides almost every call;
- *   2. if the filter cannot decide and the coordinate differences the
- *      filter used were computed without rounding (always the case for
- *      nearby points, by Sterbenz's lemma), the determinant of those
- *      differences is evaluated exactly;
- *   3. otherwise the determinant of the raw coordinates is evaluated exactly.
+ *   1. a floating-point filter with a certified (proved) error bound,
+ *      inlined in the hot loops; it decides almost every call;
+ *   2. (3D) a second filter with a tighter bound (the permanent), for long
+ *      thin tetrahedra;
+ *   3. (3D) if the differences are exact small integers times a power of
+ *      two (grids), the floating-point evaluation, which is then exact;
+ *   4. (3D) the same formula in exact multi-word floating point, if the
+ *      arguments span few enough binades (always, in practice);
+ *   5. the determinant expanded into monomials (products of doubles) summed
+ *      in a fixed-point big integer wide enough for any exponent range: of
+ *      the differences if they are exact, else of the raw coordinates.
  *
- * Exact evaluation expands the determinant into monomials (products of
- * doubles) and sums them in a fixed-point big integer wide enough for the
- * exponent range of the arguments (pred.c explains the sizes). The stack use
- * of any predicate is below 2 KiB, so they can run on small coroutine stacks.
+ * pred.c explains every bound and size. Stack use is below 8 KiB (stage 4
+ * holds about 25 numbers of 28 words), fine for coroutine stacks.
  *
  * Orientation conventions (a right-handed frame):
  *   pred_orient3d(a,b,c,d) > 0  iff d lies on the side of the plane abc
@@ -74,13 +77,101 @@ int pred_incircle_sos(const double *a, const double *b, const double *c, const d
  * if e coincides with a, b or c or abc is degenerate. */
 int pred_incircle3d_sos(const double *a, const double *b, const double *c, const double *e);
 
+/* ------------------------------------------------------------------
+ * Inline versions for hot loops: the filter of pred.c, inlined so that the
+ * caller's loads and the arithmetic can be scheduled together; when the
+ * filter cannot decide they call the out-of-line predicate. Same results
+ * as the functions above (the bounds are explained in pred.c).
+ */
+#define PRED_EPS_ (1.1102230246251565e-16) /* 2^-53 */
+
+static inline double pred_max_(double a, double b)
+{
+    return a > b ? a : b;
+}
+static inline double pred_min_(double a, double b)
+{
+    return a < b ? a : b;
+}
+
+/* The orient3d filter: the sign of pred_orient3d, or 2. */
+static inline int pred_orient3d_filter_(const double *a, const double *b, const double *c,
+                                        const double *d)
+{
+    double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
+    double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
+    double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
+    double det = ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx);
+    double mx = pred_max_(__builtin_fabs(ux), pred_max_(__builtin_fabs(vx), __builtin_fabs(wx)));
+    double my = pred_max_(__builtin_fabs(uy), pred_max_(__builtin_fabs(vy), __builtin_fabs(wy)));
+    double mz = pred_max_(__builtin_fabs(uz), pred_max_(__builtin_fabs(vz), __builtin_fabs(wz)));
+    double lo = pred_min_(mx, pred_min_(my, mz)), hi = pred_max_(mx, pred_max_(my, mz));
+    if (lo >= 0x1p-330 && hi <= 0x1p+330) {
+        double bound = (48.0 * PRED_EPS_) * mx * my * mz;
+        if (det > bound)
+            return -1;
+        if (det < -bound)
+            return 1;
+    }
+    return 2;
+}
+
+static inline int pred_orient3d_fast(const double *a, const double *b, const double *c,
+                                     const double *d)
+{
+    int s = pred_orient3d_filter_(a, b, c, d);
+    return s != 2 ? s : pred_orient3d(a, b, c, d);
+}
+
+/* The insphere filter (see pred.c for the bound): the sign of
+ * pred_insphere, or 2 if the filter cannot decide. */
+static inline int pred_insphere_filter_(const double *a, const double *b, const double *c,
+                                        const double *d, const double *e)
+{
+    double ex = e[0], ey = e[1], ez = e[2];
+    double ax = a[0] - ex, ay = a[1] - ey, az = a[2] - ez;
+    double bx = b[0] - ex, by = b[1] - ey, bz = b[2] - ez;
+    double cx = c[0] - ex, cy = c[1] - ey, cz = c[2] - ez;
+    double dx = d[0] - ex, dy = d[1] - ey, dz = d[2] - ez;
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+    double L = pred_max_(pred_max_(la, lb), pred_max_(lc, ld));
+    if (L >= 0x1p-190 && L <= 0x1p+190) {
+        double L2 = L * L;
+        if (det * det > (1140.0 * PRED_EPS_) * (1140.0 * PRED_EPS_) * (L2 * L2 * L))
+            return det > 0 ? 1 : -1;
+    }
+    return 2;
+}
+
+/* pred_insphere_sos with the filter inlined. */
+static inline int pred_insphere_sos_fast(const double *a, const double *b, const double *c,
+                                         const double *d, const double *e)
+{
+    int s = pred_insphere_filter_(a, b, c, d, e);
+    return s != 2 ? s : pred_insphere_sos(a, b, c, d, e);
+}
+
 /* Lexicographic comparison of 3D points: -1, 0, +1. */
 int pred_lexcmp3(const double *p, const double *q);
 
 /* Internal entry points for the tests: the exact stages alone, bypassing the
- * filter. stage 2 = exact determinant of the rounded differences (only valid
- * when those differences are exact: returns 2 when they are not), stage 3 =
- * exact determinant of the raw coordinates. */
+ * filters; each returns the sign, or 2 when it does not apply. For orient3d
+ * and insphere: stage 0 = floating-point evaluation when the differences
+ * are exact small integers (times a power of two); stage 1 = exact
+ * floating-point arithmetic (multi-word mantissas) when the values fit;
+ * stage 2 = sum of monomials of the differences, when they are exact;
+ * stage 3 = sum of monomials of the raw coordinates (always applies). 2D
+ * predicates have stages 2 and 3. */
 int pred__orient3d_exact(const double *a, const double *b, const double *c, const double *d,
                          int stage);
 int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,
@@ -88,7 +179,11 @@ int pred__insphere_exact(const double *a, const double *b, const double *c, cons
 int pred__orient2d_exact(const double *a, const double *b, const double *c, int stage);
 int pred__incircle_exact(const double *a, const double *b, const double *c, const double *d,
                          int stage);
-/* The filter alone: the sign, or 2 when the filter cannot decide. */
+/* The filters alone: the sign, or 2 when the filter cannot decide (filter2
+ * is the permanent-bounded second filter). */
+int pred__orient3d_filter2(const double *a, const double *b, const double *c, const double *d);
+int pred__insphere_filter2(const double *a, const double *b, const double *c, const double *d,
+                           const double *e);
 int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d);
 int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
                           const double *e);

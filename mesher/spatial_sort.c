@@ -33,13 +33,13 @@ uint64_t ss_hilbert3(uint32_t x, uint32_t y, uint32_t z, int bits)
     for (uint32_t Q = M; Q > 1; Q >>= 1) {
         uint32_t P = Q - 1;
         for (int i = 0; i < 3; i++) {
-            if (X[i] & Q) {
-                X[0] ^= P; /* invert the low bits */
-            } else {        /* exchange the low bits of X[0] and X[i] */
-                uint32_t t = (X[0] ^ X[i]) & P;
-                X[0] ^= t;
-                X[i] ^= t;
-            }
+            /* If bit Q of X[i] is set, invert the low bits of X[0], else
+             * exchange the low bits of X[0] and X[i]; without branches, as
+             * the bits are random. */
+            uint32_t set = 0u - ((X[i] & Q) != 0);
+            uint32_t t = (X[0] ^ X[i]) & P & ~set;
+            X[0] ^= t ^ (P & set);
+            X[i] ^= t;
         }
     }
     X[1] ^= X[0]; /* Gray encode */

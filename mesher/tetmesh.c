@@ -150,36 +150,6 @@ int tm_room(tm_mesh *m, size_t count)
     return set_tcap(m, grown(m->tcap, need, TM_MAX_TETS)) ? PDR_ENOMEM : 0;
 }
 
-uint32_t tm_alloc_tet(tm_mesh *m)
-{
-    uint32_t t;
-    if (m->free_head != TM_NONE) {
-        t = m->free_head;
-        m->free_head = m->tets[t].n[0];
-        m->nfree--;
-    } else {
-        t = m->nslots++;
-    }
-    m->flags[t] = 0;
-    if (m->marker)
-        memset(m->marker + 4 * (size_t)t, 0, 4 * sizeof(int32_t));
-    if (m->lock)
-        m->lock[t] = 0;
-    m->nlive++;
-    return t;
-}
-
-void tm_free_tet(tm_mesh *m, uint32_t t)
-{
-    if (tm_is_ghost(m, t))
-        m->nghost--;
-    m->nlive--;
-    m->flags[t] = TM_F_DEAD;
-    m->tets[t].n[0] = m->free_head;
-    m->free_head = t;
-    m->nfree++;
-}
-
 void tm_delete_tet(tm_mesh *m, uint32_t t)
 {
     tm_tet *T = &m->tets[t];

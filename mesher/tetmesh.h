@@ -66,7 +66,9 @@
  * TM_F_FACEMARK(i) (face i carries a marker, e.g. is a subfacet: a fast
  * test before reading the optional marker array), TM_F_SUBSEG(e) (edge e is
  * a subsegment; set in every tetrahedron around that edge), TM_F_QUEUED
- * (on a work queue), and three spare bits for the layers above.
+ * (on a work queue), and three spare bits for the layers above (the
+ * quality mesher uses TM_F_SPARE0 and TM_F_SPARE1). Ghosts are recognised
+ * by their vertices (tm_is_ghost), not by a flag.
  *
  * Optional arrays, allocated by tm_enable() only when a layer needs them,
  * so plain Delaunay stays lean: marker[4t+i] (int32 face marker, e.g. the
@@ -204,10 +206,38 @@ int tm_add_vertex(tm_mesh *m, const double p[3], uint32_t *out);
 /* Ensures that 'count' more tetrahedra can be allocated without failure. */
 int tm_room(tm_mesh *m, size_t count);
 /* Takes a slot from the free list or the end (the caller ensured room):
- * vertices and links are unset, flags 0, markers 0, lock 0. */
-uint32_t tm_alloc_tet(tm_mesh *m);
+ * vertices and links are unset, flags 0, markers 0, lock 0. Inline: it
+ * runs once per new tetrahedron. */
+static inline uint32_t tm_alloc_tet(tm_mesh *m)
+{
+    uint32_t t;
+    if (m->free_head != TM_NONE) {
+        t = m->free_head;
+        m->free_head = m->tets[t].n[0];
+        m->nfree--;
+    } else {
+        t = m->nslots++;
+    }
+    m->flags[t] = 0;
+    if (m->marker) {
+        int32_t *mk = m->marker + 4 * (size_t)t;
+        mk[0] = mk[1] = mk[2] = mk[3] = 0;
+    }
+    if (m->lock)
+        m->lock[t] = 0;
+    m->nlive++;
+    return t;
+}
 /* Puts t on the free list. Links of neighbours are not touched. */
-void tm_free_tet(tm_mesh *m, uint32_t t);
+static inline void tm_free_tet(tm_mesh *m, uint32_t t)
+{
+    m->nghost -= (uint32_t)tm_is_ghost(m, t);
+    m->nlive--;
+    m->flags[t] = TM_F_DEAD;
+    m->tets[t].n[0] = m->free_head;
+    m->free_head = t;
+    m->nfree++;
+}
 /* Frees t and sets the links of its neighbours towards t to
  * TM_LINK_NONE (they become domain-boundary faces). */
 void tm_delete_tet(tm_mesh *m, uint32_t t);

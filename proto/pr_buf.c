@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "pr.h"
+#include "pr_int.h"
 
 const char *pr_strerror(int code)
 {
@@ -118,6 +119,22 @@ void pr_put_bytes(pr_buf *b, const void *p, size_t n)
     b->len += n;
 }
 
+uint8_t *pr__buf_claim(pr_buf *b, size_t n)
+{
+    if (pr_buf_reserve(b, n))
+        return NULL;
+    uint8_t *p = b->data + b->len;
+    b->len += n;
+    return p;
+}
+
+int pr__buf_fail(pr_buf *b, int err)
+{
+    if (!b->err)
+        b->err = err;
+    return b->err;
+}
+
 void pr_put_u8(pr_buf *b, uint8_t v)
 {
     pr_put_bytes(b, &v, 1);
@@ -159,6 +176,141 @@ void pr_put_f64(pr_buf *b, double v)
     pr_put_u64(b, bits);
 }
 
+void pr_put_i32(pr_buf *b, int32_t v)
+{
+    pr_put_u32(b, (uint32_t)v);
+}
+
+/* ------------------------------------------------------------ bulk arrays */
+
+/* Appends n elements of 4 or 8 bytes. The element size is a parameter of
+ * one helper rather than four copies of the loop; n * size cannot overflow
+ * because pr_buf_reserve refuses anything near SIZE_MAX / 2. */
+static void put_array32(pr_buf *b, const uint32_t *v, size_t n)
+{
+    if (n > SIZE_MAX / 8) {
+        pr__buf_fail(b, PR_ENOMEM);
+        return;
+    }
+    uint8_t *p = n ? pr__buf_claim(b, 4 * n) : NULL;
+    if (!p)
+        return;
+#if PR__HOST_LE
+    memcpy(p, v, 4 * n);
+#else
+    for (size_t i = 0; i < n; i++)
+        pr__st32(p + 4 * i, v[i]);
+#endif
+}
+
+static void put_array64(pr_buf *b, const uint64_t *v, size_t n)
+{
+    if (n > SIZE_MAX / 16) {
+        pr__buf_fail(b, PR_ENOMEM);
+        return;
+    }
+    uint8_t *p = n ? pr__buf_claim(b, 8 * n) : NULL;
+    if (!p)
+        return;
+#if PR__HOST_LE
+    memcpy(p, v, 8 * n);
+#else
+    for (size_t i = 0; i < n; i++)
+        pr__st64(p + 8 * i, v[i]);
+#endif
+}
+
+void pr_put_u32_array(pr_buf *b, const uint32_t *v, size_t n)
+{
+    put_array32(b, v, n);
+}
+
+void pr_put_i32_array(pr_buf *b, const int32_t *v, size_t n)
+{
+    /* int32_t and uint32_t may alias each other (C11 6.5p7). */
+    put_array32(b, (const uint32_t *)v, n);
+}
+
+void pr_put_u64_array(pr_buf *b, const uint64_t *v, size_t n)
+{
+    put_array64(b, v, n);
+}
+
+void pr_put_f64_array(pr_buf *b, const double *v, size_t n)
+{
+#if PR__HOST_LE
+    /* The bytes of a double are its bit pattern in host order. */
+    if (n > SIZE_MAX / 16) {
+        pr__buf_fail(b, PR_ENOMEM);
+        return;
+    }
+    pr_put_bytes(b, v, 8 * n);
+#else
+    uint8_t *p = n ? pr__buf_claim(b, 8 * n) : NULL;
+    if (!p)
+        return;
+    for (size_t i = 0; i < n; i++)
+        pr__st64(p + 8 * i, pr__f64_bits(v[i]));
+#endif
+}
+
+/* ---------------------------------------------------------------- strings */
+
+int pr_str_check(const char *s, size_t len)
+{
+    if (len > PR_STR_MAX)
+        return PR_ERANGE;
+    const uint8_t *p = (const uint8_t *)s;
+    size_t i = 0;
+    while (i < len) {
+        uint8_t c = p[i];
+        if (c < 0x80) {
+            if (c < 0x20 || c == 0x7f)
+                return PR_EDATA;
+            i++;
+            continue;
+        }
+        /* A multi-byte sequence (RFC 3629): the lead byte gives the length,
+         * continuation bytes are 10xxxxxx, and the code point must need
+         * that length (no overlong form), must not be a UTF-16 surrogate
+         * and must be at most U+10FFFF. */
+        size_t n;
+        uint32_t cp, min;
+        if ((c & 0xe0) == 0xc0) {
+            n = 2, cp = c & 0x1fu, min = 0x80;
+        } else if ((c & 0xf0) == 0xe0) {
+            n = 3, cp = c & 0x0fu, min = 0x800;
+        } else if ((c & 0xf8) == 0xf0) {
+            n = 4, cp = c & 0x07u, min = 0x10000;
+        } else {
+            return PR_EDATA;
+        }
+        if (n > len - i)
+            return PR_EDATA;
+        for (size_t k = 1; k < n; k++) {
+            uint8_t d = p[i + k];
+            if ((d & 0xc0) != 0x80)
+                return PR_EDATA;
+            cp = cp << 6 | (d & 0x3fu);
+        }
+        if (cp < min || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff))
+            return PR_EDATA;
+        i += n;
+    }
+    return 0;
+}
+
+int pr_put_str(pr_buf *b, const char *s, size_t len)
+{
+    if (b->err)
+        return b->err;
+    if (pr_str_check(s, len))
+        return pr__buf_fail(b, PR_EINVAL);
+    pr_put_u16(b, (uint16_t)len);
+    pr_put_bytes(b, s, len);
+    return b->err;
+}
+
 /* ----------------------------------------------------------------- reader */
 
 void pr_reader_init(pr_reader *r, const void *data, size_t len)
@@ -193,6 +345,8 @@ static const uint8_t *reader_claim(pr_reader *r, size_t n)
 
 int pr_get_bytes(pr_reader *r, void *out, size_t n)
 {
+    if (n == 0) /* memcpy and memset want non-NULL pointers even then */
+        return r->err;
     const uint8_t *p = reader_claim(r, n);
     if (!p) {
         memset(out, 0, n);
@@ -250,6 +404,105 @@ int pr_get_f64(pr_reader *r, double *out)
     int rc = pr_get_u64(r, &bits);
     memcpy(out, &bits, sizeof *out);
     return rc;
+}
+
+int pr_get_i32(pr_reader *r, int32_t *out)
+{
+    uint32_t u;
+    int rc = pr_get_u32(r, &u);
+    *out = (int32_t)u;
+    return rc;
+}
+
+static int get_array32(pr_reader *r, uint32_t *out, size_t n)
+{
+    const uint8_t *p = n <= SIZE_MAX / 4 ? reader_claim(r, 4 * n) : NULL;
+    if (!p) {
+        if (n > SIZE_MAX / 4)
+            pr_reader_fail(r, PR_ETRUNC);
+        return r->err;
+    }
+#if PR__HOST_LE
+    if (n)
+        memcpy(out, p, 4 * n);
+#else
+    for (size_t i = 0; i < n; i++)
+        out[i] = pr__ld32(p + 4 * i);
+#endif
+    return 0;
+}
+
+static int get_array64(pr_reader *r, uint64_t *out, size_t n)
+{
+    const uint8_t *p = n <= SIZE_MAX / 8 ? reader_claim(r, 8 * n) : NULL;
+    if (!p) {
+        if (n > SIZE_MAX / 8)
+            pr_reader_fail(r, PR_ETRUNC);
+        return r->err;
+    }
+#if PR__HOST_LE
+    if (n)
+        memcpy(out, p, 8 * n);
+#else
+    for (size_t i = 0; i < n; i++)
+        out[i] = pr__ld64(p + 8 * i);
+#endif
+    return 0;
+}
+
+int pr_get_u32_array(pr_reader *r, uint32_t *out, size_t n)
+{
+    return get_array32(r, out, n);
+}
+
+int pr_get_i32_array(pr_reader *r, int32_t *out, size_t n)
+{
+    return get_array32(r, (uint32_t *)out, n);
+}
+
+int pr_get_u64_array(pr_reader *r, uint64_t *out, size_t n)
+{
+    return get_array64(r, out, n);
+}
+
+int pr_get_f64_array(pr_reader *r, double *out, size_t n)
+{
+    const uint8_t *p = n <= SIZE_MAX / 8 ? reader_claim(r, 8 * n) : NULL;
+    if (!p) {
+        if (n > SIZE_MAX / 8)
+            pr_reader_fail(r, PR_ETRUNC);
+        return r->err;
+    }
+#if PR__HOST_LE
+    if (n)
+        memcpy(out, p, 8 * n);
+#else
+    for (size_t i = 0; i < n; i++)
+        out[i] = pr__bits_f64(pr__ld64(p + 8 * i));
+#endif
+    return 0;
+}
+
+int pr_get_str(pr_reader *r, size_t max, char *out, size_t *len)
+{
+    uint16_t n;
+    const uint8_t *p;
+    out[0] = '\0';
+    if (len)
+        *len = 0;
+    if (pr_get_u16(r, &n))
+        return r->err;
+    if (n > max)
+        return pr_reader_fail(r, PR_ERANGE);
+    if (pr_get_view(r, &p, n))
+        return r->err;
+    if (pr_str_check((const char *)p, n))
+        return pr_reader_fail(r, PR_EDATA);
+    memcpy(out, p, n);
+    out[n] = '\0';
+    if (len)
+        *len = n;
+    return 0;
 }
 
 int pr_get_count(pr_reader *r, uint32_t max, size_t elem_size, uint32_t *out)

@@ -66,6 +66,9 @@ tests_test_delaunay_SOURCES = tests/test_delaunay.c
 tests_test_delaunay_CFLAGS = $(UNIT_CFLAGS)
 tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 
+TESTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
+dist_check_SCRIPTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
+
 # The quality mesher (refine branch).
 check_PROGRAMS += tests/test_refine
 TESTS += tests/test_refine

@@ -5,3 +5,56 @@ tests_test_am_error_SOURCES = tests/test_am_error.c
 tests_test_am_error_CFLAGS = $(UNIT_CFLAGS)
 tests_test_am_error_LDADD = libam.la $(UNIT_LIBS)
 tests_test_am_error_LDFLAGS = $(AM_LDFLAGS) -static
+
+# Multi-process driver run by the tests/am-*.sh scripts under am-run.
+check_PROGRAMS += tests/am_mp
+tests_am_mp_SOURCES = tests/am_mp.c
+tests_am_mp_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
+tests_am_mp_LDADD = libam.la $(ZMQ_LIBS)
+
+# Unit tests that reach into the runtime's internals (am_int.h) link libam
+# statically: with -fvisibility=hidden only the static archive exposes them.
+AM_UNIT_CFLAGS = $(UNIT_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
+AM_UNIT_LIBS = libam.la $(UNIT_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+
+check_PROGRAMS += tests/test_am_thread
+TESTS += tests/test_am_thread
+tests_test_am_thread_SOURCES = tests/test_am_thread.c
+tests_test_am_thread_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_thread_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_thread_LDFLAGS = $(AM_LDFLAGS) -static
+
+check_PROGRAMS += tests/test_am_control
+TESTS += tests/test_am_control
+tests_test_am_control_SOURCES = tests/test_am_control.c
+tests_test_am_control_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_control_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_control_LDFLAGS = $(AM_LDFLAGS) -static
+
+check_PROGRAMS += tests/test_am_latency
+TESTS += tests/test_am_latency
+tests_test_am_latency_SOURCES = tests/test_am_latency.c
+tests_test_am_latency_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_latency_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_latency_LDFLAGS = $(AM_LDFLAGS) -static
+
+check_PROGRAMS += tests/test_am_stats
+TESTS += tests/test_am_stats
+tests_test_am_stats_SOURCES = tests/test_am_stats.c
+tests_test_am_stats_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_stats_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_stats_LDFLAGS = $(AM_LDFLAGS) -static
+
+# Multi-process tests: am_mp under am-run, on loopback only.
+EXTRA_DIST += tests/am-lib.sh
+AM_MP_TESTS = \
+	tests/am-storm.sh \
+	tests/am-term.sh \
+	tests/am-rpc.sh \
+	tests/am-latency.sh \
+	tests/am-kill.sh \
+	tests/am-coll.sh \
+	tests/am-malformed.sh \
+	tests/am-launch.sh
+TESTS += $(AM_MP_TESTS)
+dist_check_SCRIPTS += $(AM_MP_TESTS)

@@ -262,6 +262,18 @@ START_TEST(single_insertions_inside_and_outside_the_hull)
         ck_assert_int_eq(c.status, DT_OK);
     }
     assert_clean(&m);
+    /* A point far away sees most of the hull: a cavity whose boundary has
+     * more vertices than the commit's edge table, which then links the new
+     * tets by turning around edges. */
+    {
+        double far[3] = {50, 60, 70};
+        uint32_t vf;
+        ck_assert_int_eq(tm_add_vertex(&m, far, &vf), 0);
+        ck_assert_int_eq(dt_cavity_search(&m, far, TM_NONE, DT_LOCATE, &c), 0);
+        ck_assert_uint_gt(c.nbnd, 2 * 64);
+        ck_assert_int_eq(dt_cavity_commit(&m, vf, &c), 0);
+        assert_clean(&m);
+    }
     /* Inserting an existing vertex again is refused. */
     uint32_t v;
     ck_assert_int_eq(tm_add_vertex(&m, tm_xyz(&m, 17), &v), 0);
@@ -354,6 +366,72 @@ START_TEST(marked_faces_stop_the_search_and_move_with_commit)
         dt_cavity_abandon(&m, &c);
         assert_clean(&m);
     }
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(markers_on_the_cavity_boundary_move_to_the_new_tets)
+{
+    /* Without DT_STOP_MARKED: a marked face on the boundary of an ordinary
+     * cavity (the usual, slot-reusing commit) moves to the new tet, and the
+     * subsegment bits of its edges too. */
+    tm_mesh m;
+    random_mesh(&m, 600, 13, TM_FEAT_MARKERS);
+    dt_cavity c;
+    dt_cavity_init(&c);
+    double p[3] = {0.37, 0.61, 0.44};
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    const dt_bface *b = &c.bnd[c.nbnd / 2];
+    uint32_t t = b->tet;
+    int f = b->face;
+    uint32_t fa = m.tets[t].v[tm_face_vtx[f][0]], fb = m.tets[t].v[tm_face_vtx[f][1]],
+             fc = m.tets[t].v[tm_face_vtx[f][2]];
+    dt_cavity_abandon(&m, &c);
+    tm_mark_face(&m, t, f, 7);
+    /* mark edge fa-fb as a subsegment in every tet around it */
+    for (uint32_t u = 0; u < m.nslots; u++) {
+        if (tm_is_dead(&m, u))
+            continue;
+        int sa = -1, sb = -1;
+        for (int s2 = 0; s2 < 4; s2++) {
+            if (m.tets[u].v[s2] == fa)
+                sa = s2;
+            if (m.tets[u].v[s2] == fb)
+                sb = s2;
+        }
+        if (sa >= 0 && sb >= 0)
+            m.flags[u] |= TM_F_SUBSEG(tm_edge_of[sa][sb]);
+    }
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+    ck_assert_int_eq(dt_cavity_commit(&m, v, &c), 0);
+    uint32_t t2;
+    int f2;
+    ck_assert(find_face(&m, fa, fb, fc, &t2, &f2));
+    ck_assert_int_eq(tm_face_marker(&m, t2, f2), 7);
+    tm_link l = m.tets[t2].n[f2];
+    ck_assert_int_eq(tm_face_marker(&m, tm_ltet(l), tm_lface(l)), 7);
+    /* every live tet with edge fa-fb still has its subsegment bit */
+    int around = 0;
+    for (uint32_t u = 0; u < m.nslots; u++) {
+        if (tm_is_dead(&m, u))
+            continue;
+        int sa = -1, sb = -1;
+        for (int s2 = 0; s2 < 4; s2++) {
+            if (m.tets[u].v[s2] == fa)
+                sa = s2;
+            if (m.tets[u].v[s2] == fb)
+                sb = s2;
+        }
+        if (sa >= 0 && sb >= 0) {
+            ck_assert(m.flags[u] & TM_F_SUBSEG(tm_edge_of[sa][sb]));
+            around++;
+        }
+    }
+    ck_assert_int_ge(around, 3);
+    assert_clean(&m);
     dt_cavity_free(&c);
     tm_free(&m);
 }
@@ -567,6 +645,7 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, search_then_abandon_leaves_the_mesh_unchanged);
     tcase_add_test(tc, single_insertions_inside_and_outside_the_hull);
     tcase_add_test(tc, marked_faces_stop_the_search_and_move_with_commit);
+    tcase_add_test(tc, markers_on_the_cavity_boundary_move_to_the_new_tets);
     tcase_add_test(tc, special_links_are_reported_once_each);
     tcase_add_test(tc, locked_tets_block_the_search);
     suite_add_tcase(s, tc);

@@ -247,6 +247,14 @@ START_TEST(random_points_agree_with_gmp)
                          ref_insphere(p[0], p[1], p[2], p[3], p[4]));
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3),
                          ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+        for (int st = 0; st <= 2; st++) {
+            int s3 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s3 != 2)
+                ck_assert_int_eq(s3, ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+            s3 = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (s3 != 2)
+                ck_assert_int_eq(s3, ref_orient3d(p[0], p[1], p[2], p[3]));
+        }
         ck_assert_int_eq(pred_orient2d(p[0], p[1], p[2]), ref_orient2d(p[0], p[1], p[2]));
         ck_assert_int_eq(pred_incircle(p[0], p[1], p[2], p[3]),
                          ref_incircle(p[0], p[1], p[2], p[3]));
@@ -267,6 +275,12 @@ START_TEST(near_cospherical_agree_with_gmp)
             apply(&t, sp[rndint(n)], p[i]);
         int ref = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
+        /* the exact stages alone (stage 2 takes the small-integer shortcut
+         * on these lattice points) */
+        int s2u = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
+        if (s2u != 2)
+            ck_assert_int_eq(s2u, ref);
+        ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3), ref);
         exact_zero += ref == 0;
         /* The SoS rule, checked against an actual rational perturbation. */
         if (ref == 0 && ref_orient3d(p[0], p[1], p[2], p[3]) != 0) {
@@ -292,14 +306,75 @@ START_TEST(near_cospherical_agree_with_gmp)
             ck_assert_int_eq(f, ref);
             decided_by_filter++;
         }
+        f = pred__insphere_filter2(p[0], p[1], p[2], p[3], p[4]);
+        if (f != 2)
+            ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
-        int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 2);
-        if (s2 != 2)
-            ck_assert_int_eq(s2, ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3), ref);
     }
     ck_assert_int_gt(exact_zero, 100); /* the degenerate inputs really are */
     (void)decided_by_filter;
+}
+END_TEST
+
+START_TEST(large_integer_points_agree_with_gmp)
+{
+    /* Integer points of a sphere of radius (a^2+b^2+c^2+d^2) from the
+     * Pythagorean quadruples of the sign changes and permutations of one
+     * (a,b,c,d): coordinates near 2^19, exactly cospherical, then moved by
+     * one unit. The determinants are far too large for double evaluation to
+     * be exact: this is where the small-integer shortcut must not be taken. */
+    for (int it = 0; it < 2000; it++) {
+        int q[4] = {300 + (int)(rnd() % 300), 200 + (int)(rnd() % 300), 100 + (int)(rnd() % 300),
+                    1 + (int)(rnd() % 300)};
+        double p[5][3], off[3];
+        for (int k = 0; k < 3; k++)
+            off[k] = (double)(rndint(2000001) - 1000000);
+        for (int i = 0; i < 5; i++) {
+            int w[4];
+            for (int k = 0; k < 4; k++)
+                w[k] = q[k];
+            for (int k = 3; k > 0; k--) { /* random permutation and signs */
+                int j = rndint(k + 1), t = w[k];
+                w[k] = w[j];
+                w[j] = t;
+            }
+            for (int k = 0; k < 4; k++)
+                if (rndint(2))
+                    w[k] = -w[k];
+            double a = w[0], b = w[1], c = w[2], d = w[3];
+            p[i][0] = a * a + b * b - c * c - d * d + off[0];
+            p[i][1] = 2 * (a * d + b * c) + off[1];
+            p[i][2] = 2 * (b * d - a * c) + off[2];
+        }
+        if (it % 2)
+            p[rndint(5)][rndint(3)] += rndint(2) ? 1 : -1;
+        int ref = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
+        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
+        int s2;
+        /* coplanar: the first three and their integer combination */
+        double r[3];
+        int u = rndint(7) - 3, v = rndint(7) - 3;
+        for (int k = 0; k < 3; k++)
+            r[k] = p[0][k] + u * (p[1][k] - p[0][k]) + v * (p[2][k] - p[0][k]) +
+                   (it % 2 ? (k == 0) : 0);
+        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], r), ref_orient3d(p[0], p[1], p[2], r));
+        for (int st = 0; st <= 2; st++) {
+            s2 = pred__orient3d_exact(p[0], p[1], p[2], r, st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref_orient3d(p[0], p[1], p[2], r));
+        }
+    }
 }
 END_TEST
 
@@ -324,14 +399,25 @@ START_TEST(near_coplanar_agree_with_gmp)
         int ref = ref_orient3d(p[0], p[1], p[2], p[3]);
         zero += ref == 0;
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
+        int s2u = pred__orient3d_exact(p[0], p[1], p[2], p[3], 2);
+        if (s2u != 2)
+            ck_assert_int_eq(s2u, ref);
         int who = rndint(4), k = rndint(3);
         p[who][k] = ulps(p[who][k], rndint(9) - 4);
         ref = ref_orient3d(p[0], p[1], p[2], p[3]);
         int f = pred__orient3d_filter(p[0], p[1], p[2], p[3]);
         if (f != 2)
             ck_assert_int_eq(f, ref);
+        f = pred__orient3d_filter2(p[0], p[1], p[2], p[3]);
+        if (f != 2)
+            ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
         ck_assert_int_eq(pred__orient3d_exact(p[0], p[1], p[2], p[3], 3), ref);
+        for (int st = 0; st <= 2; st++) {
+            int s2 = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (s2 != 2)
+                ck_assert_int_eq(s2, ref);
+        }
     }
     ck_assert_int_gt(zero, 3000);
 }
@@ -419,10 +505,17 @@ START_TEST(extreme_exponents_agree_with_gmp)
         if (it % 2) /* make some exactly degenerate: coplanar via z = x */
             for (int i = 0; i < 5; i++)
                 p[i][2] = p[i][0];
-        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]),
-                         ref_orient3d(p[0], p[1], p[2], p[3]));
-        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]),
-                         ref_insphere(p[0], p[1], p[2], p[3], p[4]));
+        int ro = ref_orient3d(p[0], p[1], p[2], p[3]), ri = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
+        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ro);
+        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ri);
+        for (int st = 0; st <= 3; st++) {
+            int x = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
+            if (x != 2)
+                ck_assert_int_eq(x, ro);
+            x = pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], st);
+            if (x != 2)
+                ck_assert_int_eq(x, ri);
+        }
         ck_assert_int_eq(pred_orient2d(p[0], p[1], p[2]), ref_orient2d(p[0], p[1], p[2]));
         ck_assert_int_eq(pred_incircle(p[0], p[1], p[2], p[3]),
                          ref_incircle(p[0], p[1], p[2], p[3]));
@@ -494,6 +587,7 @@ static Suite *pred_suite(void)
     tcase_add_test(tc, random_points_agree_with_gmp);
     tcase_add_test(tc, near_cospherical_agree_with_gmp);
     tcase_add_test(tc, near_coplanar_agree_with_gmp);
+    tcase_add_test(tc, large_integer_points_agree_with_gmp);
     tcase_add_test(tc, near_degenerate_2d_agree_with_gmp);
     tcase_add_test(tc, extreme_exponents_agree_with_gmp);
     tcase_add_test(tc, coplanar_incircle_agrees_with_every_sphere);

@@ -1,2 +1,11 @@
 # tools/: set-up script, launch helpers, domain generators, benchmarks.
 dist_noinst_SCRIPTS += tools/bootstrap
+
+# libam's benchmark driver, run by tools/bench-runtime.
+noinst_PROGRAMS += tools/am_bench
+tools_am_bench_SOURCES = tools/am_bench.c
+tools_am_bench_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
+tools_am_bench_LDADD = libam.la $(ZMQ_LIBS)
+dist_noinst_SCRIPTS += tools/bench-runtime
+dist_noinst_SCRIPTS += tools/bench-delaunay
+EXTRA_DIST += bench/kernel.md

@@ -1,0 +1,147 @@
+/*
+ * am_control.h -- bodies of libam's control messages (frames with
+ * PR_FLAG_CONTROL; the header's handler field is the type below).
+ *
+ * Encoders append to a pr_buf, decoders read from a pr_reader positioned
+ * after the frame header and require the body to be consumed exactly
+ * (pr_reader_finish). Decoded strings and payloads are views into the
+ * message: valid while the message is. Layouts: runtime/CONTROL.md.
+ */
+#ifndef AM_CONTROL_H
+#define AM_CONTROL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "pr.h"
+
+#define AM__CTL_MAP(X)                                                       \
+    X(HELLO, 1, "hello")             /* rank > 0 -> 0 at boot */             \
+    X(TABLE, 2, "table")             /* 0 -> all: endpoint table */          \
+    X(PEER_HELLO, 3, "peer_hello")   /* higher -> lower rank at boot */      \
+    X(BYE, 4, "bye")                 /* finalize: goodbye */                 \
+    X(PING, 5, "ping")               /* liveness probe */                    \
+    X(TOKEN, 6, "token")             /* termination token */                 \
+    X(TERMINATE, 7, "terminate")     /* 0 -> all: termination declared */    \
+    X(COLL_UP, 8, "coll_up")         /* child -> parent contribution */      \
+    X(COLL_DOWN, 9, "coll_down")     /* parent -> child result */            \
+    X(GATHER, 10, "gather")          /* blob -> rank 0 */                    \
+    X(RPC_REQ, 11, "rpc_request")    /* am_call request */                   \
+    X(RPC_REP, 12, "rpc_reply")      /* am_call reply */                     \
+    X(ABORT, 13, "abort")            /* a PE saw a peer fail; it exits */
+
+enum am__ctl_type {
+#define AM__CTL_ENUM(name, value, label) AM__CTL_##name = (value),
+    AM__CTL_MAP(AM__CTL_ENUM)
+#undef AM__CTL_ENUM
+    AM__CTL_COUNT
+};
+
+/* Name of a control type for statistics ("hello"), "?" if unknown. */
+const char *am__ctl_name(unsigned type);
+
+/* Longest endpoint string accepted in a message. */
+#define AM__EP_MAX 1024
+/* Most PEs a table may list. */
+#define AM__PE_MAX 65536
+/* Most values in one reduction message. */
+#define AM__COLL_MAX_N (1u << 24)
+
+typedef struct am__str {
+    const uint8_t *p; /* not NUL-terminated */
+    size_t len;
+} am__str;
+
+/* Longest hello message (proto's pr_hello, envelope included) accepted in
+ * a HELLO or PEER_HELLO body; version 1's is 20 bytes. */
+#define AM__HELLO_MAX 64
+
+/* HELLO: proto's hello message (versions, job, rank, size), which every
+ * protocol version lays out the same way, then the sender's endpoint. */
+typedef struct am__hello {
+    pr_hello id;
+    am__str endpoint;
+} am__hello;
+
+void am__hello_put(pr_buf *b, const am__hello *m);
+int am__hello_get(pr_reader *r, am__hello *m);
+
+/* TABLE: job, then size endpoint strings. ep[i] is read into eps[i] by the
+ * decoder, which allocates nothing: it first returns the count with
+ * am__table_get_count, then fills a caller array of that many entries. */
+void am__table_put(pr_buf *b, uint64_t job, uint32_t size,
+                   char *const *endpoints);
+int am__table_get(pr_reader *r, uint64_t *job, uint32_t max, uint32_t *size,
+                  am__str *eps);
+
+/* PEER_HELLO: proto's hello message only. */
+typedef struct am__peer_hello {
+    pr_hello id;
+} am__peer_hello;
+
+void am__peer_hello_put(pr_buf *b, const am__peer_hello *m);
+int am__peer_hello_get(pr_reader *r, am__peer_hello *m);
+
+typedef struct am__token {
+    uint64_t epoch;
+    int64_t q;
+    uint8_t black;
+} am__token;
+
+void am__token_put(pr_buf *b, const am__token *m);
+int am__token_get(pr_reader *r, am__token *m);
+
+void am__terminate_put(pr_buf *b, uint64_t epoch);
+int am__terminate_get(pr_reader *r, uint64_t *epoch);
+
+/* COLL_UP and COLL_DOWN: a vector of n 8-byte values (f64 bit patterns or
+ * i64), or none for a barrier. values is a view of 8n bytes. */
+typedef struct am__coll_msg {
+    uint64_t seq;
+    uint8_t kind; /* enum am__coll_kind */
+    uint8_t op;   /* am_op_t */
+    uint32_t n;
+    const uint8_t *values;
+} am__coll_msg;
+
+void am__coll_put(pr_buf *b, const am__coll_msg *m);
+int am__coll_get(pr_reader *r, am__coll_msg *m);
+
+typedef struct am__gather_msg {
+    uint64_t seq;
+    am__str blob;
+} am__gather_msg;
+
+void am__gather_put(pr_buf *b, const am__gather_msg *m);
+int am__gather_get(pr_reader *r, am__gather_msg *m);
+
+/* RPC_REQ: call id, user handler id, then the request payload to the end
+ * of the frame. RPC_REP: call id, then the reply payload. */
+typedef struct am__rpc_msg {
+    uint64_t call_id;
+    uint16_t handler; /* RPC_REQ only */
+    am__str payload;
+} am__rpc_msg;
+
+void am__rpc_req_put(pr_buf *b, uint64_t call_id, uint16_t handler,
+                     const void *data, size_t len);
+int am__rpc_req_get(pr_reader *r, am__rpc_msg *m);
+void am__rpc_rep_put(pr_buf *b, uint64_t call_id, const void *data,
+                     size_t len);
+int am__rpc_rep_get(pr_reader *r, am__rpc_msg *m);
+
+/* ABORT: the PE that failed (or UINT32_MAX if none in particular) and
+ * the sender's one-line reason. */
+#define AM__REASON_MAX 512
+typedef struct am__abort_msg {
+    uint32_t culprit;
+    am__str reason;
+} am__abort_msg;
+
+void am__abort_put(pr_buf *b, const am__abort_msg *m);
+int am__abort_get(pr_reader *r, am__abort_msg *m);
+
+/* BYE and PING have empty bodies. */
+int am__empty_get(pr_reader *r);
+
+#endif /* AM_CONTROL_H */

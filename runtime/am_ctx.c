@@ -1,0 +1,528 @@
+/* am_ctx.c -- the PE context: am_init (options, environment, rank and size
+ * from the launcher), am_finalize, fatal errors and small accessors. */
+#include "config.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "am_int.h"
+
+#define DEFAULT_STACK (64 * 1024)
+#define DEFAULT_STACK_ASAN (256 * 1024)
+#define DEFAULT_BOOT_TIMEOUT 60.0
+#define DEFAULT_HEARTBEAT 3.0
+#define DEFAULT_POLL_BUDGET 256
+
+double am__now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+void am__warn(const am_ctx_t *ctx, const char *fmt, ...)
+{
+    va_list ap;
+    if (ctx && ctx->size > 0)
+        fprintf(stderr, "am: PE %d: ", ctx->rank);
+    else
+        fprintf(stderr, "am: ");
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+}
+
+int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
+{
+    if (ctx->failed)
+        return ctx->failed;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(ctx->errmsg, sizeof ctx->errmsg, fmt, ap);
+    va_end(ap);
+    ctx->failed = code;
+    /* While am_init runs there is no handler to call yet: am_init prints
+     * and returns the code. */
+    if (ctx->state == AM__BOOTING) {
+        am__warn(ctx, "%s", ctx->errmsg);
+        return code;
+    }
+    if (ctx->on_error) {
+        ctx->on_error(ctx, code, ctx->errmsg, ctx->on_error_arg);
+        return code;
+    }
+    am__warn(ctx, "%s", ctx->errmsg);
+    fflush(NULL);
+    /* Give queued frames (the ABORTs to the other PEs) half a second to
+     * leave, then stop: like MPI_ERRORS_ARE_FATAL. _exit, not exit:
+     * ZeroMQ's threads and half-done collectives make atexit handlers a
+     * risk, not a help. */
+    if (ctx->sock) {
+        int linger = 500;
+        zmq_setsockopt(ctx->sock, ZMQ_LINGER, &linger, sizeof linger);
+        am__transport_close(ctx);
+    }
+    _exit(1);
+}
+
+void am_set_error_handler(am_ctx_t *ctx, am_error_fn fn, void *arg)
+{
+    if (!ctx)
+        return;
+    ctx->on_error = fn;
+    ctx->on_error_arg = arg;
+}
+
+const char *am_last_error(const am_ctx_t *ctx)
+{
+    return ctx ? ctx->errmsg : "";
+}
+
+int am_rank(const am_ctx_t *ctx)
+{
+    return ctx ? ctx->rank : -1;
+}
+
+int am_size(const am_ctx_t *ctx)
+{
+    return ctx ? ctx->size : 0;
+}
+
+const char *am_endpoint(const am_ctx_t *ctx, int pe)
+{
+    if (!ctx || pe < 0 || pe >= ctx->size || !ctx->peers)
+        return NULL;
+    return ctx->peers[pe].endpoint;
+}
+
+/* ------------------------------------------------------------ environment */
+
+const char *am__env(const am_ctx_t *ctx, const char *name)
+{
+    size_t n = strlen(name);
+    for (int i = ctx->noverrides - 1; i >= 0; i--)
+        if (!strncmp(ctx->overrides[i], name, n) && ctx->overrides[i][n] == '=')
+            return ctx->overrides[i] + n + 1;
+    const char *v = getenv(name);
+    return v && *v ? v : NULL;
+}
+
+/* Moves --am-NAME=VALUE arguments out of argv into ctx->overrides as
+ * AM_NAME=VALUE. */
+static int take_args(am_ctx_t *ctx, int *argc, char ***argv)
+{
+    if (!argc || !argv || !*argv)
+        return 0;
+    char **av = *argv;
+    int out = 1;
+    for (int i = 1; i < *argc; i++) {
+        const char *a = av[i];
+        if (!strcmp(a, "--")) {
+            while (i < *argc)
+                av[out++] = av[i++];
+            break;
+        }
+        if (strncmp(a, "--am-", 5) || !strchr(a, '=')) {
+            av[out++] = av[i];
+            continue;
+        }
+        char **grown = realloc(ctx->overrides,
+                               sizeof *grown * (size_t)(ctx->noverrides + 1));
+        if (!grown)
+            return AM_ENOMEM;
+        ctx->overrides = grown;
+        char *kv = malloc(strlen(a) + 1);
+        if (!kv)
+            return AM_ENOMEM;
+        size_t k = 0;
+        kv[k++] = 'A';
+        kv[k++] = 'M';
+        kv[k++] = '_';
+        const char *p = a + 5;
+        for (; *p != '='; p++)
+            kv[k++] = *p == '-' ? '_' : (char)toupper((unsigned char)*p);
+        strcpy(kv + k, p);
+        ctx->overrides[ctx->noverrides++] = kv;
+    }
+    av[out] = NULL;
+    *argc = out;
+    return 0;
+}
+
+static int parse_long(const char *s, long lo, long hi, long *out)
+{
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi)
+        return AM_EINVAL;
+    *out = v;
+    return 0;
+}
+
+/* Seconds: "3", "2.5", or with a unit as in latency specs ("500ms"). */
+static int parse_seconds(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end != s && *end == '\0' && v >= 0) {
+        *out = v;
+        return 0;
+    }
+    double hi;
+    return am__latency_parse(s, out, &hi) || hi != *out ? AM_EINVAL : 0;
+}
+
+static int parse_bytes(const char *s, size_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(s, &end, 10);
+    if (errno || end == s)
+        return AM_EINVAL;
+    unsigned long long scale = 1;
+    if (!strcmp(end, "k") || !strcmp(end, "K") || !strcmp(end, "KiB"))
+        scale = 1024;
+    else if (!strcmp(end, "M") || !strcmp(end, "MiB"))
+        scale = 1024 * 1024;
+    else if (*end)
+        return AM_EINVAL;
+    if (v > (1ull << 32) / scale)
+        return AM_EINVAL;
+    *out = (size_t)(v * scale);
+    return 0;
+}
+
+static const struct {
+    const char *rank, *size;
+} rank_sources[] = {
+    {"AM_RANK", "AM_SIZE"},
+    {"OMPI_COMM_WORLD_RANK", "OMPI_COMM_WORLD_SIZE"},
+    {"PMI_RANK", "PMI_SIZE"},
+    {"SLURM_PROCID", "SLURM_NTASKS"},
+};
+
+static int detect_rank(am_ctx_t *ctx)
+{
+    for (size_t i = 0; i < sizeof rank_sources / sizeof rank_sources[0]; i++) {
+        const char *r = am__env(ctx, rank_sources[i].rank);
+        if (!r)
+            continue;
+        const char *s = am__env(ctx, rank_sources[i].size);
+        long rank, size;
+        if (!s || parse_long(s, 1, AM__PE_MAX, &size) ||
+            parse_long(r, 0, size - 1, &rank)) {
+            am__warn(NULL, "bad job environment: %s=%s, %s=%s (need 0 <= rank < "
+                           "size <= %d)",
+                     rank_sources[i].rank, r, rank_sources[i].size,
+                     s ? s : "(unset)", AM__PE_MAX);
+            return AM_ELAUNCH;
+        }
+        ctx->rank = (int)rank;
+        ctx->size = (int)size;
+        return 0;
+    }
+    ctx->rank = 0;
+    ctx->size = 1;
+    return 0;
+}
+
+static char *dup_or_null(const char *s)
+{
+    return s ? strdup(s) : NULL;
+}
+
+static int bad_option(const am_ctx_t *ctx, const char *name, const char *value,
+                      const char *expect)
+{
+    am__warn(ctx, "bad %s '%s' (expected %s)", name, value, expect);
+    return AM_EINVAL;
+}
+
+static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
+{
+    static const am_opts_t none = AM_OPTS_INIT;
+    if (!o)
+        o = &none;
+    const char *v;
+
+#ifdef AM_ASAN
+    ctx->stack_size = DEFAULT_STACK_ASAN;
+#else
+    ctx->stack_size = DEFAULT_STACK;
+#endif
+    if (o->stack_size)
+        ctx->stack_size = o->stack_size;
+    else if ((v = am__env(ctx, "AM_STACK_SIZE")) &&
+             parse_bytes(v, &ctx->stack_size))
+        return bad_option(ctx, "AM_STACK_SIZE", v, "bytes, e.g. 65536 or 64k");
+
+#if defined(AM_FAST_SWITCH) && defined(__x86_64__)
+    ctx->switch_mode = AM_SWITCH_FAST;
+    int fast_built = 1;
+#else
+    ctx->switch_mode = AM_SWITCH_UCONTEXT;
+    int fast_built = 0;
+#endif
+    int mode = o->switch_mode;
+    if (!mode && (v = am__env(ctx, "AM_SWITCH"))) {
+        if (!strcmp(v, "ucontext"))
+            mode = AM_SWITCH_UCONTEXT;
+        else if (!strcmp(v, "fast"))
+            mode = AM_SWITCH_FAST;
+        else
+            return bad_option(ctx, "AM_SWITCH", v, "ucontext or fast");
+    }
+    if (mode == AM_SWITCH_FAST && !fast_built) {
+        am__warn(ctx, "the fast thread switch was not built (configure "
+                      "--disable-fast-switch, or not x86-64)");
+        return AM_EINVAL;
+    }
+    if (mode == AM_SWITCH_UCONTEXT || mode == AM_SWITCH_FAST)
+        ctx->switch_mode = mode;
+    else if (mode)
+        return AM_EINVAL;
+
+    ctx->boot_timeout = DEFAULT_BOOT_TIMEOUT;
+    if (o->boot_timeout > 0)
+        ctx->boot_timeout = o->boot_timeout;
+    else if ((v = am__env(ctx, "AM_BOOT_TIMEOUT")) &&
+             (parse_seconds(v, &ctx->boot_timeout) || ctx->boot_timeout <= 0))
+        return bad_option(ctx, "AM_BOOT_TIMEOUT", v, "seconds");
+
+    ctx->heartbeat = DEFAULT_HEARTBEAT;
+    if (o->heartbeat > 0)
+        ctx->heartbeat = o->heartbeat;
+    else if ((v = am__env(ctx, "AM_HEARTBEAT")) &&
+             (parse_seconds(v, &ctx->heartbeat) || ctx->heartbeat < 0.05))
+        return bad_option(ctx, "AM_HEARTBEAT", v, "seconds, at least 0.05");
+
+    ctx->poll_budget = o->poll_budget ? o->poll_budget : DEFAULT_POLL_BUDGET;
+
+    long hwm = 0;
+    if ((v = am__env(ctx, "AM_HWM")) && parse_long(v, 0, 1 << 30, &hwm))
+        return bad_option(ctx, "AM_HWM", v, "a message count, 0 = unlimited");
+    ctx->hwm = (int)hwm;
+
+    v = o->stats_dir ? o->stats_dir : am__env(ctx, "AM_STATS_DIR");
+    if (v && !(ctx->stats_dir = strdup(v)))
+        return AM_ENOMEM;
+
+    ctx->ipc_dir = dup_or_null(am__env(ctx, "AM_IPC_DIR"));
+    v = am__env(ctx, "AM_TRANSPORT");
+    if (!v)
+        v = ctx->ipc_dir ? "ipc" : "tcp";
+    if (strcmp(v, "ipc") && strcmp(v, "tcp"))
+        return bad_option(ctx, "AM_TRANSPORT", v, "ipc or tcp");
+    ctx->transport = strdup(v);
+    if (!strcmp(v, "ipc") && !ctx->ipc_dir && ctx->size > 1) {
+        am__warn(ctx, "AM_TRANSPORT=ipc needs AM_IPC_DIR, a directory for the "
+                      "sockets");
+        return AM_EINVAL;
+    }
+    ctx->bind_addr = strdup((v = am__env(ctx, "AM_BIND")) ? v : "127.0.0.1");
+    ctx->root_ep = dup_or_null(am__env(ctx, "AM_ROOT"));
+    ctx->rendezvous = dup_or_null(am__env(ctx, "AM_RENDEZVOUS"));
+    if ((v = am__env(ctx, "AM_JOB"))) {
+        char *end;
+        errno = 0;
+        ctx->job = strtoull(v, &end, 0);
+        if (errno || *end)
+            return bad_option(ctx, "AM_JOB", v, "an integer job id");
+    }
+    const char *pub = am__env(ctx, "AM_CURVE_SERVER_PUBLIC");
+    const char *sec = am__env(ctx, "AM_CURVE_SERVER_SECRET");
+    if (pub || sec) {
+        if (!pub || !sec || strlen(pub) != 40 || strlen(sec) != 40)
+            return bad_option(ctx, "AM_CURVE_SERVER_PUBLIC/SECRET", "...",
+                              "two Z85 keys of 40 characters");
+        if (!zmq_has("curve")) {
+            am__warn(ctx, "CURVE keys given but this libzmq has no CURVE");
+            return AM_EINVAL;
+        }
+        ctx->curve_public = strdup(pub);
+        ctx->curve_secret = strdup(sec);
+    }
+    if (!ctx->transport || !ctx->bind_addr)
+        return AM_ENOMEM;
+
+    const char *lat = o->latency ? o->latency : am__env(ctx, "AM_LATENCY");
+    const char *bw = o->bandwidth ? o->bandwidth : am__env(ctx, "AM_BANDWIDTH");
+    return am__latency_init(ctx, lat, bw);
+}
+
+/* ------------------------------------------------------- init / finalize */
+
+static void destroy(am_ctx_t *ctx)
+{
+    am__latency_free(ctx);
+    am__coll_free_all(ctx);
+    am__fifo_clear(&ctx->loopback);
+    am__fifo_clear(&ctx->early);
+    am__fifo_clear(&ctx->deferred);
+    if (ctx->peers)
+        for (int pe = 0; pe < ctx->size; pe++)
+            am__fifo_clear(&ctx->peers[pe].sendq);
+    am__transport_close(ctx);
+    am__sched_free(ctx);
+    am__loop_free(ctx);
+    am__stats_free(ctx);
+    if (ctx->peers)
+        for (int pe = 0; pe < ctx->size; pe++)
+            free(ctx->peers[pe].endpoint);
+    free(ctx->peers);
+    for (int i = 0; i < ctx->noverrides; i++)
+        free(ctx->overrides[i]);
+    free(ctx->overrides);
+    free(ctx->stats_dir);
+    free(ctx->transport);
+    free(ctx->ipc_dir);
+    free(ctx->bind_addr);
+    free(ctx->root_ep);
+    free(ctx->rendezvous);
+    free(ctx->rdv_file);
+    free(ctx->curve_public);
+    free(ctx->curve_secret);
+    free(ctx);
+}
+
+int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
+{
+    if (!out)
+        return AM_EINVAL;
+    *out = NULL;
+    am_ctx_t *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return AM_ENOMEM;
+    ctx->t_init = am__now();
+    ctx->state = AM__BOOTING;
+    int rc = take_args(ctx, argc, argv);
+    if (!rc)
+        rc = detect_rank(ctx);
+    if (!rc)
+        rc = resolve_options(ctx, opts);
+    if (!rc && !(ctx->peers = calloc((size_t)ctx->size, sizeof *ctx->peers)))
+        rc = AM_ENOMEM;
+    for (int pe = 0; !rc && pe < ctx->size; pe++)
+        ctx->peers[pe].ctx = ctx;
+    if (!rc)
+        rc = am__loop_init(ctx);
+    if (!rc)
+        rc = am__sched_init(ctx);
+    if (!rc && ctx->size > 1) {
+        rc = am__transport_open(ctx);
+        if (!rc)
+            rc = am__boot(ctx);
+        if (!rc)
+            rc = am__loop_watch(ctx);
+    }
+    if (rc) {
+        if (rc == AM_ENOMEM)
+            am__warn(ctx, "am_init: out of memory");
+        destroy(ctx);
+        return rc;
+    }
+    ctx->state = AM__RUNNING;
+    *out = ctx;
+    return 0;
+}
+
+/* Waits (bounded) until every peer said goodbye. A peer closes only after
+ * it has our BYE too, so when this returns everything we sent has arrived
+ * and closing the socket has nothing left to linger for. */
+static void wait_byes(am_ctx_t *ctx, double seconds)
+{
+    double end = am__now() + seconds;
+    for (;;) {
+        am__recv_some(ctx, 1024);
+        int missing = 0;
+        for (int pe = 0; pe < ctx->size; pe++)
+            missing += pe != ctx->rank && !ctx->peers[pe].said_bye;
+        if (!missing || ctx->failed || am__now() > end)
+            return;
+        zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLIN, 0};
+        zmq_poll(&it, 1, 10);
+    }
+}
+
+/* Waits (bounded) until the send queues are empty. */
+static void drain_sendq(am_ctx_t *ctx, double seconds)
+{
+    double end = am__now() + seconds;
+    while (ctx->sendq_total && !ctx->failed && am__now() < end) {
+        if (am__flush_sendq(ctx))
+            break;
+        if (ctx->sendq_total) {
+            zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLOUT, 0};
+            zmq_poll(&it, 1, 10);
+        }
+    }
+}
+
+int am_finalize(am_ctx_t **pctx)
+{
+    /* The state goes to AM__CLOSING after the final barrier: it tells the
+     * transport that peers may vanish without that being a failure. */
+    if (!pctx || !*pctx)
+        return AM_EINVAL;
+    am_ctx_t *ctx = *pctx;
+    if (ctx->sched.current || ctx->in_callback)
+        return AM_ESTATE;
+    int rc = 0;
+    if (ctx->state == AM__RUNNING && !ctx->failed && ctx->size > 1) {
+        ctx->coll_deadline = am__now() + ctx->boot_timeout;
+        rc = am_barrier(ctx);
+        ctx->coll_deadline = 0;
+        if (rc == AM_ETIMEOUT)
+            am__warn(ctx, "am_finalize: the other PEs did not all reach "
+                          "am_finalize within %.0f s; leaving anyway",
+                     ctx->boot_timeout);
+        /* From here on a peer that already left is no error. */
+        ctx->state = AM__CLOSING;
+        if (!ctx->failed) {
+            for (int pe = 0; pe < ctx->size; pe++) {
+                if (pe == ctx->rank)
+                    continue;
+                pr_buf b = PR_BUF_INIT;
+                am__ctl_begin(&b);
+                am__send_ctl(ctx, pe, AM__CTL_BYE, &b);
+                pr_buf_free(&b);
+            }
+            drain_sendq(ctx, 2.0);
+            wait_byes(ctx, 5.0);
+        }
+    }
+    if (ctx->sched.live) {
+        am__warn(ctx, "am_finalize: %zu thread(s) still alive; their stacks "
+                      "are freed",
+                 ctx->sched.live);
+        if (!rc)
+            rc = AM_ESTATE;
+    }
+    if (ctx->stats_dir) {
+        size_t n = strlen(ctx->stats_dir) + 32;
+        char *path = malloc(n);
+        if (path) {
+            snprintf(path, n, "%s/stats-%d.json", ctx->stats_dir, ctx->rank);
+            int src = am_stats_write_json(ctx, path);
+            if (src && !rc)
+                rc = src;
+            free(path);
+        }
+    }
+    if (ctx->rank == 0 && ctx->rdv_file)
+        unlink(ctx->rdv_file);
+    if (ctx->failed && !rc)
+        rc = ctx->failed;
+    ctx->state = AM__CLOSING;
+    destroy(ctx);
+    *pctx = NULL;
+    return rc;
+}

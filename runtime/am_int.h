@@ -1,0 +1,520 @@
+/*
+ * am_int.h -- libam internals shared by the runtime's modules.
+ *
+ * Module map (one job each; internal names carry the module's word):
+ *   am_ctx.c        init/finalize, options and environment, fatal errors
+ *   am_boot.c       finding rank 0, hello exchange, endpoint table
+ *   am_transport.c  the ROUTER socket, sending, send queues, receiving,
+ *                   frame validation, peer failure detection
+ *   am_loop.c       libevent integration, am_poll, idle blocking, drive
+ *                   loops, am_run_until_done
+ *   am_thread.c     coroutines, stack pool; am_switch_x86_64.S fast switch
+ *   am_future.c     futures, conditions, wait queues
+ *   am_timer.c      timers, am_sleep
+ *   am_term.c       Safra's termination detection
+ *   am_coll.c       barrier, allreduce, gather
+ *   am_rpc.c        am_call / am_reply
+ *   am_stats.c      time accounting, counters, JSON
+ *   am_latency.c    latency/bandwidth specs, delayed delivery
+ *   am_control.c    bodies of the runtime's control messages
+ *   am_launch.c     am-run / pdr run launcher and rendezvous server
+ */
+#ifndef AM_INT_H
+#define AM_INT_H
+
+#include <event2/event.h>
+#include <stdint.h>
+#include <ucontext.h>
+#include <zmq.h>
+
+#include "am.h"
+#include "am_control.h"
+#include "pr.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define AM_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define AM_ASAN 1
+#endif
+#endif
+
+/* ------------------------------------------------------------ small tools */
+
+/* Seconds on CLOCK_MONOTONIC (about 20 ns a call on this hardware). */
+double am__now(void);
+
+/* Prints "am: PE r: " and the message to stderr (diagnostics that are not
+ * fatal errors: rejected frames, launch problems). */
+void am__warn(const am_ctx_t *ctx, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+/* Records a fatal error (first one wins), calls the error handler and, if
+ * it returns, leaves ctx failed. Returns code. */
+int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* ------------------------------------------------------------------ frames */
+
+/* A received or outgoing frame (header + payload in one ZeroMQ message)
+ * while it waits in one of the runtime's FIFOs: the per-peer send queue,
+ * the per-peer latency queue, the loopback queue, the boot stash or the
+ * deferred queue. */
+typedef struct am__frame {
+    struct am__frame *next;
+    zmq_msg_t msg;  /* the whole frame; owned by the node */
+    pr_header hdr;  /* decoded header */
+    int src;        /* sender rank */
+    double due;     /* latency queue: delivery time (am__now clock) */
+} am__frame;
+
+typedef struct am__fifo {
+    am__frame *head, *tail;
+    size_t n;
+} am__fifo;
+
+void am__fifo_push(am__fifo *q, am__frame *f);
+am__frame *am__fifo_pop(am__fifo *q);
+/* Frees every node (closing its message). */
+void am__fifo_clear(am__fifo *q);
+am__frame *am__frame_new(void);
+void am__frame_free(am__frame *f);
+
+/* ------------------------------------------------------------------- peers */
+
+/* Invariants: send_seq is the sequence number of the next frame to this
+ * peer, recv_seq the one expected next from it (frames arrive in order on
+ * one ZeroMQ pipe; a lower number is a duplicate and is refused). While
+ * sendq is not empty every new frame to the peer is appended to it, so
+ * frames never overtake each other. delayq is ordered by due time, which
+ * never decreases along the queue (per-sender order is kept under random
+ * latency); delay_ev is armed for the head whenever delayq is not empty. */
+typedef struct am__peer {
+    am_ctx_t *ctx;          /* back pointer for libevent callbacks */
+    char *endpoint;         /* where it listens; owned */
+    uint64_t send_seq;      /* next outgoing sequence number */
+    uint64_t recv_seq;      /* next expected incoming sequence number */
+    am__fifo sendq;         /* frames ZeroMQ could not take yet */
+    am__fifo delayq;        /* latency injection: not yet delivered */
+    struct event *delay_ev; /* timer for delayq's head */
+    int delay_armed;
+    double link_free_at;    /* bandwidth emulation: link busy until */
+    double last_due;        /* due time of the last frame queued */
+    int hello;              /* boot: its hello arrived */
+    int said_bye;           /* it finalized normally */
+    int connected_to;       /* we connected to it (lower rank) */
+    int suspect;            /* a disconnect may be this peer's */
+    double suspect_since;
+} am__peer;
+
+/* Reasons a frame is rejected (counted in statistics). */
+#define AM__REJECT_MAP(X)                                                    \
+    X(PARTS, "wrong number of message parts")                                \
+    X(IDENTITY, "unknown routing id")                                        \
+    X(TRUNC, "shorter than the header")                                      \
+    X(MAGIC, "bad magic")                                                    \
+    X(VERSION, "other protocol version")                                     \
+    X(FLAGS, "unknown flags")                                                \
+    X(LENGTH, "payload length does not match the frame")                     \
+    X(SENDER, "sender field differs from the routing id")                    \
+    X(SEQ, "duplicate or out-of-order sequence number")                      \
+    X(HANDLER, "no handler registered")                                      \
+    X(BODY, "malformed control message")                                     \
+    X(LATE, "message from a PE that said goodbye")
+
+enum am__reject {
+#define AM__REJ_ENUM(name, msg) AM__REJ_##name,
+    AM__REJECT_MAP(AM__REJ_ENUM)
+#undef AM__REJ_ENUM
+    AM__REJ_COUNT
+};
+
+/* --------------------------------------------------------------- threads */
+
+typedef struct am__stack {
+    struct am__stack *next; /* free list */
+    void *map;              /* mmap'd region, guard page first */
+    size_t map_size;
+    void *lo;               /* lowest usable byte (above the guard) */
+    size_t size;            /* usable bytes */
+} am__stack;
+
+enum am__tstate { AM__T_RUNNABLE, AM__T_RUNNING, AM__T_BLOCKED, AM__T_DONE };
+
+typedef struct am__thread am__thread;
+
+/* A waiter in a future's or condition's queue. Threads put it on their own
+ * stack (valid while they are blocked); the main context on its stack. */
+typedef struct am__waiter {
+    struct am__waiter *next;
+    am__thread *thread; /* NULL: the main context is waiting */
+    int woken;
+} am__waiter;
+
+typedef struct am__waitq {
+    am__waiter *head, *tail;
+} am__waitq;
+
+/* Invariants: a thread is in exactly one of: the run queue (RUNNABLE),
+ * running (RUNNING, sched.current), a wait queue or a timer (BLOCKED), or
+ * finished (DONE, its stack back in the pool). Only the scheduler (the main
+ * context, inside am_run_threads) switches into a thread, and a thread
+ * always switches back to the scheduler, never directly to another. */
+struct am__thread {
+    am__thread *next;       /* run queue or free list */
+    am__thread *all_next;   /* every thread struct ever made, for cleanup */
+    am_ctx_t *ctx;
+    int state;              /* enum am__tstate */
+    am_thread_fn fn;
+    void *arg;
+    am_future_t *done;      /* set when fn returns, may be NULL */
+    am__stack *stack;
+    void *sp;               /* fast switch: saved stack pointer */
+    ucontext_t uc;          /* made by makecontext; ucontext switch */
+    uintptr_t boot_frame[8];/* fast switch: first frame (see am_thread.c) */
+    uintptr_t boot_regs[5]; /* rip, rsp, rdi, rsi, rbx from makecontext */
+    struct event *sleep_ev; /* am_sleep's timer, made on first use */
+    void *asan_fake_stack;  /* AddressSanitizer fiber bookkeeping */
+};
+
+typedef struct am__sched {
+    int mode;               /* AM_SWITCH_UCONTEXT or AM_SWITCH_FAST */
+    am__thread *current;    /* running thread, NULL in the main context */
+    am__thread *runq_head, *runq_tail;
+    size_t runq_n;
+    size_t live;            /* threads not DONE */
+    ucontext_t main_uc;     /* ucontext switch: the scheduler's context */
+    void *main_sp;          /* fast switch: the scheduler's stack pointer */
+    am__stack *free_stacks; /* pool */
+    size_t nfree_stacks;
+    am__thread *free_threads;
+    am__thread *all;        /* list through all_next */
+    size_t stack_size;      /* usable bytes per stack */
+    size_t page;
+    const void *main_stack_bottom; /* AddressSanitizer: main stack */
+    size_t main_stack_size;
+    void *main_fake_stack;
+    uint64_t spawned, switches;
+} am__sched;
+
+/* ------------------------------------------------------- futures, timers */
+
+struct am_future_s {
+    am_ctx_t *ctx;
+    void *value;
+    int set;
+    am__waitq waiters;
+};
+
+struct am_cond_s {
+    am_ctx_t *ctx;
+    am__waitq waiters;
+};
+
+struct am_timer_s {
+    am_ctx_t *ctx;
+    struct event *ev;
+    am_timer_fn fn;
+    void *arg;
+    int armed;
+    int in_callback; /* its callback is running */
+    int free_later;  /* am_timer_free was called from the callback */
+};
+
+/* ------------------------------------------------------------ termination */
+
+/* Safra's algorithm (EWD998). count = basic messages sent minus basic
+ * messages delivered by this PE, over the whole run; black = a basic
+ * message was delivered since this PE last passed the token. Basic
+ * messages are user AMs and RPC requests/replies; control messages are not
+ * counted. The token travels 0 -> 1 -> ... -> P-1 -> 0 and is held by a
+ * PE until that PE is passive. */
+typedef struct am__term {
+    int64_t count;
+    int black;
+    int have_token;       /* this PE holds the token */
+    int64_t tok_q;        /* its accumulated count */
+    int tok_black;
+    int probing;          /* rank 0: a token is travelling */
+    uint64_t epoch;       /* terminations completed on this PE */
+    int declared;         /* TERMINATE for the current epoch arrived */
+    int defer;            /* hold basic messages back (after TERMINATE) */
+    int passive;          /* last reported state */
+} am__term;
+
+/* ------------------------------------------------------------ collectives */
+
+enum am__coll_kind { AM__COLL_BARRIER = 0, AM__COLL_F64 = 1, AM__COLL_I64 = 2,
+                     AM__COLL_GATHER = 3 };
+
+/* One collective operation, identified by its sequence number (every PE
+ * numbers its collectives 1, 2, ...). Contributions of children in the
+ * binary tree (children of r are 2r+1 and 2r+2) may arrive before this PE
+ * enters the operation; they wait here, and are combined in a fixed order
+ * (own, left, right) so that sums do not depend on arrival order. */
+typedef struct am__coll {
+    struct am__coll *next;
+    uint64_t seq;
+    int kind;
+    int op;
+    uint32_t n;          /* values per vector */
+    uint8_t *child[2];   /* children's vectors (8n bytes each), owned */
+    int child_got[2];
+    uint8_t *result;     /* down phase: the result (8n bytes), owned */
+    int result_got;
+    void **blobs;        /* gather at rank 0: one per rank, owned */
+    size_t *blens;
+    int blobs_got;
+    am__waiter waiter;   /* a thread of this PE waiting in it */
+    int has_waiter;
+} am__coll;
+
+/* ------------------------------------------------------------------- RPC */
+
+typedef struct am__call {
+    struct am__call *next;
+    uint64_t id;
+    am__waiter w;
+    void *reply;
+    size_t reply_len;
+    int done;
+} am__call;
+
+#define AM__CALL_BUCKETS 64
+
+/* ------------------------------------------------------------- statistics */
+
+typedef struct am__hstat {
+    uint64_t sent, sent_bytes, recv, recv_bytes;
+    double seconds; /* running the handler */
+} am__hstat;
+
+typedef struct am__handler {
+    am_handler_fn fn;
+    void *arg;
+    char *name; /* owned, may be NULL */
+    am__hstat st;
+} am__handler;
+
+#define AM__CAT_MAX 64
+
+typedef struct am__category {
+    char *name;        /* owned */
+    double total;      /* closed spans */
+    double open_since; /* valid while depth > 0 */
+    int depth;
+    int64_t begins;
+    int64_t counter;
+} am__category;
+
+/* ---------------------------------------------------------------- latency */
+
+typedef struct am__latency {
+    int on;
+    double lo, hi;     /* seconds; uniform in [lo, hi] */
+    double bw;         /* bytes per second, 0 = unlimited */
+    uint64_t rng;      /* xorshift state */
+    char spec[64];     /* as given, for statistics */
+    char bw_spec[64];
+} am__latency;
+
+/* ------------------------------------------------------------- the context */
+
+enum am__boot_state { AM__BOOTING, AM__RUNNING, AM__CLOSING };
+
+struct am_ctx_s {
+    int rank, size;
+    int state;             /* enum am__boot_state */
+    int failed;            /* first fatal error code, 0 if none */
+    char errmsg[256];
+    am_error_fn on_error;
+    void *on_error_arg;
+
+    /* options, resolved */
+    size_t stack_size;
+    int switch_mode;
+    double boot_timeout;
+    double heartbeat;
+    unsigned poll_budget;
+    int hwm;
+    char *stats_dir;
+    char *transport;       /* "ipc" or "tcp" */
+    char *ipc_dir;
+    char *bind_addr;
+    char *root_ep;
+    char *rendezvous;
+    uint64_t job;
+    char *curve_public, *curve_secret; /* z85, NULL if CURVE is off */
+    char **overrides;      /* "AM_NAME=VALUE" from --am-name=value args */
+    int noverrides;
+    char *rdv_file;        /* rank 0: rendezvous file it wrote */
+    int boot_table;        /* boot: the endpoint table arrived */
+
+    /* transport */
+    void *zctx;            /* ZeroMQ context (NULL for a one-PE job) */
+    void *sock;            /* the ROUTER */
+    void *mon;             /* PAIR receiving the socket's monitor events */
+    int zfd;               /* ZMQ_FD of sock */
+    int events_stale;      /* a send may have eaten a ZMQ_FD edge since
+                              the socket was last seen empty */
+    int aborting;          /* telling peers about a failure */
+    am__peer *peers;       /* size entries */
+    size_t sendq_total;    /* frames in all send queues */
+    am__fifo loopback;     /* frames sent to this PE */
+    am__fifo early;        /* non-boot frames received while booting */
+    am__fifo deferred;     /* basic frames held back after TERMINATE */
+    int suspects;          /* peers with suspect set */
+    double next_housekeeping;
+    uint64_t rejected[AM__REJ_COUNT];
+    int warned[AM__REJ_COUNT];
+
+    /* loop */
+    struct event_base *base;
+    struct event *zmq_ev;  /* persistent read on ZMQ_FD */
+    struct event *mon_ev;  /* persistent read on the monitor's fd */
+    struct event *wake_ev; /* am_idle's time limit */
+    int in_callback;       /* depth of handler/timer callbacks running */
+    int timers_armed;      /* libevent timers armed (all kinds) */
+    int user_timers_armed; /* am_timer timers and sleeps: keep PE active */
+    uint64_t delivered;    /* messages + timers delivered, for am_poll */
+
+    am__sched sched;
+    am__term term;
+
+    uint64_t coll_seq;     /* last collective started here */
+    am__coll *colls;
+    int coll_busy;         /* a collective is in progress on this PE */
+    double coll_deadline;  /* main-context collectives give up then (0: no) */
+
+    uint64_t next_call_id;
+    am__call *calls[AM__CALL_BUCKETS];
+
+    am__handler handlers[AM_HANDLER_MAX];
+    am__hstat ctl_st[AM__CTL_COUNT];
+    am__hstat rpc_reply_st;
+    am__category cats[AM__CAT_MAX];
+    int ncats;
+    am_stats_t st;         /* runtime counters (times filled on read) */
+    double t_init;
+
+    am__latency lat;
+};
+
+/* ------------------------------------------------- cross-module internals */
+
+/* am_ctx.c */
+/* getenv with --am-name=value overrides; NULL if unset or empty. */
+const char *am__env(const am_ctx_t *ctx, const char *name);
+
+/* am_boot.c: connects the PEs; returns 0 or a code (diagnostic printed). */
+int am__boot(am_ctx_t *ctx);
+/* HELLO, TABLE and PEER_HELLO frames. */
+void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+
+/* am_transport.c */
+int am__transport_open(am_ctx_t *ctx);   /* socket, options, bind */
+void am__transport_close(am_ctx_t *ctx);
+int am__connect_peer(am_ctx_t *ctx, int pe);
+/* Encodes the routing id of rank into out[5]. */
+void am__routing_id(int rank, uint8_t out[5]);
+/* Sends a frame already holding header room: writes the header (flags,
+ * handler, sender, length, seq) into the first PR_HEADER_SIZE bytes of msg
+ * and hands it to ZeroMQ, the send queue, or the loopback queue. Takes
+ * ownership of msg on success only; on failure the caller closes it. */
+int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
+                 zmq_msg_t *msg);
+/* Builds a control frame from body (encoded with a PR_HEADER_SIZE gap in
+ * front, see am__ctl_begin) and sends it. Resets body. */
+int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body);
+/* Starts a control body: leaves room for the header. */
+void am__ctl_begin(pr_buf *body);
+/* Receives up to budget frames; returns how many were taken (>= 0). */
+int am__recv_some(am_ctx_t *ctx, unsigned budget);
+/* 1 if ZeroMQ says a frame is waiting (re-reads ZMQ_EVENTS). */
+int am__socket_readable(am_ctx_t *ctx);
+/* Flushes send queues; returns 0 or a fatal code. */
+int am__flush_sendq(am_ctx_t *ctx);
+/* Reads socket monitor events and probes suspected peers. */
+void am__check_peers(am_ctx_t *ctx);
+/* Validates a received frame (identity part and body); fills *src, *hdr.
+ * Returns 0 or the reason (enum am__reject) + 1. Exposed for unit tests. */
+int am__frame_check(const am_ctx_t *ctx, const void *id, size_t id_len,
+                    const void *frame, size_t len, int *src, pr_header *hdr);
+/* A peer failed: tells the other PEs (ABORT), then fails with AM_EPEER
+ * and the message why. */
+int am__peer_failed(am_ctx_t *ctx, int pe, const char *why);
+/* Counts a rejected frame; warns once per reason. */
+void am__reject(am_ctx_t *ctx, int reason, int src, const char *detail);
+/* Frame passed validation (and latency): delivers or defers it. */
+void am__arrive(am_ctx_t *ctx, am__frame *f);
+/* Runs the handler of a user or control frame. */
+void am__dispatch(am_ctx_t *ctx, am__frame *f);
+/* Delivers a user message to its handler; call_id 0 for plain AMs. */
+void am__deliver_user(am_ctx_t *ctx, int src, unsigned id, const void *data,
+                      size_t len, uint64_t call_id);
+
+/* am_loop.c */
+int am__loop_init(am_ctx_t *ctx);
+/* Adds the socket's and the monitor's fds to libevent. */
+int am__loop_watch(am_ctx_t *ctx);
+void am__loop_free(am_ctx_t *ctx);
+/* Drives the loop (poll, threads, idle) until *flag != 0 or ctx fails. */
+int am__drive(am_ctx_t *ctx, const int *flag);
+/* 0 if a blocking call may proceed in the caller's context, AM_ESTATE
+ * from a callback, or the context's failure code. */
+int am__may_block(const am_ctx_t *ctx);
+/* Something is runnable or deliverable without waiting. */
+int am__has_ready_work(const am_ctx_t *ctx);
+
+/* am_thread.c */
+int am__sched_init(am_ctx_t *ctx);
+void am__sched_free(am_ctx_t *ctx);
+/* Blocks the running thread (state already BLOCKED, queued somewhere) and
+ * switches to the scheduler; returns when it runs again. */
+void am__thread_block(am_ctx_t *ctx);
+/* Makes a blocked thread runnable (appends to the run queue). */
+void am__thread_wake(am_ctx_t *ctx, am__thread *t);
+
+/* am_future.c */
+void am__waitq_push(am__waitq *q, am__waiter *w);
+void am__waitq_remove(am__waitq *q, am__waiter *w);
+/* Wakes one waiter (thread to run queue, main flag set); 0 if none. */
+int am__wake_one(am_ctx_t *ctx, am__waitq *q);
+/* Waits on w, already queued: blocks the thread or drives the loop. */
+int am__wait_on(am_ctx_t *ctx, am__waitq *q, am__waiter *w);
+
+/* am_timer.c */
+void am__timer_armed(am_ctx_t *ctx, int user, int delta);
+
+/* am_term.c */
+void am__term_on_send(am_ctx_t *ctx);    /* a basic message was sent */
+void am__term_on_deliver(am_ctx_t *ctx); /* a basic message was delivered */
+void am__term_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+/* One detection step: reports passivity, moves the token. Returns 1 when
+ * termination was declared for the current epoch. */
+int am__term_step(am_ctx_t *ctx, int passive);
+
+/* am_coll.c */
+void am__coll_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+void am__coll_free_all(am_ctx_t *ctx);
+
+/* am_rpc.c */
+void am__rpc_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r,
+                 const am__frame *f);
+
+/* am_stats.c */
+void am__stats_free(am_ctx_t *ctx);
+
+/* am_latency.c */
+/* Parses "200us", "100us-2ms", "0": seconds in *lo, *hi. */
+int am__latency_parse(const char *spec, double *lo, double *hi);
+/* Parses "100Mbit", "1Gbit", "12.5MB", "0": bytes per second in *bps. */
+int am__bandwidth_parse(const char *spec, double *bps);
+int am__latency_init(am_ctx_t *ctx, const char *lat, const char *bw);
+/* Queues a received frame for delayed delivery (takes ownership). */
+void am__latency_enqueue(am_ctx_t *ctx, am__frame *f);
+void am__latency_free(am_ctx_t *ctx);
+/* Frames waiting in latency queues (for tests and diagnostics). */
+size_t am__latency_pending(const am_ctx_t *ctx);
+
+#endif /* AM_INT_H */

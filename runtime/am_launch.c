@@ -1,0 +1,772 @@
+/* am_launch.c -- the job launcher behind am-run and 'pdr run'.
+ *
+ * It starts P PEs (forked locally, or through ssh on the hosts of a
+ * hostfile), gives each its rank, size, job id and transport in AM_*
+ * environment variables, serves the tcp rendezvous where rank 0 publishes
+ * its endpoint, waits for the PEs, and returns the first failing PE's exit
+ * status. When a PE fails, the others get a grace period to notice on
+ * their own (they report which peer went away), then are terminated.
+ * Ctrl-C or SIGTERM to the launcher stops the whole job.
+ *
+ * Transports: ipc (default for local jobs: sockets in a private temporary
+ * directory that the launcher removes) or tcp (required for hostfiles;
+ * bound to 127.0.0.1 unless --bind says otherwise). On tcp, when libzmq
+ * has CURVE, the launcher makes one key pair per job and the PEs encrypt
+ * and authenticate with it (runtime/CONTROL.md, "CURVE": the job's
+ * "public" key is given only to the job's PEs and acts as a shared job
+ * secret).
+ */
+#include "config.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "am_int.h"
+
+#define EXIT_USAGE 2
+#define EXIT_TIMEOUT 124
+
+static volatile sig_atomic_t got_signal;
+
+static void on_signal(int sig)
+{
+    got_signal = sig;
+}
+
+typedef struct launch {
+    const char *prog;      /* "am-run" or "pdr run", for messages */
+    int np;
+    const char *transport;
+    const char *bind;
+    const char *latency, *bandwidth;
+    const char *hostfile;
+    const char *rdv_host;
+    const char *ssh;
+    char *stats_dir;       /* absolute, owned */
+    double timeout, grace;
+    int curve;
+    char **cmd;            /* PROGRAM ARGS */
+    char **hosts;          /* per rank, NULL for local */
+    char ipc_dir[64];
+    uint64_t job;
+    char curve_pub[41], curve_sec[41];
+    void *zctx, *rdv;      /* rendezvous server (tcp) */
+    char rdv_ep[512];
+    char *root_ep;
+    pid_t *pids;
+    int *status;           /* wait status per rank, -1 while running */
+} launch;
+
+static void lerr(const launch *L, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+static void lerr(const launch *L, const char *fmt, ...)
+{
+    va_list ap;
+    fprintf(stderr, "%s: ", L->prog);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+}
+
+static void usage(const launch *L, FILE *out)
+{
+    fprintf(out,
+            "Usage: %s -n P [OPTIONS] [--] PROGRAM [ARGS...]\n\n"
+            "Starts PROGRAM as a libam job of P processing elements (PEs).\n\n"
+            "Options:\n"
+            "  -n, --np P              number of PEs (required)\n"
+            "  -t, --transport T       ipc (one host, default) or tcp\n"
+            "      --bind ADDR         address tcp PEs bind and advertise "
+            "(default 127.0.0.1)\n"
+            "  -l, --latency SPEC      inject latency per message: 200us, "
+            "100us-2ms (uniform)\n"
+            "  -b, --bandwidth SPEC    cap bandwidth per link: 100Mbit, 1Gbit, "
+            "12.5MB\n"
+            "      --hostfile FILE     start ranks on these hosts over ssh "
+            "(lines: HOST [slots=N])\n"
+            "      --rendezvous HOST   address the hosts reach this machine at "
+            "(hostfile)\n"
+            "      --ssh CMD           remote shell command (default $AM_SSH or "
+            "ssh)\n"
+            "      --stats DIR         every PE writes DIR/stats-RANK.json at "
+            "am_finalize\n"
+            "      --no-curve          no CURVE encryption on tcp\n"
+            "      --timeout SEC       stop the job after SEC seconds (exit %d)\n"
+            "      --grace SEC         after a PE fails, wait SEC before "
+            "stopping the others (10)\n"
+            "  -h, --help              this text\n\n"
+            "The exit status is 0 if every PE exited 0, else the first failing "
+            "PE's status\n(128+N if it was killed by signal N). The PEs find "
+            "their rank and peers in AM_*\nenvironment variables (see am_init "
+            "in am.h).\n",
+            L->prog, EXIT_TIMEOUT);
+}
+
+/* ---------------------------------------------------------------- hostfile */
+
+static int read_hostfile(launch *L)
+{
+    FILE *f = fopen(L->hostfile, "r");
+    if (!f) {
+        lerr(L, "cannot open %s: %s", L->hostfile, strerror(errno));
+        return -1;
+    }
+    L->hosts = calloc((size_t)L->np, sizeof *L->hosts);
+    if (!L->hosts) {
+        fclose(f);
+        return -1;
+    }
+    char line[512];
+    int rank = 0, lineno = 0, bad = 0;
+    while (fgets(line, sizeof line, f) && rank < L->np) {
+        lineno++;
+        line[strcspn(line, "#\r\n")] = '\0';
+        char *save = NULL;
+        char *host = strtok_r(line, " \t", &save);
+        if (!host)
+            continue;
+        long slots = 1;
+        for (char *tok; (tok = strtok_r(NULL, " \t", &save));) {
+            char *end;
+            if (strncmp(tok, "slots=", 6) ||
+                (slots = strtol(tok + 6, &end, 10)) < 1 || *end) {
+                lerr(L, "%s:%d: expected 'HOST [slots=N]', got '%s'",
+                     L->hostfile, lineno, tok);
+                bad = 1;
+                break;
+            }
+        }
+        for (long i = 0; i < slots && rank < L->np && !bad; i++)
+            if (!(L->hosts[rank++] = strdup(host)))
+                bad = 1;
+    }
+    fclose(f);
+    if (!bad && rank < L->np) {
+        lerr(L, "%s lists %d slot%s, -n %d needs %d (add hosts or slots=N)",
+             L->hostfile, rank, rank == 1 ? "" : "s", L->np, L->np);
+        bad = 1;
+    }
+    return bad ? -1 : 0;
+}
+
+static int is_loopback(const char *h)
+{
+    return !strncmp(h, "127.", 4) || !strcmp(h, "localhost") || !strcmp(h, "::1");
+}
+
+/* ------------------------------------------------------------- rendezvous */
+
+static int rdv_open(launch *L)
+{
+    L->zctx = zmq_ctx_new();
+    L->rdv = L->zctx ? zmq_socket(L->zctx, ZMQ_ROUTER) : NULL;
+    if (!L->rdv)
+        return -1;
+    int zero = 0;
+    zmq_setsockopt(L->rdv, ZMQ_LINGER, &zero, sizeof zero);
+    const char *adv = L->rdv_host;
+    char bind_ep[300];
+    if (L->hosts) {
+        int local = 1;
+        for (int r = 0; r < L->np; r++)
+            local &= is_loopback(L->hosts[r]);
+        static char name[256];
+        if (!adv && local)
+            adv = "127.0.0.1";
+        if (!adv) {
+            if (gethostname(name, sizeof name) != 0)
+                return -1;
+            name[sizeof name - 1] = '\0';
+            adv = name;
+        }
+        snprintf(bind_ep, sizeof bind_ep, "tcp://%s:0",
+                 is_loopback(adv) ? "127.0.0.1" : "*");
+    } else {
+        adv = L->bind;
+        snprintf(bind_ep, sizeof bind_ep, "tcp://%s:0", L->bind);
+    }
+    if (zmq_bind(L->rdv, bind_ep) != 0) {
+        lerr(L, "cannot bind the rendezvous %s: %s", bind_ep, zmq_strerror(errno));
+        return -1;
+    }
+    char last[256];
+    size_t len = sizeof last;
+    if (zmq_getsockopt(L->rdv, ZMQ_LAST_ENDPOINT, last, &len) != 0)
+        return -1;
+    const char *port = strrchr(last, ':');
+    snprintf(L->rdv_ep, sizeof L->rdv_ep, "tcp://%s%s", adv, port ? port : "");
+    return 0;
+}
+
+typedef struct pending {
+    struct pending *next;
+    size_t idlen;
+    uint8_t id[256];
+} pending;
+
+static void rdv_reply(launch *L, const uint8_t *id, size_t idlen,
+                      const char *text)
+{
+    zmq_send(L->rdv, id, idlen, ZMQ_SNDMORE | ZMQ_DONTWAIT);
+    zmq_send(L->rdv, text, strlen(text), ZMQ_DONTWAIT);
+}
+
+/* Serves requests for up to ms milliseconds. */
+static void rdv_serve(launch *L, pending **waiting, int ms)
+{
+    zmq_pollitem_t it = {L->rdv, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&it, 1, ms) <= 0)
+        return;
+    for (;;) {
+        uint8_t id[256];
+        char req[1100];
+        int idn = zmq_recv(L->rdv, id, sizeof id, ZMQ_DONTWAIT);
+        if (idn < 0)
+            return;
+        int more = 0;
+        size_t ml = sizeof more;
+        zmq_getsockopt(L->rdv, ZMQ_RCVMORE, &more, &ml);
+        if (!more || idn > (int)sizeof id)
+            continue;
+        int n = zmq_recv(L->rdv, req, sizeof req - 1, ZMQ_DONTWAIT);
+        if (n < 0)
+            continue;
+        req[n < (int)sizeof req - 1 ? n : (int)sizeof req - 1] = '\0';
+        char job[32];
+        snprintf(job, sizeof job, "%llu", (unsigned long long)L->job);
+        size_t jl = strlen(job);
+        if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
+            req[4 + jl] == ' ' && !L->root_ep) {
+            L->root_ep = strdup(req + 5 + jl);
+            rdv_reply(L, id, (size_t)idn, L->root_ep ? "OK" : "ERR no memory");
+            char ep[1200];
+            snprintf(ep, sizeof ep, "EP %s", L->root_ep ? L->root_ep : "");
+            while (*waiting && L->root_ep) {
+                pending *p = *waiting;
+                *waiting = p->next;
+                rdv_reply(L, p->id, p->idlen, ep);
+                free(p);
+            }
+        } else if (!strncmp(req, "GET ", 4) && !strcmp(req + 4, job)) {
+            if (L->root_ep) {
+                char ep[1200];
+                snprintf(ep, sizeof ep, "EP %s", L->root_ep);
+                rdv_reply(L, id, (size_t)idn, ep);
+            } else {
+                pending *p = calloc(1, sizeof *p);
+                if (p) {
+                    memcpy(p->id, id, (size_t)idn);
+                    p->idlen = (size_t)idn;
+                    p->next = *waiting;
+                    *waiting = p;
+                }
+            }
+        } else {
+            rdv_reply(L, id, (size_t)idn, "ERR wrong job or request");
+        }
+    }
+}
+
+/* -------------------------------------------------------------- starting */
+
+/* Appends s to buf quoted for a POSIX shell. */
+static int shquote(char **buf, size_t *len, size_t *cap, const char *s)
+{
+    size_t need = *len + 4 * strlen(s) + 4;
+    if (need > *cap) {
+        size_t ncap = need * 2;
+        char *nb = realloc(*buf, ncap);
+        if (!nb)
+            return -1;
+        *buf = nb;
+        *cap = ncap;
+    }
+    char *o = *buf + *len;
+    *o++ = '\'';
+    for (; *s; s++) {
+        if (*s == '\'') {
+            memcpy(o, "'\\''", 4);
+            o += 4;
+        } else {
+            *o++ = *s;
+        }
+    }
+    *o++ = '\'';
+    *o++ = ' ';
+    *o = '\0';
+    *len = (size_t)(o - *buf);
+    return 0;
+}
+
+enum { NENV = 16 };
+
+/* The AM_* variables of rank r as "NAME=VALUE" strings in env[]. */
+static int make_env(launch *L, int r, char env[NENV][1200])
+{
+    int n = 0;
+    snprintf(env[n++], 1200, "AM_RANK=%d", r);
+    snprintf(env[n++], 1200, "AM_SIZE=%d", L->np);
+    snprintf(env[n++], 1200, "AM_JOB=%llu", (unsigned long long)L->job);
+    snprintf(env[n++], 1200, "AM_TRANSPORT=%s", L->transport);
+    if (!strcmp(L->transport, "ipc")) {
+        snprintf(env[n++], 1200, "AM_IPC_DIR=%s", L->ipc_dir);
+        snprintf(env[n++], 1200, "AM_ROOT=ipc://%s/0.sock", L->ipc_dir);
+    } else {
+        snprintf(env[n++], 1200, "AM_BIND=%s", L->hosts ? L->hosts[r] : L->bind);
+        snprintf(env[n++], 1200, "AM_RENDEZVOUS=%s", L->rdv_ep);
+    }
+    if (L->latency)
+        snprintf(env[n++], 1200, "AM_LATENCY=%s", L->latency);
+    if (L->bandwidth)
+        snprintf(env[n++], 1200, "AM_BANDWIDTH=%s", L->bandwidth);
+    if (L->stats_dir)
+        snprintf(env[n++], 1200, "AM_STATS_DIR=%s", L->stats_dir);
+    return n;
+}
+
+static pid_t start_local(launch *L, int r)
+{
+    char env[NENV][1200];
+    int n = make_env(L, r, env);
+    pid_t pid = fork();
+    if (pid != 0)
+        return pid;
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    /* Nothing of an enclosing job may leak into this one. */
+    static const char *const stale[] = {
+        "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
+        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_SERVER_PUBLIC",
+        "AM_CURVE_SERVER_SECRET"};
+    for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
+        unsetenv(stale[i]);
+    for (int i = 0; i < n; i++)
+        putenv(env[i]);
+    if (L->curve && !strcmp(L->transport, "tcp")) {
+        setenv("AM_CURVE_SERVER_PUBLIC", L->curve_pub, 1);
+        setenv("AM_CURVE_SERVER_SECRET", L->curve_sec, 1);
+    }
+    execvp(L->cmd[0], L->cmd);
+    fprintf(stderr, "%s: cannot run %s: %s\n", L->prog, L->cmd[0], strerror(errno));
+    _exit(127);
+}
+
+/* Remote rank: ssh HOST sh -c 'read keys; cd DIR; exec env VARS PROGRAM ARGS'.
+ * The CURVE keys go through ssh's stdin, not the command line, so that
+ * they do not show in ps on either host. */
+static pid_t start_remote(launch *L, int r)
+{
+    char env[NENV][1200];
+    int n = make_env(L, r, env);
+    char *script = NULL, *cmd = NULL;
+    size_t sl = 0, sc = 0, cl = 0, cc = 0;
+    char cwd[4096];
+    if (!getcwd(cwd, sizeof cwd))
+        snprintf(cwd, sizeof cwd, ".");
+    int use_keys = L->curve;
+    int bad = 0;
+    const char *pre = use_keys ? "read -r AM_CURVE_SERVER_PUBLIC "
+                                 "AM_CURVE_SERVER_SECRET && export "
+                                 "AM_CURVE_SERVER_PUBLIC AM_CURVE_SERVER_SECRET "
+                                 "&& cd "
+                               : "cd ";
+    script = malloc(sc = strlen(pre) + 1);
+    if (!script)
+        return -1;
+    strcpy(script, pre);
+    sl = strlen(script);
+    bad |= shquote(&script, &sl, &sc, cwd);
+    const char *mid = "&& exec env ";
+    if (sl + strlen(mid) + 1 > sc) {
+        char *nb = realloc(script, sc = sl + strlen(mid) + 64);
+        if (!nb)
+            bad = 1;
+        else
+            script = nb;
+    }
+    if (!bad) {
+        strcpy(script + sl, mid);
+        sl += strlen(mid);
+    }
+    for (int i = 0; i < n && !bad; i++)
+        bad |= shquote(&script, &sl, &sc, env[i]);
+    for (char **a = L->cmd; *a && !bad; a++)
+        bad |= shquote(&script, &sl, &sc, *a);
+    cmd = malloc(cc = 16);
+    if (cmd)
+        strcpy(cmd, "exec sh -c ");
+    cl = cmd ? strlen(cmd) : 0;
+    if (bad || !cmd || shquote(&cmd, &cl, &cc, script)) {
+        free(script);
+        free(cmd);
+        return -1;
+    }
+    free(script);
+    int keys[2] = {-1, -1};
+    if (use_keys && pipe(keys) != 0) {
+        free(cmd);
+        return -1;
+    }
+    pid_t pid = fork();
+    if (pid == 0) {
+        signal(SIGINT, SIG_DFL);
+        signal(SIGTERM, SIG_DFL);
+        if (use_keys) {
+            dup2(keys[0], 0);
+            close(keys[0]);
+            close(keys[1]);
+        }
+        execlp(L->ssh, L->ssh, L->hosts[r], cmd, (char *)NULL);
+        fprintf(stderr, "%s: cannot run %s: %s\n", L->prog, L->ssh,
+                strerror(errno));
+        _exit(127);
+    }
+    free(cmd);
+    if (use_keys) {
+        close(keys[0]);
+        if (pid > 0) {
+            char line[100];
+            int k = snprintf(line, sizeof line, "%s %s\n", L->curve_pub,
+                             L->curve_sec);
+            ssize_t w = write(keys[1], line, (size_t)k);
+            (void)w;
+        }
+        close(keys[1]);
+    }
+    return pid;
+}
+
+/* ---------------------------------------------------------------- waiting */
+
+static void describe(const launch *L, int r, int status, char *buf, size_t n)
+{
+    const char *where = L->hosts ? L->hosts[r] : NULL;
+    char at[300] = "";
+    if (where)
+        snprintf(at, sizeof at, " on %s", where);
+    if (WIFSIGNALED(status))
+        snprintf(buf, n, "PE %d (pid %ld%s) was killed by signal %d (%s)", r,
+                 (long)L->pids[r], at, WTERMSIG(status),
+                 strsignal(WTERMSIG(status)));
+    else
+        snprintf(buf, n, "PE %d (pid %ld%s) exited with status %d", r,
+                 (long)L->pids[r], at, WEXITSTATUS(status));
+}
+
+static int exit_code(int status)
+{
+    return WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status);
+}
+
+static void signal_all(launch *L, int sig)
+{
+    for (int r = 0; r < L->np; r++)
+        if (L->pids[r] > 0 && L->status[r] == -1)
+            kill(L->pids[r], sig);
+}
+
+static int wait_job(launch *L)
+{
+    pending *waiting = NULL;
+    int alive = 0, first_fail = -1, result = 0;
+    for (int r = 0; r < L->np; r++)
+        alive += L->pids[r] > 0;
+    double start = am__now(), fail_at = 0, term_at = 0;
+    int stopping = 0; /* 1: SIGTERM sent, 2: SIGKILL sent */
+    while (alive > 0) {
+        int status;
+        pid_t pid = waitpid(-1, &status, WNOHANG);
+        if (pid > 0) {
+            for (int r = 0; r < L->np; r++) {
+                if (L->pids[r] != pid)
+                    continue;
+                L->status[r] = status;
+                alive--;
+                if ((WIFEXITED(status) && WEXITSTATUS(status) == 0) ||
+                    stopping)
+                    break;
+                char what[400];
+                describe(L, r, status, what, sizeof what);
+                lerr(L, "%s", what);
+                if (first_fail < 0) {
+                    first_fail = r;
+                    result = exit_code(status);
+                    fail_at = am__now();
+                }
+            }
+            continue;
+        }
+        if (pid < 0 && errno == ECHILD)
+            break;
+        if (L->rdv)
+            rdv_serve(L, &waiting, 20);
+        else {
+            struct timespec ts = {0, 20 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+        double now = am__now();
+        if (got_signal && !stopping) {
+            lerr(L, "%s: stopping the job", strsignal(got_signal));
+            result = 128 + got_signal;
+            stopping = 1;
+            term_at = now;
+            signal_all(L, SIGTERM);
+        } else if (!stopping && first_fail >= 0 && now > fail_at + L->grace) {
+            lerr(L, "stopping the %d PE%s still running after PE %d failed",
+                 alive, alive == 1 ? "" : "s", first_fail);
+            stopping = 1;
+            term_at = now;
+            signal_all(L, SIGTERM);
+        } else if (!stopping && L->timeout > 0 && now > start + L->timeout) {
+            lerr(L, "the job ran out of its %.0f s (--timeout); stopping it",
+                 L->timeout);
+            result = EXIT_TIMEOUT;
+            stopping = 1;
+            term_at = now;
+            signal_all(L, SIGTERM);
+        } else if (stopping == 1 && now > term_at + 3.0) {
+            stopping = 2;
+            signal_all(L, SIGKILL);
+        }
+    }
+    while (waiting) {
+        pending *p = waiting;
+        waiting = p->next;
+        free(p);
+    }
+    return result;
+}
+
+/* ------------------------------------------------------------------ main */
+
+static int parse_double(const char *s, double *out)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end || !(v >= 0))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static void cleanup(launch *L)
+{
+    if (L->ipc_dir[0]) {
+        for (int r = 0; r < L->np; r++) {
+            char path[128];
+            snprintf(path, sizeof path, "%s/%d.sock", L->ipc_dir, r);
+            unlink(path);
+        }
+        rmdir(L->ipc_dir);
+    }
+    if (L->rdv)
+        zmq_close(L->rdv);
+    if (L->zctx)
+        zmq_ctx_term(L->zctx);
+    if (L->hosts)
+        for (int r = 0; r < L->np; r++)
+            free(L->hosts[r]);
+    free(L->hosts);
+    free(L->stats_dir);
+    free(L->root_ep);
+    free(L->pids);
+    free(L->status);
+}
+
+int am_launch_main(int argc, char **argv, const char *prog)
+{
+    launch L;
+    memset(&L, 0, sizeof L);
+    L.prog = prog ? prog : "am-run";
+    L.transport = NULL;
+    L.bind = "127.0.0.1";
+    L.grace = 10;
+    L.curve = 1;
+    L.ssh = getenv("AM_SSH") && *getenv("AM_SSH") ? getenv("AM_SSH") : "ssh";
+    const char *stats = NULL;
+    enum { O_BIND = 256, O_HOSTFILE, O_RDV, O_SSH, O_STATS, O_NOCURVE,
+           O_TIMEOUT, O_GRACE };
+    static const struct option opts[] = {
+        {"np", required_argument, NULL, 'n'},
+        {"transport", required_argument, NULL, 't'},
+        {"bind", required_argument, NULL, O_BIND},
+        {"latency", required_argument, NULL, 'l'},
+        {"bandwidth", required_argument, NULL, 'b'},
+        {"hostfile", required_argument, NULL, O_HOSTFILE},
+        {"rendezvous", required_argument, NULL, O_RDV},
+        {"ssh", required_argument, NULL, O_SSH},
+        {"stats", required_argument, NULL, O_STATS},
+        {"no-curve", no_argument, NULL, O_NOCURVE},
+        {"timeout", required_argument, NULL, O_TIMEOUT},
+        {"grace", required_argument, NULL, O_GRACE},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    int c;
+    double lo, hi, bps;
+    optind = 1;
+    while ((c = getopt_long(argc, argv, "+n:t:l:b:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'n': {
+            char *end;
+            long v = strtol(optarg, &end, 10);
+            if (*end || v < 1 || v > 4096) {
+                lerr(&L, "-n wants a number of PEs from 1 to 4096, not '%s'",
+                     optarg);
+                return EXIT_USAGE;
+            }
+            L.np = (int)v;
+            break;
+        }
+        case 't':
+            if (strcmp(optarg, "ipc") && strcmp(optarg, "tcp")) {
+                lerr(&L, "--transport is ipc or tcp, not '%s'", optarg);
+                return EXIT_USAGE;
+            }
+            L.transport = optarg;
+            break;
+        case O_BIND:
+            L.bind = optarg;
+            break;
+        case 'l':
+            if (am__latency_parse(optarg, &lo, &hi)) {
+                lerr(&L, "bad --latency '%s' (examples: 200us, 100us-2ms, 0)",
+                     optarg);
+                return EXIT_USAGE;
+            }
+            L.latency = optarg;
+            break;
+        case 'b':
+            if (am__bandwidth_parse(optarg, &bps)) {
+                lerr(&L, "bad --bandwidth '%s' (examples: 100Mbit, 1Gbit, 12.5MB)",
+                     optarg);
+                return EXIT_USAGE;
+            }
+            L.bandwidth = optarg;
+            break;
+        case O_HOSTFILE:
+            L.hostfile = optarg;
+            break;
+        case O_RDV:
+            L.rdv_host = optarg;
+            break;
+        case O_SSH:
+            L.ssh = optarg;
+            break;
+        case O_STATS:
+            stats = optarg;
+            break;
+        case O_NOCURVE:
+            L.curve = 0;
+            break;
+        case O_TIMEOUT:
+        case O_GRACE:
+            if (parse_double(optarg, c == O_TIMEOUT ? &L.timeout : &L.grace)) {
+                lerr(&L, "--%s wants seconds, not '%s'",
+                     c == O_TIMEOUT ? "timeout" : "grace", optarg);
+                return EXIT_USAGE;
+            }
+            break;
+        case 'h':
+            usage(&L, stdout);
+            return 0;
+        default:
+            fprintf(stderr, "Try '%s --help'.\n", L.prog);
+            return EXIT_USAGE;
+        }
+    }
+    if (L.np == 0 || optind >= argc) {
+        lerr(&L, L.np ? "no PROGRAM to run" : "-n P is required");
+        fprintf(stderr, "Try '%s --help'.\n", L.prog);
+        return EXIT_USAGE;
+    }
+    L.cmd = argv + optind;
+    if (!L.transport)
+        L.transport = L.hostfile ? "tcp" : "ipc";
+    if (L.hostfile && strcmp(L.transport, "tcp")) {
+        lerr(&L, "a --hostfile job needs --transport tcp");
+        return EXIT_USAGE;
+    }
+    L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve");
+
+    int rc = 1;
+    if (getrandom(&L.job, sizeof L.job, 0) != (ssize_t)sizeof L.job)
+        L.job = (uint64_t)getpid() << 32 ^ (uint64_t)time(NULL);
+    L.job &= (UINT64_C(1) << 62) - 1;
+    L.pids = calloc((size_t)L.np, sizeof *L.pids);
+    L.status = malloc(sizeof *L.status * (size_t)L.np);
+    if (!L.pids || !L.status)
+        goto out;
+    for (int r = 0; r < L.np; r++)
+        L.status[r] = -1;
+    if (stats) {
+        if (mkdir(stats, 0777) != 0 && errno != EEXIST) {
+            lerr(&L, "cannot create --stats directory %s: %s", stats,
+                 strerror(errno));
+            goto out;
+        }
+        if (!(L.stats_dir = realpath(stats, NULL))) {
+            lerr(&L, "--stats %s: %s", stats, strerror(errno));
+            goto out;
+        }
+    }
+    if (L.hostfile && read_hostfile(&L))
+        goto out;
+    if (!strcmp(L.transport, "ipc")) {
+        const char *tmp = getenv("TMPDIR");
+        if (!tmp || !*tmp || strlen(tmp) > 40)
+            tmp = "/tmp";
+        snprintf(L.ipc_dir, sizeof L.ipc_dir, "%s/am-XXXXXX", tmp);
+        if (!mkdtemp(L.ipc_dir)) {
+            lerr(&L, "cannot make a directory for ipc sockets in %s: %s", tmp,
+                 strerror(errno));
+            L.ipc_dir[0] = '\0';
+            goto out;
+        }
+    } else if (rdv_open(&L)) {
+        lerr(&L, "cannot start the rendezvous server");
+        goto out;
+    }
+    if (L.curve && zmq_curve_keypair(L.curve_pub, L.curve_sec) != 0)
+        L.curve = 0;
+
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    got_signal = 0;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    fflush(NULL);
+    int started = 0;
+    for (int r = 0; r < L.np; r++) {
+        L.pids[r] = L.hosts ? start_remote(&L, r) : start_local(&L, r);
+        if (L.pids[r] < 0) {
+            lerr(&L, "cannot start PE %d: %s", r, strerror(errno));
+            L.pids[r] = 0;
+            signal_all(&L, SIGTERM);
+            break;
+        }
+        started++;
+    }
+    rc = wait_job(&L);
+    if (started < L.np && rc == 0)
+        rc = 1;
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+out:
+    cleanup(&L);
+    return rc;
+}

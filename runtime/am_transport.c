@@ -1,0 +1,1019 @@
+/* am_transport.c -- the PE's ROUTER socket: options, sending (with a local
+ * queue when ZeroMQ cannot take a frame), receiving and validating frames,
+ * dispatching them, and noticing peers that go away.
+ *
+ * Sockets, as DESIGN.md section 2 asks: one ROUTER per PE; its routing id
+ * ('P' and the rank as u32) is set before any bind or connect; each pair of
+ * PEs shares one connection, made by the higher rank to the lower one with
+ * ZMQ_CONNECT_ROUTING_ID naming the lower rank, so the connecting side can
+ * queue frames at once and the accepting side can answer once the hello
+ * arrived. ZMQ_ROUTER_MANDATORY turns a frame to an unknown or vanished
+ * peer into EHOSTUNREACH instead of a silent drop. High-water marks are
+ * unlimited by default (AM_HWM), so a burst is never dropped; when ZeroMQ
+ * still says EAGAIN the frame waits in the peer's send queue, which the
+ * loop flushes, so am_send never blocks on the receiver. ZMQ_LINGER is
+ * bounded (2 s) so a dead peer cannot hold up exit.
+ *
+ * ZMQ_FD is edge-triggered: it signals a change, not a level. The runtime
+ * therefore never relies on it alone: am_poll receives until ZeroMQ says
+ * EAGAIN (or the poll budget is spent), and before am_idle blocks it
+ * re-reads ZMQ_EVENTS whenever a send happened since the socket was last
+ * seen empty (events_stale): a send can process the command that carried
+ * the edge of a frame that is already waiting. An EAGAIN receive or a
+ * ZMQ_EVENTS read processes every pending command, so after one, the next
+ * frame is sure to signal ZMQ_FD again.
+ *
+ * Failure detection: ZeroMQ heartbeats (ZMQ_HEARTBEAT_IVL/TIMEOUT/TTL, on
+ * tcp and ipc) close a connection whose peer stopped answering, and the OS
+ * closes the connections of a process that died. Both appear as
+ * ZMQ_EVENT_DISCONNECTED on the socket monitor. A disconnect on a
+ * connection we made names the peer by its endpoint; on an accepted one
+ * the event names only our own endpoint, so the peers that connected to us
+ * are probed: ROUTER_MANDATORY refuses a frame to a peer whose connection
+ * is gone. A peer that said BYE (am_finalize) is allowed to go.
+ */
+#include "config.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "am_int.h"
+
+/* How long a suspected peer is probed before it is cleared, and how long a
+ * disconnect must stay unexplained (no BYE drained) before it is fatal. */
+#define SUSPECT_WINDOW 2.0
+#define SUSPECT_GRACE 0.2
+
+static const char *const reject_msg[AM__REJ_COUNT] = {
+#define AM__REJ_MSG(name, msg) msg,
+    AM__REJECT_MAP(AM__REJ_MSG)
+#undef AM__REJ_MSG
+};
+
+/* ------------------------------------------------------------------ FIFOs */
+
+am__frame *am__frame_new(void)
+{
+    am__frame *f = calloc(1, sizeof *f);
+    if (f)
+        zmq_msg_init(&f->msg);
+    return f;
+}
+
+void am__frame_free(am__frame *f)
+{
+    if (!f)
+        return;
+    zmq_msg_close(&f->msg);
+    free(f);
+}
+
+void am__fifo_push(am__fifo *q, am__frame *f)
+{
+    f->next = NULL;
+    if (q->tail)
+        q->tail->next = f;
+    else
+        q->head = f;
+    q->tail = f;
+    q->n++;
+}
+
+am__frame *am__fifo_pop(am__fifo *q)
+{
+    am__frame *f = q->head;
+    if (f) {
+        q->head = f->next;
+        if (!q->head)
+            q->tail = NULL;
+        f->next = NULL;
+        q->n--;
+    }
+    return f;
+}
+
+void am__fifo_clear(am__fifo *q)
+{
+    am__frame *f;
+    while ((f = am__fifo_pop(q)))
+        am__frame_free(f);
+}
+
+/* ------------------------------------------------------------ the socket */
+
+void am__routing_id(int rank, uint8_t out[5])
+{
+    out[0] = 'P';
+    pr_store_u32(out + 1, (uint32_t)rank);
+}
+
+static int set_int(void *sock, int opt, int v)
+{
+    return zmq_setsockopt(sock, opt, &v, sizeof v);
+}
+
+/* Where a tcp PE binds and what it tells the others. AM_BIND may be an
+ * address (bound and advertised as is), "*" (all interfaces, advertised as
+ * this host's name), or a host name: ZeroMQ binds only interfaces and
+ * addresses, so a name that resolves to loopback only ("localhost") binds
+ * that address, and any other name (a hostfile entry) binds all
+ * interfaces and is advertised as given, for the other hosts to resolve. */
+static void tcp_bind_plan(const char *want, char *bind, char *adv, size_t n)
+{
+    struct in6_addr a6;
+    struct in_addr a4;
+    if (inet_pton(AF_INET, want, &a4) == 1) {
+        snprintf(bind, n, "%s", want);
+        snprintf(adv, n, "%s", want);
+        return;
+    }
+    if (inet_pton(AF_INET6, want, &a6) == 1) {
+        snprintf(bind, n, "[%s]", want);
+        snprintf(adv, n, "[%s]", want);
+        return;
+    }
+    if (!strcmp(want, "*")) {
+        snprintf(bind, n, "*");
+        if (gethostname(adv, n) != 0)
+            snprintf(adv, n, "localhost");
+        adv[n - 1] = '\0';
+        return;
+    }
+    struct addrinfo hints, *res = NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_INET;
+    hints.ai_socktype = SOCK_STREAM;
+    int loopback_only = getaddrinfo(want, NULL, &hints, &res) == 0 && res;
+    char first[INET_ADDRSTRLEN] = "";
+    for (struct addrinfo *ai = res; ai && loopback_only; ai = ai->ai_next) {
+        const struct sockaddr_in *sin = (const struct sockaddr_in *)ai->ai_addr;
+        loopback_only = (ntohl(sin->sin_addr.s_addr) >> 24) == 127;
+        if (!first[0])
+            inet_ntop(AF_INET, &sin->sin_addr, first, sizeof first);
+    }
+    if (res)
+        freeaddrinfo(res);
+    if (loopback_only) {
+        snprintf(bind, n, "%s", first);
+        snprintf(adv, n, "%s", first);
+    } else {
+        snprintf(bind, n, "*");
+        snprintf(adv, n, "%s", want);
+    }
+}
+
+int am__transport_open(am_ctx_t *ctx)
+{
+    ctx->zctx = zmq_ctx_new();
+    if (!ctx->zctx)
+        return AM_ENOMEM;
+    ctx->sock = zmq_socket(ctx->zctx, ZMQ_ROUTER);
+    if (!ctx->sock)
+        return AM_ETRANSPORT;
+    uint8_t id[5];
+    am__routing_id(ctx->rank, id);
+    int hb_ms = (int)(ctx->heartbeat * 1000);
+    int rc = zmq_setsockopt(ctx->sock, ZMQ_ROUTING_ID, id, sizeof id);
+    rc |= set_int(ctx->sock, ZMQ_ROUTER_MANDATORY, 1);
+    rc |= set_int(ctx->sock, ZMQ_SNDHWM, ctx->hwm);
+    rc |= set_int(ctx->sock, ZMQ_RCVHWM, ctx->hwm);
+    rc |= set_int(ctx->sock, ZMQ_LINGER, 2000);
+    rc |= set_int(ctx->sock, ZMQ_RECONNECT_IVL, 20);
+    rc |= set_int(ctx->sock, ZMQ_RECONNECT_IVL_MAX, 500);
+    /* Ping every third of the timeout; the TTL tells the peer to drop us
+     * after the same silence. */
+    rc |= set_int(ctx->sock, ZMQ_HEARTBEAT_IVL, hb_ms / 3 > 0 ? hb_ms / 3 : 1);
+    rc |= set_int(ctx->sock, ZMQ_HEARTBEAT_TIMEOUT, hb_ms);
+    rc |= set_int(ctx->sock, ZMQ_HEARTBEAT_TTL, hb_ms);
+    int64_t maxmsg = (int64_t)PR_HEADER_SIZE + (int64_t)PR_MAX_PAYLOAD;
+    rc |= zmq_setsockopt(ctx->sock, ZMQ_MAXMSGSIZE, &maxmsg, sizeof maxmsg);
+    if (rc) {
+        am__warn(ctx, "cannot set socket options: %s", zmq_strerror(errno));
+        return AM_ETRANSPORT;
+    }
+
+    char mon_ep[64];
+    snprintf(mon_ep, sizeof mon_ep, "inproc://am-monitor-%p", (void *)ctx);
+    if (zmq_socket_monitor(ctx->sock, mon_ep, ZMQ_EVENT_DISCONNECTED) != 0)
+        return AM_ETRANSPORT;
+    ctx->mon = zmq_socket(ctx->zctx, ZMQ_PAIR);
+    if (!ctx->mon || zmq_connect(ctx->mon, mon_ep) != 0)
+        return AM_ETRANSPORT;
+    set_int(ctx->mon, ZMQ_LINGER, 0);
+
+    /* CURVE: this socket is the server on connections it accepts. The
+     * options are copied into the listener at bind time, so switching to
+     * client options before each connect (am__connect_peer) does not
+     * change the accepted side. */
+    int tcp = !strcmp(ctx->transport, "tcp");
+    if (tcp && ctx->curve_secret) {
+        rc = set_int(ctx->sock, ZMQ_CURVE_SERVER, 1);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY, ctx->curve_secret,
+                             40);
+        if (rc) {
+            am__warn(ctx, "cannot enable CURVE: %s", zmq_strerror(errno));
+            return AM_ETRANSPORT;
+        }
+    }
+
+    char ep[AM__EP_MAX], bind[256] = "", adv[256] = "";
+    if (tcp)
+        tcp_bind_plan(ctx->bind_addr, bind, adv, sizeof bind);
+    if (ctx->rank == 0 && ctx->root_ep)
+        snprintf(ep, sizeof ep, "%s", ctx->root_ep);
+    else if (tcp)
+        snprintf(ep, sizeof ep, "tcp://%s:0", bind);
+    else
+        snprintf(ep, sizeof ep, "ipc://%s/%d.sock", ctx->ipc_dir, ctx->rank);
+    if (zmq_bind(ctx->sock, ep) != 0) {
+        am__warn(ctx, "cannot bind %s: %s", ep, zmq_strerror(errno));
+        return AM_ETRANSPORT;
+    }
+    char last[AM__EP_MAX + 300];
+    size_t len = AM__EP_MAX;
+    if (zmq_getsockopt(ctx->sock, ZMQ_LAST_ENDPOINT, last, &len) != 0)
+        return AM_ETRANSPORT;
+    last[sizeof last - 1] = '\0';
+    /* A tcp socket bound to a wildcard reports 0.0.0.0; others must be
+     * told a name or address they can reach. */
+    if (tcp && !strncmp(last, "tcp://0.0.0.0:", 14)) {
+        long port = strtol(last + 14, NULL, 10);
+        snprintf(last, sizeof last, "tcp://%s:%ld", adv, port);
+    }
+    ctx->peers[ctx->rank].endpoint = strdup(last);
+    if (!ctx->peers[ctx->rank].endpoint)
+        return AM_ENOMEM;
+    size_t fdlen = sizeof ctx->zfd;
+    if (zmq_getsockopt(ctx->sock, ZMQ_FD, &ctx->zfd, &fdlen) != 0)
+        return AM_ETRANSPORT;
+    return 0;
+}
+
+void am__transport_close(am_ctx_t *ctx)
+{
+    /* Order matters: libzmq's I/O thread sends monitor events with a
+     * blocking send while it holds the monitor's lock. Once our end of the
+     * monitor pair is closed, the next event (a peer disconnecting) would
+     * block that thread for ever, and zmq_socket_monitor(NULL) would wait
+     * for the lock. So monitoring stops first, then the pair is closed. */
+    if (ctx->sock)
+        zmq_socket_monitor(ctx->sock, NULL, 0);
+    if (ctx->mon) {
+        zmq_close(ctx->mon);
+        ctx->mon = NULL;
+    }
+    if (ctx->sock) {
+        zmq_close(ctx->sock);
+        ctx->sock = NULL;
+    }
+    if (ctx->zctx) {
+        zmq_ctx_term(ctx->zctx);
+        ctx->zctx = NULL;
+    }
+}
+
+int am__connect_peer(am_ctx_t *ctx, int pe)
+{
+    am__peer *p = &ctx->peers[pe];
+    uint8_t id[5];
+    am__routing_id(pe, id);
+    if (zmq_setsockopt(ctx->sock, ZMQ_CONNECT_ROUTING_ID, id, sizeof id))
+        return AM_ETRANSPORT;
+    if (!strncmp(p->endpoint, "tcp://", 6) && ctx->curve_secret) {
+        char pub[41], sec[41];
+        if (zmq_curve_keypair(pub, sec) != 0)
+            return AM_ETRANSPORT;
+        int rc = zmq_setsockopt(ctx->sock, ZMQ_CURVE_SERVERKEY,
+                                ctx->curve_public, 40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_PUBLICKEY, pub, 40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY, sec, 40);
+        if (rc)
+            return AM_ETRANSPORT;
+    }
+    if (zmq_connect(ctx->sock, p->endpoint) != 0) {
+        am__warn(ctx, "cannot connect to PE %d at %s: %s", pe, p->endpoint,
+                 zmq_strerror(errno));
+        return AM_ETRANSPORT;
+    }
+    p->connected_to = 1;
+    return 0;
+}
+
+int am__socket_readable(am_ctx_t *ctx)
+{
+    if (!ctx->sock)
+        return 0;
+    int ev = 0;
+    size_t len = sizeof ev;
+    if (zmq_getsockopt(ctx->sock, ZMQ_EVENTS, &ev, &len) != 0)
+        return 0;
+    if (ev & ZMQ_POLLIN)
+        return 1;
+    /* ZMQ_EVENTS processed every pending command: the next frame will
+     * signal ZMQ_FD again. */
+    ctx->events_stale = 0;
+    return 0;
+}
+
+/* ---------------------------------------------------------------- sending */
+
+static int peer_gone(am_ctx_t *ctx, int pe)
+{
+    char why[AM__REASON_MAX];
+    if (ctx->peers[pe].said_bye)
+        snprintf(why, sizeof why,
+                 "PE %d already finalized; a message to it cannot be delivered",
+                 pe);
+    else
+        snprintf(why, sizeof why,
+                 "PE %d went away: its connection is gone (the process died, "
+                 "or was silent for %.1f s)",
+                 pe, ctx->heartbeat);
+    return am__peer_failed(ctx, pe, why);
+}
+
+int am__peer_failed(am_ctx_t *ctx, int pe, const char *why)
+{
+    if (ctx->failed)
+        return ctx->failed;
+    /* Tell the others first: a PE that exits because of PE 3 would
+     * otherwise be reported as the one that went away by PEs that notice
+     * its own exit before PE 3's. */
+    if (ctx->sock && ctx->state == AM__RUNNING) {
+        ctx->aborting = 1;
+        for (int to = 0; to < ctx->size; to++) {
+            if (to == ctx->rank || to == pe || ctx->peers[to].said_bye)
+                continue;
+            pr_buf b = PR_BUF_INIT;
+            am__ctl_begin(&b);
+            am__abort_msg m = {(uint32_t)pe, {(const uint8_t *)why, strlen(why)}};
+            am__abort_put(&b, &m);
+            am__send_ctl(ctx, to, AM__CTL_ABORT, &b);
+            pr_buf_free(&b);
+        }
+        ctx->aborting = 0;
+    }
+    return am__fail(ctx, AM_EPEER, "%s", why);
+}
+
+/* Hands msg to ZeroMQ. Returns 0 (msg consumed), 1 (would block: msg still
+ * ours), 2 (dropped: while finalizing, a peer that already left cannot be
+ * told goodbye; msg still ours) or a fatal code (msg still ours). */
+static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
+{
+    uint8_t id[5];
+    am__routing_id(pe, id);
+    /* A send may process the commands that carried a ZMQ_FD edge. */
+    ctx->events_stale = 1;
+    if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
+        if (errno == EAGAIN)
+            return 1;
+        if (errno == EHOSTUNREACH &&
+            (ctx->state == AM__CLOSING || ctx->aborting))
+            return 2;
+        if (errno == EHOSTUNREACH)
+            return peer_gone(ctx, pe);
+        return am__fail(ctx, AM_ETRANSPORT, "sending to PE %d failed: %s", pe,
+                        zmq_strerror(errno));
+    }
+    /* Once the routing part is accepted the ROUTER takes the rest. */
+    if (zmq_msg_send(msg, ctx->sock, ZMQ_DONTWAIT) < 0)
+        return am__fail(ctx, AM_ETRANSPORT, "sending to PE %d failed: %s", pe,
+                        zmq_strerror(errno));
+    return 0;
+}
+
+int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
+                 zmq_msg_t *msg)
+{
+    size_t total = zmq_msg_size(msg);
+    pr_header h = {(uint8_t)flags, (uint16_t)handler, (uint32_t)ctx->rank,
+                   (uint32_t)(total - PR_HEADER_SIZE), 0};
+    am__frame *f;
+    if (pe == ctx->rank) {
+        if (!(f = am__frame_new()))
+            return AM_ENOMEM;
+        pr_header_encode(&h, zmq_msg_data(msg));
+        zmq_msg_move(&f->msg, msg);
+        f->hdr = h;
+        f->src = pe;
+        am__fifo_push(&ctx->loopback, f);
+        return 0;
+    }
+    am__peer *p = &ctx->peers[pe];
+    h.seq = p->send_seq;
+    pr_header_encode(&h, zmq_msg_data(msg));
+    if (p->sendq.n == 0) {
+        int rc = zsend(ctx, pe, msg);
+        if (rc == 2) /* dropped while finalizing */
+            zmq_msg_close(msg);
+        if (rc != 1) {
+            if (rc >= 0)
+                p->send_seq++;
+            return rc < 0 ? rc : 0;
+        }
+    }
+    /* ZeroMQ cannot take it now (or earlier frames wait): queue it. On
+     * failure nothing was sent, and msg is still the caller's. */
+    if (!(f = am__frame_new()))
+        return AM_ENOMEM;
+    p->send_seq++;
+    zmq_msg_move(&f->msg, msg);
+    f->hdr = h;
+    f->src = pe;
+    am__fifo_push(&p->sendq, f);
+    ctx->sendq_total++;
+    ctx->st.queued_sends++;
+    return 0;
+}
+
+int am__flush_sendq(am_ctx_t *ctx)
+{
+    for (int pe = 0; pe < ctx->size && ctx->sendq_total; pe++) {
+        am__peer *p = &ctx->peers[pe];
+        while (p->sendq.head) {
+            int rc = zsend(ctx, pe, &p->sendq.head->msg);
+            if (rc < 0)
+                return rc;
+            if (rc == 1)
+                break;
+            /* Sent (0) or dropped while finalizing (2). */
+            am__frame_free(am__fifo_pop(&p->sendq));
+            ctx->sendq_total--;
+        }
+    }
+    return 0;
+}
+
+void am__ctl_begin(pr_buf *body)
+{
+    pr_buf_reset(body);
+    static const uint8_t gap[PR_HEADER_SIZE];
+    pr_put_bytes(body, gap, sizeof gap);
+}
+
+static void free_buf(void *data, void *hint)
+{
+    (void)hint;
+    free(data);
+}
+
+int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body)
+{
+    if (body->err) {
+        pr_buf_reset(body);
+        return AM_ENOMEM;
+    }
+    size_t len;
+    uint8_t *data = pr_buf_take(body, &len);
+    if (!data || len < PR_HEADER_SIZE || len - PR_HEADER_SIZE > PR_MAX_PAYLOAD) {
+        free(data);
+        return AM_EINVAL;
+    }
+    zmq_msg_t m;
+    if (zmq_msg_init_data(&m, data, len, free_buf, NULL) != 0) {
+        free(data);
+        return AM_ENOMEM;
+    }
+    int rc = am__send_msg(ctx, pe, PR_FLAG_CONTROL, type, &m);
+    if (rc)
+        zmq_msg_close(&m);
+    if (rc == 0 && type < AM__CTL_COUNT) {
+        ctx->ctl_st[type].sent++;
+        ctx->ctl_st[type].sent_bytes += len - PR_HEADER_SIZE;
+        ctx->st.ctl_sent++;
+        if (type == AM__CTL_RPC_REQ || type == AM__CTL_RPC_REP)
+            am__term_on_send(ctx);
+    }
+    return rc;
+}
+
+static int check_send_args(am_ctx_t *ctx, int pe, unsigned id, size_t len)
+{
+    if (!ctx || pe < 0 || pe >= ctx->size || id >= AM_HANDLER_MAX ||
+        len > AM_MAX_PAYLOAD)
+        return AM_EINVAL;
+    if (ctx->failed)
+        return ctx->failed;
+    if (ctx->state != AM__RUNNING)
+        return AM_ESTATE;
+    return 0;
+}
+
+/* On failure the caller still owns m. */
+static int send_user(am_ctx_t *ctx, int pe, unsigned id, zmq_msg_t *m,
+                     size_t len)
+{
+    int rc = am__send_msg(ctx, pe, 0, id, m);
+    if (rc)
+        return rc;
+    am__hstat *st = &ctx->handlers[id].st;
+    st->sent++;
+    st->sent_bytes += len;
+    ctx->st.msgs_sent++;
+    ctx->st.bytes_sent += len;
+    am__term_on_send(ctx);
+    return 0;
+}
+
+int am_send(am_ctx_t *ctx, int pe, unsigned id, const void *data, size_t len)
+{
+    int rc = check_send_args(ctx, pe, id, len);
+    if (rc)
+        return rc;
+    if (len && !data)
+        return AM_EINVAL;
+    zmq_msg_t m;
+    if (zmq_msg_init_size(&m, PR_HEADER_SIZE + len) != 0)
+        return AM_ENOMEM;
+    if (len)
+        memcpy((uint8_t *)zmq_msg_data(&m) + PR_HEADER_SIZE, data, len);
+    rc = send_user(ctx, pe, id, &m, len);
+    if (rc)
+        zmq_msg_close(&m);
+    return rc;
+}
+
+/* Zero-copy frames go to ZeroMQ with this trampoline as their free
+ * function, so that a send that fails can release the ZeroMQ message
+ * without calling the user's function (the contract of am_send_zc). */
+typedef struct zc_owner {
+    am_free_fn ffn;
+    void *hint;
+    int armed;
+} zc_owner;
+
+static void zc_release(void *frame, void *hint)
+{
+    zc_owner *o = hint;
+    if (o->armed && o->ffn)
+        o->ffn(frame, o->hint);
+    free(o);
+}
+
+int am_send_zc(am_ctx_t *ctx, int pe, unsigned id, void *frame, size_t len,
+               am_free_fn ffn, void *hint)
+{
+    int rc = check_send_args(ctx, pe, id, len);
+    if (rc)
+        return rc;
+    if (!frame)
+        return AM_EINVAL;
+    zc_owner *o = malloc(sizeof *o);
+    if (!o)
+        return AM_ENOMEM;
+    *o = (zc_owner){ffn, hint, 1};
+    zmq_msg_t m;
+    if (zmq_msg_init_data(&m, frame, PR_HEADER_SIZE + len, zc_release, o)) {
+        free(o);
+        return AM_ENOMEM;
+    }
+    rc = send_user(ctx, pe, id, &m, len);
+    if (rc) {
+        o->armed = 0;
+        zmq_msg_close(&m);
+    }
+    return rc;
+}
+
+void *am_buf_alloc(size_t len)
+{
+    if (len > AM_MAX_PAYLOAD)
+        return NULL;
+    uint8_t *p = malloc(AM_HEADROOM + (len ? len : 1));
+    return p ? p + AM_HEADROOM : NULL;
+}
+
+void am_buf_free(void *payload)
+{
+    if (payload)
+        free((uint8_t *)payload - AM_HEADROOM);
+}
+
+int am_send_buf(am_ctx_t *ctx, int pe, unsigned id, void *payload, size_t len)
+{
+    if (!payload)
+        return AM_EINVAL;
+    return am_send_zc(ctx, pe, id, (uint8_t *)payload - AM_HEADROOM, len,
+                      free_buf, NULL);
+}
+
+int am_register(am_ctx_t *ctx, unsigned id, const char *name, am_handler_fn fn,
+                void *arg)
+{
+    if (!ctx || id >= AM_HANDLER_MAX || !fn)
+        return AM_EINVAL;
+    am__handler *h = &ctx->handlers[id];
+    char *copy = NULL;
+    if (name && !(copy = strdup(name)))
+        return AM_ENOMEM;
+    free(h->name);
+    h->name = copy;
+    h->fn = fn;
+    h->arg = arg;
+    return 0;
+}
+
+/* -------------------------------------------------------------- receiving */
+
+int am__frame_check(const am_ctx_t *ctx, const void *id, size_t id_len,
+                    const void *frame, size_t len, int *src, pr_header *hdr)
+{
+    /* The routing id is checked after the header, so that garbage from a
+     * stranger is counted under what is wrong with it, but it is read
+     * first, to name the sender in messages when it is a PE of the job. */
+    const uint8_t *ip = id;
+    uint32_t r = id_len == 5 && ip[0] == 'P' ? pr_load_u32(ip + 1) : UINT32_MAX;
+    *src = r < (uint32_t)ctx->size && (int)r != ctx->rank ? (int)r : -1;
+    switch (pr_header_decode(hdr, frame, len)) {
+    case 0:
+        break;
+    case PR_ETRUNC:
+        return AM__REJ_TRUNC + 1;
+    case PR_EMAGIC:
+        return AM__REJ_MAGIC + 1;
+    case PR_EVERSION:
+        return AM__REJ_VERSION + 1;
+    case PR_EFLAGS:
+        return AM__REJ_FLAGS + 1;
+    default:
+        return AM__REJ_LENGTH + 1;
+    }
+    if ((size_t)hdr->payload_len != len - PR_HEADER_SIZE)
+        return AM__REJ_LENGTH + 1;
+    if (*src < 0)
+        return AM__REJ_IDENTITY + 1;
+    if (hdr->sender != r)
+        return AM__REJ_SENDER + 1;
+    if (hdr->seq < ctx->peers[r].recv_seq)
+        return AM__REJ_SEQ + 1;
+    return 0;
+}
+
+void am__reject(am_ctx_t *ctx, int reason, int src, const char *detail)
+{
+    ctx->rejected[reason]++;
+    ctx->st.rejected++;
+    if (ctx->warned[reason]++)
+        return;
+    char from[32] = "an unknown sender";
+    if (src >= 0)
+        snprintf(from, sizeof from, "PE %d", src);
+    am__warn(ctx, "dropped a frame from %s: %s%s%s (further such frames are "
+                  "only counted)",
+             from, reject_msg[reason], detail ? ": " : "", detail ? detail : "");
+}
+
+static int is_boot_frame(const am__frame *f)
+{
+    return (f->hdr.flags & PR_FLAG_CONTROL) &&
+           (f->hdr.handler == AM__CTL_HELLO || f->hdr.handler == AM__CTL_TABLE ||
+            f->hdr.handler == AM__CTL_PEER_HELLO);
+}
+
+static int is_basic(const am__frame *f)
+{
+    return !(f->hdr.flags & PR_FLAG_CONTROL) ||
+           f->hdr.handler == AM__CTL_RPC_REQ || f->hdr.handler == AM__CTL_RPC_REP;
+}
+
+/* Moves a frame that lives on the stack into a queue node. */
+static am__frame *keep(am_ctx_t *ctx, am__frame *f)
+{
+    am__frame *k = am__frame_new();
+    if (!k) {
+        zmq_msg_close(&f->msg);
+        am__fail(ctx, AM_ENOMEM, "out of memory queueing a frame");
+        return NULL;
+    }
+    zmq_msg_move(&k->msg, &f->msg);
+    zmq_msg_close(&f->msg);
+    k->hdr = f->hdr;
+    k->src = f->src;
+    return k;
+}
+
+/* Takes one validated frame (on the stack) from the network to its next
+ * stage: the boot stash, a latency queue, the deferred queue (each needs
+ * a node), or straight to its handler (no allocation). */
+static void route_frame(am_ctx_t *ctx, am__frame *f)
+{
+    am__frame *k;
+    if (ctx->state == AM__BOOTING && !is_boot_frame(f)) {
+        if ((k = keep(ctx, f)))
+            am__fifo_push(&ctx->early, k);
+    } else if (ctx->lat.on && ctx->state == AM__RUNNING) {
+        if ((k = keep(ctx, f)))
+            am__latency_enqueue(ctx, k);
+    } else if (ctx->term.defer && is_basic(f)) {
+        if ((k = keep(ctx, f)))
+            am__fifo_push(&ctx->deferred, k);
+    } else {
+        am__dispatch(ctx, f);
+        zmq_msg_close(&f->msg);
+    }
+}
+
+int am__recv_some(am_ctx_t *ctx, unsigned budget)
+{
+    int taken = 0;
+    while (!ctx->failed) {
+        if ((unsigned)taken >= budget) {
+            /* Frames may remain: re-read ZMQ_EVENTS before blocking. */
+            ctx->events_stale = 1;
+            break;
+        }
+        zmq_msg_t id;
+        zmq_msg_init(&id);
+        if (zmq_msg_recv(&id, ctx->sock, ZMQ_DONTWAIT) < 0) {
+            int e = errno;
+            zmq_msg_close(&id);
+            if (e == EINTR)
+                continue;
+            if (e != EAGAIN)
+                am__fail(ctx, AM_ETRANSPORT, "receiving failed: %s",
+                         zmq_strerror(e));
+            else
+                ctx->events_stale = 0; /* as after ZMQ_EVENTS */
+            break;
+        }
+        taken++;
+        am__frame fr;
+        memset(&fr, 0, sizeof fr);
+        zmq_msg_init(&fr.msg);
+        int parts_ok = zmq_msg_more(&id) &&
+                       zmq_msg_recv(&fr.msg, ctx->sock, ZMQ_DONTWAIT) >= 0 &&
+                       !zmq_msg_more(&fr.msg);
+        if (!parts_ok) {
+            /* Swallow the rest of a multipart message. */
+            zmq_msg_t junk;
+            zmq_msg_init(&junk);
+            int more = zmq_msg_more(&fr.msg);
+            while (more && zmq_msg_recv(&junk, ctx->sock, ZMQ_DONTWAIT) >= 0)
+                more = zmq_msg_more(&junk);
+            zmq_msg_close(&junk);
+            zmq_msg_close(&id);
+            zmq_msg_close(&fr.msg);
+            am__reject(ctx, AM__REJ_PARTS, -1, NULL);
+            continue;
+        }
+        int src;
+        const uint8_t *data = zmq_msg_data(&fr.msg);
+        size_t len = zmq_msg_size(&fr.msg);
+        int why = am__frame_check(ctx, zmq_msg_data(&id), zmq_msg_size(&id),
+                                  data, len, &src, &fr.hdr);
+        zmq_msg_close(&id);
+        if (why) {
+            if (why - 1 == AM__REJ_VERSION) {
+                char detail[96];
+                snprintf(detail, sizeof detail,
+                         "it speaks wire protocol version %u, this PE speaks "
+                         "version %d",
+                         len > 4 ? data[4] : 0, PR_VERSION);
+                if (ctx->state == AM__BOOTING && src >= 0) {
+                    zmq_msg_close(&fr.msg);
+                    am__fail(ctx, AM_EPROTO, "PE %d %s", src, detail + 3);
+                    break;
+                }
+                am__reject(ctx, AM__REJ_VERSION, src, detail);
+            } else {
+                am__reject(ctx, why - 1, src, NULL);
+            }
+            zmq_msg_close(&fr.msg);
+            continue;
+        }
+        am__peer *p = &ctx->peers[src];
+        if (fr.hdr.seq > p->recv_seq)
+            am__warn(ctx, "sequence gap from PE %d (expected %llu, got %llu): "
+                          "frames were lost",
+                     src, (unsigned long long)p->recv_seq,
+                     (unsigned long long)fr.hdr.seq);
+        p->recv_seq = fr.hdr.seq + 1;
+        if (p->said_bye) {
+            am__reject(ctx, AM__REJ_LATE, src, NULL);
+            zmq_msg_close(&fr.msg);
+            continue;
+        }
+        fr.src = src;
+        route_frame(ctx, &fr);
+    }
+    return taken;
+}
+
+void am__arrive(am_ctx_t *ctx, am__frame *f)
+{
+    if (ctx->term.defer && is_basic(f)) {
+        am__fifo_push(&ctx->deferred, f);
+        return;
+    }
+    am__dispatch(ctx, f);
+    am__frame_free(f);
+}
+
+void am__deliver_user(am_ctx_t *ctx, int src, unsigned id, const void *data,
+                      size_t len, uint64_t call_id)
+{
+    /* Counted as delivered for termination even when dropped: otherwise a
+     * message to a missing handler would stay "in flight" for ever. */
+    am__term_on_deliver(ctx);
+    ctx->delivered++;
+    if (id >= AM_HANDLER_MAX || !ctx->handlers[id].fn) {
+        char detail[48];
+        snprintf(detail, sizeof detail, "handler id %u", id);
+        am__reject(ctx, AM__REJ_HANDLER, src, detail);
+        return;
+    }
+    am__handler *h = &ctx->handlers[id];
+    h->st.recv++;
+    h->st.recv_bytes += len;
+    ctx->st.msgs_recv++;
+    ctx->st.bytes_recv += len;
+    am_msg_t m = {src, id, len ? data : NULL, len, call_id};
+    double t0 = am__now();
+    ctx->in_callback++;
+    h->fn(ctx, &m, h->arg);
+    ctx->in_callback--;
+    double dt = am__now() - t0;
+    h->st.seconds += dt;
+    ctx->st.handler_s += dt;
+}
+
+void am__dispatch(am_ctx_t *ctx, am__frame *f)
+{
+    const uint8_t *payload = (const uint8_t *)zmq_msg_data(&f->msg) + PR_HEADER_SIZE;
+    size_t len = f->hdr.payload_len;
+    if (!(f->hdr.flags & PR_FLAG_CONTROL)) {
+        am__deliver_user(ctx, f->src, f->hdr.handler, payload, len, 0);
+        return;
+    }
+    unsigned type = f->hdr.handler;
+    if (type == 0 || type >= AM__CTL_COUNT) {
+        am__reject(ctx, AM__REJ_BODY, f->src, "unknown control type");
+        return;
+    }
+    ctx->ctl_st[type].recv++;
+    ctx->ctl_st[type].recv_bytes += len;
+    ctx->st.ctl_recv++;
+    pr_reader r;
+    pr_reader_init(&r, payload, len);
+    switch (type) {
+    case AM__CTL_HELLO:
+    case AM__CTL_TABLE:
+    case AM__CTL_PEER_HELLO:
+        am__boot_ctl(ctx, f->src, type, &r);
+        break;
+    case AM__CTL_BYE:
+        if (am__empty_get(&r))
+            am__reject(ctx, AM__REJ_BODY, f->src, "bye");
+        else
+            ctx->peers[f->src].said_bye = 1;
+        break;
+    case AM__CTL_PING:
+        break;
+    case AM__CTL_ABORT: {
+        am__abort_msg m;
+        if (am__abort_get(&r, &m)) {
+            am__reject(ctx, AM__REJ_BODY, f->src, "abort");
+            break;
+        }
+        /* Passed on as is: the sender already named the PE concerned. */
+        am__fail(ctx, AM_EPEER, "%.*s (noticed by PE %d)", (int)m.reason.len,
+                 (const char *)m.reason.p, f->src);
+        break;
+    }
+    case AM__CTL_TOKEN:
+    case AM__CTL_TERMINATE:
+        am__term_ctl(ctx, f->src, type, &r);
+        break;
+    case AM__CTL_COLL_UP:
+    case AM__CTL_COLL_DOWN:
+    case AM__CTL_GATHER:
+        am__coll_ctl(ctx, f->src, type, &r);
+        break;
+    case AM__CTL_RPC_REQ:
+    case AM__CTL_RPC_REP:
+        am__rpc_ctl(ctx, f->src, type, &r, f);
+        break;
+    }
+}
+
+/* ------------------------------------------------------ failure detection */
+
+static void suspect(am_ctx_t *ctx, int pe, double now)
+{
+    am__peer *p = &ctx->peers[pe];
+    if (p->said_bye || p->suspect)
+        return;
+    p->suspect = 1;
+    p->suspect_since = now;
+    ctx->suspects++;
+}
+
+/* Reads the monitor's queued events; marks the peers they may concern. */
+static void read_monitor(am_ctx_t *ctx, double now)
+{
+    for (;;) {
+        zmq_msg_t ev, addr;
+        zmq_msg_init(&ev);
+        if (zmq_msg_recv(&ev, ctx->mon, ZMQ_DONTWAIT) < 0) {
+            zmq_msg_close(&ev);
+            return;
+        }
+        uint16_t event = 0;
+        if (zmq_msg_size(&ev) >= 2)
+            memcpy(&event, zmq_msg_data(&ev), 2); /* native byte order */
+        int more = zmq_msg_more(&ev);
+        zmq_msg_close(&ev);
+        char where[AM__EP_MAX] = "";
+        if (more) {
+            zmq_msg_init(&addr);
+            if (zmq_msg_recv(&addr, ctx->mon, ZMQ_DONTWAIT) >= 0) {
+                size_t n = zmq_msg_size(&addr);
+                if (n >= sizeof where)
+                    n = sizeof where - 1;
+                memcpy(where, zmq_msg_data(&addr), n);
+                where[n] = '\0';
+            }
+            zmq_msg_close(&addr);
+        }
+        if (event != ZMQ_EVENT_DISCONNECTED || ctx->state != AM__RUNNING)
+            continue;
+        int named = 0;
+        for (int pe = 0; pe < ctx->size; pe++) {
+            if (pe != ctx->rank && ctx->peers[pe].connected_to &&
+                !strcmp(ctx->peers[pe].endpoint, where)) {
+                suspect(ctx, pe, now);
+                named = 1;
+            }
+        }
+        if (!named)
+            for (int pe = 0; pe < ctx->size; pe++)
+                if (pe != ctx->rank && !ctx->peers[pe].connected_to)
+                    suspect(ctx, pe, now);
+    }
+}
+
+/* 1 if ROUTER_MANDATORY refuses a PING to pe (its connection is gone). */
+static int unreachable(am_ctx_t *ctx, int pe)
+{
+    /* ZMQ_EVENTS processes pending commands without the throttling that
+     * send applies, so a pipe that was closed is gone before we probe. */
+    am__socket_readable(ctx);
+    pr_buf b = PR_BUF_INIT;
+    am__ctl_begin(&b);
+    uint8_t id[5];
+    am__routing_id(pe, id);
+    int gone = 0;
+    ctx->events_stale = 1;
+    if (ctx->peers[pe].sendq.n == 0) {
+        if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
+            gone = errno == EHOSTUNREACH;
+        } else {
+            /* Routable: send a real PING so sequence numbers stay right. */
+            size_t len;
+            uint8_t *data = pr_buf_take(&b, &len);
+            pr_header h = {PR_FLAG_CONTROL, AM__CTL_PING, (uint32_t)ctx->rank, 0,
+                           ctx->peers[pe].send_seq++};
+            pr_header_encode(&h, data);
+            zmq_send(ctx->sock, data, len, ZMQ_DONTWAIT);
+            free(data);
+            ctx->ctl_st[AM__CTL_PING].sent++;
+            ctx->st.ctl_sent++;
+        }
+    }
+    pr_buf_free(&b);
+    return gone;
+}
+
+void am__check_peers(am_ctx_t *ctx)
+{
+    if (!ctx->mon || ctx->state != AM__RUNNING)
+        return;
+    double now = am__now();
+    read_monitor(ctx, now);
+    if (!ctx->suspects)
+        return;
+    /* A peer that finalized sent BYE before it closed: take everything
+     * that is waiting, so its BYE is seen before its disconnect is judged. */
+    am__recv_some(ctx, 1u << 16);
+    for (int pe = 0; pe < ctx->size && !ctx->failed; pe++) {
+        am__peer *p = &ctx->peers[pe];
+        if (!p->suspect)
+            continue;
+        if (p->said_bye || now - p->suspect_since > SUSPECT_WINDOW) {
+            p->suspect = 0;
+            ctx->suspects--;
+            continue;
+        }
+        if (now - p->suspect_since < SUSPECT_GRACE)
+            continue;
+        if (p->connected_to || unreachable(ctx, pe))
+            peer_gone(ctx, pe);
+    }
+}

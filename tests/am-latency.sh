@@ -1,0 +1,33 @@
+#!/bin/sh
+# Latency injection delays every message: a round trip with --latency 2ms
+# (2 ms each way) must take at least 4 ms, and one with a bandwidth cap
+# must take at least the serialisation time. This checks that the delay is
+# applied (a correctness property); the figures are not benchmarks.
+. "$top_srcdir/tests/am-lib.sh"
+
+rtt() { sed -n 's/^rtt_us \([0-9.]*\) min_us \([0-9.]*\)$/\2/p' "$work/out"; }
+
+job 60 "$AMRUN" -n 2 -- "$MP" rtt 50
+expect_ok "rtt without latency"
+base=$(rtt)
+[ -n "$base" ] || fail "no round trip time printed"
+
+job 60 "$AMRUN" -n 2 --latency 2ms -- "$MP" rtt 20
+expect_ok "rtt with --latency 2ms"
+lat=$(rtt)
+[ "$(echo "$lat >= 4000" | bc)" -eq 1 ] ||
+    fail "with --latency 2ms the shortest round trip took $lat us (< 4000 us)"
+
+job 60 "$AMRUN" -n 2 --latency 1ms-3ms -- "$MP" rtt 20
+expect_ok "rtt with --latency 1ms-3ms"
+rnd=$(rtt)
+[ "$(echo "$rnd >= 2000" | bc)" -eq 1 ] ||
+    fail "with --latency 1ms-3ms the shortest round trip took $rnd us (< 2000 us)"
+
+# 32-byte payload + 24-byte header = 56 bytes each way at 100 kB/s: 1.12 ms.
+job 60 "$AMRUN" -n 2 --bandwidth 100kB -- "$MP" rtt 10
+expect_ok "rtt with --bandwidth 100kB"
+bw=$(rtt)
+[ "$(echo "$bw >= 1120" | bc)" -eq 1 ] ||
+    fail "with --bandwidth 100kB the shortest round trip took $bw us (< 1120 us)"
+echo "latency: ok (shortest round trip $base us; with 2ms: $lat us; 1ms-3ms: $rnd us; 100kB/s: $bw us)"

@@ -1,0 +1,113 @@
+#!/bin/sh
+# The launchers: am-run and 'pdr run' options and exit statuses, Ctrl-C,
+# --timeout, jobs started by foreign launchers (Open MPI, MPICH/PMI and
+# Slurm environment variables with a file rendezvous), and a hostfile job
+# started through ssh -- a fake ssh on PATH that runs the command locally.
+. "$top_srcdir/tests/am-lib.sh"
+
+# --- usage
+"$AMRUN" --help >"$work/out" 2>&1 || fail "am-run --help exited $?"
+expect_line "^Usage: am-run -n P" "am-run --help"
+"$AMRUN" >"$work/out" 2>&1
+[ $? -eq 2 ] || fail "am-run without arguments should exit 2"
+expect_line "-n P is required" "am-run"
+for bad in "-n 0 true" "-n x true" "-n 2 --latency fast true" \
+    "-n 2 --bandwidth 9 true" "-n 2 -t udp true" "-n 2" "--bogus"; do
+    # shellcheck disable=SC2086
+    "$AMRUN" $bad >"$work/out" 2>&1
+    [ $? -eq 2 ] || fail "am-run $bad should be a usage error (2)"
+done
+"$PDR" run --help >"$work/out" 2>&1 || fail "pdr run --help exited $?"
+expect_line "^Usage: pdr run -n P" "pdr run --help"
+"$PDR" --help >"$work/out" 2>&1
+expect_line "^  run " "pdr --help"
+
+# --- exit statuses: the first failing PE's status, 128+N for signal N
+job 30 "$AMRUN" -n 3 -- sh -c 'test "$AM_RANK" = 1 && exit 3; exit 0'
+[ "$rc" -eq 3 ] || fail "a PE exiting 3 should make am-run exit 3, not $rc"
+expect_line "PE 1 (pid [0-9]*) exited with status 3" "exit status"
+job 30 "$AMRUN" -n 2 -- sh -c 'test "$AM_RANK" = 0 && kill -9 $$; exit 0'
+[ "$rc" -eq 137 ] || fail "a PE killed by signal 9 should make am-run exit 137, not $rc"
+job 30 "$AMRUN" -n 2 -- ./no-such-program-here
+[ "$rc" -eq 127 ] || fail "a missing program should give 127, not $rc"
+expect_line "cannot run ./no-such-program-here" "missing program"
+job 30 "$AMRUN" -n 4 -- sh -c 'test "$AM_SIZE" = 4 && test "$AM_RANK" -lt 4'
+expect_ok "rank and size in the environment"
+
+# --- pdr run does what am-run does
+job 60 "$PDR" run -n 2 -- "$MP" coll
+expect_ok "pdr run -n 2 am_mp coll"
+expect_line "^coll: 2 PEs" "pdr run"
+
+# --- --timeout, and Ctrl-C (SIGINT to the launcher) stop the whole job
+job 30 "$AMRUN" -n 3 --timeout 1 -- "$MP" sleep 20
+[ "$rc" -eq 124 ] || fail "--timeout 1 should exit 124, not $rc"
+[ "$(echo "$elapsed < 10" | bc)" -eq 1 ] || fail "--timeout 1 took $elapsed s"
+"$AMRUN" -n 3 -- "$MP" sleep 20 "$tag" >"$work/out" 2>&1 &
+launcher=$!
+sleep 0.5
+kill -INT "$launcher"
+start=$(date +%s)
+wait "$launcher"
+rc=$?
+[ "$rc" -eq 130 ] || fail "Ctrl-C should make am-run exit 130, not $rc"
+[ $(($(date +%s) - start)) -lt 10 ] || fail "Ctrl-C took too long"
+no_leftovers
+
+# --- foreign launchers: rank and size from their variables, rank 0's
+# endpoint through a rendezvous file, tcp on loopback.
+foreign() {
+    rankvar=$1
+    sizevar=$2
+    rm -f "$work/rdv"
+    pids=
+    for r in 0 1 2; do
+        env "$rankvar=$r" "$sizevar=3" AM_RENDEZVOUS="file:$work/rdv" AM_JOB=77 \
+            AM_BOOT_TIMEOUT=30 timeout 40 "$MP" coll "$tag" >"$work/out.$r" 2>&1 &
+        pids="$pids $!"
+    done
+    for p in $pids; do
+        wait "$p" || { cat "$work"/out.*; fail "$rankvar/$sizevar job failed"; }
+    done
+    grep -q "^coll: 3 PEs" "$work/out.0" || fail "$rankvar/$sizevar: no result"
+    no_leftovers
+}
+foreign OMPI_COMM_WORLD_RANK OMPI_COMM_WORLD_SIZE
+foreign PMI_RANK PMI_SIZE
+foreign SLURM_PROCID SLURM_NTASKS
+
+# --- two PEs that disagree on the job size: the hello negotiation refuses
+# the pair with a message naming both sizes, and neither PE hangs.
+rm -f "$work/rdv"
+env OMPI_COMM_WORLD_RANK=0 OMPI_COMM_WORLD_SIZE=2 AM_RENDEZVOUS="file:$work/rdv" \
+    AM_JOB=78 AM_BOOT_TIMEOUT=10 timeout 20 "$MP" coll "$tag" >"$work/mis.0" 2>&1 &
+p0=$!
+env OMPI_COMM_WORLD_RANK=1 OMPI_COMM_WORLD_SIZE=3 AM_RENDEZVOUS="file:$work/rdv" \
+    AM_JOB=78 AM_BOOT_TIMEOUT=10 timeout 20 "$MP" coll "$tag" >"$work/mis.1" 2>&1 &
+p1=$!
+wait "$p0" && fail "rank 0 of a mismatched job should fail"
+wait "$p1"
+grep -q "rank 1 says the job has 3 PEs, this PE says 2" "$work/mis.0" ||
+    { cat "$work"/mis.*; fail "job-size mismatch not named by rank 0"; }
+no_leftovers
+
+# --- hostfile launch through a fake ssh on PATH
+mkdir "$work/bin"
+cat >"$work/bin/ssh" <<FAKE
+#!/bin/sh
+# Fake ssh: logs the host, runs the command here, as sshd would there.
+echo "\$1" >>"$work/ssh.log"
+shift
+exec sh -c "\$*"
+FAKE
+chmod +x "$work/bin/ssh"
+printf '# two hosts\n127.0.0.1 slots=2\nlocalhost slots=2\n' >"$work/hosts"
+PATH="$work/bin:$PATH" job 60 "$AMRUN" -n 4 --hostfile "$work/hosts" -- "$MP" storm 50 500
+expect_ok "hostfile job"
+expect_line "^storm: 4 PEs, 800 messages delivered exactly once" "hostfile job"
+[ "$(wc -l <"$work/ssh.log")" -eq 4 ] || fail "ssh was not used for every rank"
+[ "$(grep -c '^localhost$' "$work/ssh.log")" -eq 2 ] || fail "slots not honoured"
+PATH="$work/bin:$PATH" job 30 "$AMRUN" -n 5 --hostfile "$work/hosts" -- true
+[ "$rc" -eq 1 ] || fail "too few slots should fail (1), not $rc"
+expect_line "lists 4 slots, -n 5 needs 5" "hostfile slots"
+echo "launch: ok"

@@ -1,0 +1,51 @@
+# tests/am-lib.sh -- helpers for libam's multi-process tests (sourced).
+#
+# Every job runs under timeout(1) with a hard limit and carries a unique
+# tag=... argument, so that the test can check afterwards that no PE process
+# is left. Temporary files live in $work (mktemp -d), removed on exit.
+# Exit codes: 0 pass, 1 fail, 77 skip, 99 harness error.
+set -u
+
+AMRUN=${top_builddir:?}/am-run
+MP=$top_builddir/tests/am_mp
+[ -x "$AMRUN" ] && [ -x "$MP" ] || { echo "am-run or am_mp not built"; exit 99; }
+test_name=$(basename "$0" .sh)
+tag="tag=amtest-$$-$test_name"
+work=$(mktemp -d "${TMPDIR:-/tmp}/$test_name.XXXXXX") || exit 99
+trap 'rm -rf "$work"' EXIT
+
+fail() {
+    echo "FAIL: $*"
+    [ -f "$work/out" ] && sed 's/^/  | /' "$work/out"
+    exit 1
+}
+
+# job LIMIT AM-RUN-ARGS -- MODE ARGS: runs am_mp under am-run within LIMIT
+# seconds; output in $work/out, exit status in $rc, seconds in $elapsed.
+job() {
+    limit=$1
+    shift
+    start=$(date +%s.%N)
+    timeout --kill-after=5 "$limit" "$@" "$tag" >"$work/out" 2>&1
+    rc=$?
+    elapsed=$(echo "$(date +%s.%N) - $start" | bc)
+    no_leftovers
+}
+
+# Waits up to 5 s for every process carrying our tag to be gone.
+no_leftovers() {
+    for _ in 1 2 3 4 5 6 7 8 9 10; do
+        left=$(ps -eo pid=,args= | grep -F -e "$tag" | grep -v -e grep -e timeout)
+        [ -z "$left" ] && return 0
+        sleep 0.5
+    done
+    fail "processes left behind: $left"
+}
+
+expect_ok() {
+    [ "$rc" -eq 0 ] || fail "$* exited $rc"
+}
+
+expect_line() {
+    grep -q -e "$1" "$work/out" || fail "no line matching '$1' in the output of $2"
+}

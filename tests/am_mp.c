@@ -1,0 +1,830 @@
+/*
+ * am_mp.c -- multi-process test driver for libam, run under am-run by the
+ * tests/am-*.sh scripts. One program, several scenarios:
+ *
+ *   am_mp storm N MAXLEN   every PE sends N messages of random length (0..
+ *                          MAXLEN bytes, random contents) to every PE; each
+ *                          must arrive exactly once, in order per sender,
+ *                          with the right bytes (checked against the
+ *                          generator and a checksum)
+ *   am_mp term SEEDS DEPTH randomized work-spawning: handlers and threads
+ *                          (some sleeping a random time first) send more
+ *                          work to random PEs; checks that termination is
+ *                          declared, and only after the last message
+ *   am_mp rpc              a thread blocked in am_call does not block the
+ *                          other threads of its PE
+ *   am_mp rtt N            prints the mean AM round trip between ranks 0
+ *                          and 1 ("rtt_us X")
+ *   am_mp coll             barrier, allreduce, gather
+ *   am_mp kill VICTIM      PE VICTIM kills itself with SIGKILL mid-run; the
+ *                          others must report it and exit (never return)
+ *   am_mp malformed        rank 0 throws malformed frames at PE 1 from raw
+ *                          ZeroMQ sockets; PE 1 must reject and count each
+ *   am_mp stranger         like malformed, but only checks whether frames
+ *                          from a socket without the job's CURVE key got in
+ *   am_mp sleep S          (no libam) sleeps S seconds: a PE to stop
+ *   am_mp fake-peer EP V   (no libam) says hello to rank 0 at endpoint EP as
+ *                          PE 1 speaking wire protocol version V
+ *
+ * Exit status 0 if every check held, 1 otherwise; every wait is bounded.
+ * Extra arguments of the form tag=... are ignored (the scripts use them to
+ * find leftover processes).
+ */
+#include "config.h"
+
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <zmq.h>
+
+#include "am.h"
+
+static int failures;
+
+#define CHECK(cond, ...)                                                     \
+    do {                                                                     \
+        if (!(cond)) {                                                       \
+            fprintf(stderr, "am_mp: PE %d: check failed at line %d: ",       \
+                    g_rank, __LINE__);                                       \
+            fprintf(stderr, __VA_ARGS__);                                    \
+            fputc('\n', stderr);                                             \
+            failures++;                                                      \
+        }                                                                    \
+    } while (0)
+
+static int g_rank = -1;
+
+static uint64_t mix(uint64_t x)
+{
+    /* splitmix64 */
+    x += UINT64_C(0x9E3779B97F4A7C15);
+    x = (x ^ (x >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    x = (x ^ (x >> 27)) * UINT64_C(0x94D049BB133111EB);
+    return x ^ (x >> 31);
+}
+
+static uint64_t rng_state;
+
+static uint64_t rnd(void)
+{
+    rng_state = mix(rng_state);
+    return rng_state;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+           (uint32_t)p[3] << 24;
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+    put32(p, (uint32_t)v);
+    put32(p + 4, (uint32_t)(v >> 32));
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+    return get32(p) | (uint64_t)get32(p + 4) << 32;
+}
+
+/* ---------------------------------------------------------------- storm */
+
+enum { H_STORM = 1, H_WORK = 2, H_SLOW = 3, H_FAST = 4, H_PING = 5, H_PONG = 6,
+       H_SPIN = 7 };
+
+#define STORM_HDR 20 /* src u32, idx u32, len u32, checksum u64 */
+
+typedef struct storm {
+    int n, maxlen, size;
+    uint32_t *next_idx; /* per source: next index expected */
+    long received, bad;
+    int sent_to;        /* next destination round-robin */
+    int sent;           /* messages sent to each destination so far */
+} storm;
+
+/* Length and contents of message idx from src to dst: a pure function of
+ * (src, dst, idx), so the receiver can recompute them. */
+static size_t storm_len(const storm *S, int src, int dst, uint32_t idx)
+{
+    uint64_t h = mix(((uint64_t)src << 40) ^ ((uint64_t)dst << 20) ^ idx ^ 0xABCD);
+    /* Mostly small, sometimes up to maxlen. */
+    size_t len = (size_t)(h % 64);
+    if ((h >> 8) % 8 == 0)
+        len = (size_t)((h >> 16) % (uint64_t)(S->maxlen + 1));
+    return len;
+}
+
+static void storm_fill(uint8_t *p, size_t len, int src, int dst, uint32_t idx)
+{
+    uint64_t x = mix(((uint64_t)src << 40) ^ ((uint64_t)dst << 20) ^ idx);
+    for (size_t i = 0; i < len; i++) {
+        if (i % 8 == 0)
+            x = mix(x);
+        p[i] = (uint8_t)(x >> (8 * (i % 8)));
+    }
+}
+
+static uint64_t checksum(const uint8_t *p, size_t len)
+{
+    uint64_t h = UINT64_C(1469598103934665603); /* FNV-1a */
+    for (size_t i = 0; i < len; i++)
+        h = (h ^ p[i]) * UINT64_C(1099511628211);
+    return h;
+}
+
+static void storm_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    storm *S = arg;
+    const uint8_t *d = m->data;
+    if (m->len < STORM_HDR) {
+        CHECK(0, "storm message of %zu bytes", m->len);
+        S->bad++;
+        return;
+    }
+    uint32_t src = get32(d), idx = get32(d + 4), len = get32(d + 8);
+    uint64_t sum = get64(d + 12);
+    CHECK((int)src == m->src, "message says src %u, runtime says %d", src, m->src);
+    CHECK(len == m->len - STORM_HDR, "length %u vs %zu", len, m->len - STORM_HDR);
+    CHECK(idx == S->next_idx[m->src],
+          "from PE %d got index %u, expected %u (lost, duplicated or reordered)",
+          m->src, idx, S->next_idx[m->src]);
+    size_t want = storm_len(S, m->src, am_rank(ctx), idx);
+    CHECK(want == len, "message %u from %d: length %u, generator says %zu", idx,
+          m->src, len, want);
+    uint8_t *exp = malloc(want ? want : 1);
+    storm_fill(exp, want, m->src, am_rank(ctx), idx);
+    CHECK(want == len && !memcmp(exp, d + STORM_HDR, len) &&
+              checksum(d + STORM_HDR, len) == sum,
+          "message %u from %d: contents differ", idx, m->src);
+    free(exp);
+    S->next_idx[m->src] = idx + 1;
+    S->received++;
+}
+
+static int storm_send_one(am_ctx_t *ctx, storm *S, int dst, uint32_t idx)
+{
+    int me = am_rank(ctx);
+    size_t len = storm_len(S, me, dst, idx);
+    size_t total = STORM_HDR + len;
+    /* Alternate the copying and the zero-copy send. */
+    int zc = idx % 2;
+    uint8_t *p = zc ? am_buf_alloc(total) : malloc(total);
+    put32(p, (uint32_t)me);
+    put32(p + 4, idx);
+    put32(p + 8, (uint32_t)len);
+    storm_fill(p + STORM_HDR, len, me, dst, idx);
+    put64(p + 12, checksum(p + STORM_HDR, len));
+    int rc;
+    if (zc) {
+        rc = am_send_buf(ctx, dst, H_STORM, p, total);
+        if (rc)
+            am_buf_free(p);
+    } else {
+        rc = am_send(ctx, dst, H_STORM, p, total);
+        free(p);
+    }
+    return rc;
+}
+
+/* Work step: a batch of sends per call, round-robin over destinations. */
+static int storm_work(am_ctx_t *ctx, void *arg)
+{
+    storm *S = arg;
+    if (S->sent >= S->n)
+        return 0;
+    for (int b = 0; b < 8 && S->sent < S->n; b++) {
+        int rc = storm_send_one(ctx, S, S->sent_to, (uint32_t)S->sent);
+        CHECK(rc == 0, "am_send: %s", am_strerror(rc));
+        if (++S->sent_to == S->size) {
+            S->sent_to = 0;
+            S->sent++;
+        }
+    }
+    return 1;
+}
+
+static int run_storm(am_ctx_t *ctx, int n, int maxlen)
+{
+    storm S = {0};
+    S.n = n;
+    S.maxlen = maxlen;
+    S.size = am_size(ctx);
+    S.next_idx = calloc((size_t)S.size, sizeof *S.next_idx);
+    am_register(ctx, H_STORM, "storm", storm_handler, &S);
+    /* All handlers are registered everywhere before anyone sends. */
+    am_barrier(ctx);
+    double t0 = now_s();
+    int rc = am_run_until_done(ctx, storm_work, &S);
+    double dt = now_s() - t0;
+    CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+    for (int src = 0; src < S.size; src++)
+        CHECK(S.next_idx[src] == (uint32_t)n, "got %u of %d messages from PE %d",
+              S.next_idx[src], n, src);
+    int64_t mine[2] = {S.received, (int64_t)failures}, all[2];
+    am_allreduce_i64(ctx, mine, all, 2, AM_SUM);
+    int64_t expect = (int64_t)S.size * S.size * n;
+    CHECK(all[0] == expect, "job received %lld messages, expected %lld",
+          (long long)all[0], (long long)expect);
+    if (am_rank(ctx) == 0)
+        printf("storm: %d PEs, %lld messages delivered exactly once in %.3f s, "
+               "%lld failed checks\n",
+               S.size, (long long)all[0], dt, (long long)all[1]);
+    free(S.next_idx);
+    return 0;
+}
+
+/* ----------------------------------------------------------------- term */
+
+typedef struct term {
+    int size;
+    int depth;
+    int64_t sent, handled;
+    int terminated;      /* am_run_until_done returned, quiet window */
+    int late;            /* messages delivered after that */
+    int seeds;
+    am_timer_t *timers[64];
+    int ntimers;
+} term;
+
+static term T;
+
+static void send_work(am_ctx_t *ctx, int depth)
+{
+    uint8_t msg[4];
+    put32(msg, (uint32_t)depth);
+    int dst = (int)(rnd() % (uint64_t)T.size);
+    int rc = am_send(ctx, dst, H_WORK, msg, sizeof msg);
+    CHECK(rc == 0, "am_send: %s", am_strerror(rc));
+    T.sent++;
+}
+
+typedef struct spawn_arg {
+    int depth;
+    int children;
+    double pause;
+} spawn_arg;
+
+static void work_thread(am_ctx_t *ctx, void *arg)
+{
+    spawn_arg *a = arg;
+    /* Sleep a random time first, so that PEs go idle and are woken later. */
+    if (a->pause > 0)
+        am_sleep(ctx, a->pause);
+    for (int i = 0; i < a->children; i++) {
+        send_work(ctx, a->depth);
+        am_yield(ctx);
+    }
+    free(a);
+}
+
+static void work_timer(am_ctx_t *ctx, am_timer_t *t, void *arg)
+{
+    (void)t;
+    send_work(ctx, (int)(intptr_t)arg);
+}
+
+static void work_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    CHECK(!T.terminated, "work message from PE %d delivered after termination "
+                         "was declared",
+          m->src);
+    if (T.terminated)
+        T.late++;
+    T.handled++;
+    int depth = (int)get32(m->data);
+    if (depth <= 0)
+        return;
+    int children = (int)(rnd() % 4); /* mean 1.5: the tree is finite */
+    switch (rnd() % 3) {
+    case 0: /* from the handler itself */
+        for (int i = 0; i < children; i++)
+            send_work(ctx, depth - 1);
+        break;
+    case 1: { /* from a thread, after a pause of up to 3 ms */
+        spawn_arg *a = malloc(sizeof *a);
+        a->depth = depth - 1;
+        a->children = children;
+        a->pause = (double)(rnd() % 3000) * 1e-6;
+        int rc = am_thread_spawn(ctx, work_thread, a, NULL);
+        CHECK(rc == 0, "spawn: %s", am_strerror(rc));
+        break;
+    }
+    default: /* from a timer */
+        if (children && T.ntimers < 64) {
+            am_timer_t *t;
+            am_timer_new(ctx, work_timer, (void *)(intptr_t)(depth - 1), &t);
+            am_timer_start(t, (double)(rnd() % 2000) * 1e-6);
+            T.timers[T.ntimers++] = t;
+        }
+        break;
+    }
+}
+
+static int term_work(am_ctx_t *ctx, void *arg)
+{
+    (void)arg;
+    if (T.seeds <= 0)
+        return 0;
+    T.seeds--;
+    send_work(ctx, T.depth);
+    return 1;
+}
+
+static int run_term(am_ctx_t *ctx, int seeds, int depth)
+{
+    T.size = am_size(ctx);
+    T.depth = depth;
+    am_register(ctx, H_WORK, "work", work_handler, NULL);
+    am_barrier(ctx);
+    for (int epoch = 0; epoch < 2; epoch++) {
+        T.seeds = seeds;
+        T.terminated = 0;
+        double t0 = now_s();
+        int rc = am_run_until_done(ctx, term_work, NULL);
+        double dt = now_s() - t0;
+        T.terminated = 1;
+        CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+        CHECK(am_thread_count(ctx) == 0, "%zu threads alive after termination",
+              am_thread_count(ctx));
+        /* Keep polling a while: nothing may arrive any more. No PE can have
+         * started the next epoch yet: that needs this PE's contribution to
+         * the allreduce below. */
+        am_sleep(ctx, 0.1);
+        T.terminated = 0;
+        for (int i = 0; i < T.ntimers; i++)
+            am_timer_free(&T.timers[i]);
+        T.ntimers = 0;
+        int64_t mine[3] = {T.sent, T.handled, T.late}, all[3];
+        rc = am_allreduce_i64(ctx, mine, all, 3, AM_SUM);
+        CHECK(rc == 0, "allreduce: %s", am_strerror(rc));
+        CHECK(all[0] == all[1], "termination declared with %lld sent but %lld "
+                                "handled",
+              (long long)all[0], (long long)all[1]);
+        CHECK(all[2] == 0, "%lld messages delivered after termination",
+              (long long)all[2]);
+        if (am_rank(ctx) == 0)
+            printf("term: epoch %d, %d PEs, %lld work messages, all handled "
+                   "before termination was declared (%.3f s)\n",
+                   epoch, T.size, (long long)all[0], dt);
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ rpc */
+
+typedef struct slow_reply {
+    int src;
+    uint64_t call_id;
+    uint32_t value;
+} slow_reply;
+
+static void slow_thread(am_ctx_t *ctx, void *arg)
+{
+    slow_reply *r = arg;
+    am_sleep(ctx, 0.3);
+    uint8_t out[4];
+    put32(out, r->value * 2);
+    int rc = am_reply_to(ctx, r->src, r->call_id, out, sizeof out);
+    CHECK(rc == 0, "am_reply_to: %s", am_strerror(rc));
+    free(r);
+}
+
+/* Answers after 300 ms, from a thread (a deferred reply). */
+static void slow_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    slow_reply *r = malloc(sizeof *r);
+    r->src = m->src;
+    r->call_id = m->call_id;
+    r->value = get32(m->data);
+    am_thread_spawn(ctx, slow_thread, r, NULL);
+}
+
+static void fast_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    uint8_t out[4];
+    put32(out, get32(m->data) + 1);
+    am_reply(ctx, m, out, sizeof out);
+}
+
+typedef struct rpc_state {
+    int peer;
+    int slow_done;
+    double slow_took;
+    int fast_calls_while_blocked;
+} rpc_state;
+
+static void slow_caller(am_ctx_t *ctx, void *arg)
+{
+    rpc_state *s = arg;
+    uint8_t req[4];
+    put32(req, 21);
+    void *reply = NULL;
+    size_t len = 0;
+    double t0 = now_s();
+    int rc = am_call(ctx, s->peer, H_SLOW, req, sizeof req, &reply, &len);
+    s->slow_took = now_s() - t0;
+    CHECK(rc == 0 && len == 4 && get32(reply) == 42, "slow call: %s, %zu bytes",
+          am_strerror(rc), len);
+    free(reply);
+    s->slow_done = 1;
+}
+
+static void fast_caller(am_ctx_t *ctx, void *arg)
+{
+    rpc_state *s = arg;
+    for (uint32_t i = 0; !s->slow_done && i < 100000; i++) {
+        uint8_t req[4];
+        put32(req, i);
+        void *reply = NULL;
+        size_t len = 0;
+        int rc = am_call(ctx, s->peer, H_FAST, req, sizeof req, &reply, &len);
+        CHECK(rc == 0 && len == 4 && get32(reply) == i + 1, "fast call %u", i);
+        free(reply);
+        if (!s->slow_done)
+            s->fast_calls_while_blocked++;
+    }
+}
+
+static int run_rpc(am_ctx_t *ctx)
+{
+    am_register(ctx, H_SLOW, "slow", slow_handler, NULL);
+    am_register(ctx, H_FAST, "fast", fast_handler, NULL);
+    am_barrier(ctx);
+    rpc_state s = {(am_rank(ctx) + 1) % am_size(ctx), 0, 0, 0};
+    CHECK(am_call(ctx, 0, H_FAST, "abcd", 4, &(void *){NULL}, &(size_t){0}) ==
+              AM_ESTATE,
+          "am_call from the main context must fail with AM_ESTATE");
+    am_future_t *done_slow, *done_fast;
+    am_future_new(ctx, &done_slow);
+    am_future_new(ctx, &done_fast);
+    am_thread_spawn(ctx, slow_caller, &s, done_slow);
+    am_thread_spawn(ctx, fast_caller, &s, done_fast);
+    int rc = am_run_until_done(ctx, NULL, NULL);
+    CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+    CHECK(am_future_ready(done_slow) && am_future_ready(done_fast),
+          "threads did not finish");
+    CHECK(s.slow_took >= 0.29, "slow call returned after %.3f s", s.slow_took);
+    CHECK(s.fast_calls_while_blocked >= 10,
+          "only %d fast calls completed while a thread was blocked in am_call",
+          s.fast_calls_while_blocked);
+    printf("rpc: PE %d: %d round trips by another thread while one waited "
+           "%.3f s for its reply\n",
+           am_rank(ctx), s.fast_calls_while_blocked, s.slow_took);
+    am_future_free(&done_slow);
+    am_future_free(&done_fast);
+    return 0;
+}
+
+/* ------------------------------------------------------------------ rtt */
+
+static int pongs;
+
+static void ping_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    am_send(ctx, m->src, H_PONG, m->data, m->len);
+}
+
+static void pong_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)m;
+    (void)arg;
+    pongs++;
+}
+
+static int run_rtt(am_ctx_t *ctx, int n)
+{
+    am_register(ctx, H_PING, "ping", ping_handler, NULL);
+    am_register(ctx, H_PONG, "pong", pong_handler, NULL);
+    am_barrier(ctx);
+    if (am_rank(ctx) == 0) {
+        char payload[32] = "ping";
+        double t0 = now_s(), min = 1e9;
+        for (int i = 0; i < n; i++) {
+            double s = now_s();
+            int want = pongs + 1;
+            am_send(ctx, 1, H_PING, payload, sizeof payload);
+            double limit = now_s() + 10;
+            while (pongs < want && now_s() < limit) {
+                am_poll(ctx);
+                if (pongs < want)
+                    am_idle(ctx, 0.1);
+            }
+            CHECK(pongs == want, "no pong within 10 s");
+            double d = now_s() - s;
+            if (d < min)
+                min = d;
+        }
+        double mean = (now_s() - t0) / n;
+        printf("rtt_us %.1f min_us %.1f\n", mean * 1e6, min * 1e6);
+    }
+    am_barrier(ctx);
+    return 0;
+}
+
+/* ----------------------------------------------------------------- coll */
+
+static void coll_thread(am_ctx_t *ctx, void *arg)
+{
+    double one = 1;
+    int rc = am_allreduce_f64(ctx, &one, arg, 1, AM_SUM);
+    CHECK(rc == 0, "allreduce in a thread: %s", am_strerror(rc));
+}
+
+static int run_coll(am_ctx_t *ctx)
+{
+    int r = am_rank(ctx), P = am_size(ctx);
+    CHECK(am_barrier(ctx) == 0, "barrier");
+    double d[3] = {r + 0.5, -r, r * 2.0}, ds[3], dmin[3], dmax[3];
+    CHECK(am_allreduce_f64(ctx, d, ds, 3, AM_SUM) == 0, "sum");
+    CHECK(am_allreduce_f64(ctx, d, dmin, 3, AM_MIN) == 0, "min");
+    CHECK(am_allreduce_f64(ctx, d, dmax, 3, AM_MAX) == 0, "max");
+    double tri = (double)P * (P - 1) / 2;
+    CHECK(ds[0] == tri + 0.5 * P && ds[1] == -tri && ds[2] == 2 * tri,
+          "f64 sum %g %g %g", ds[0], ds[1], ds[2]);
+    CHECK(dmin[0] == 0.5 && dmin[1] == -(P - 1) && dmax[2] == 2.0 * (P - 1),
+          "f64 min/max");
+    int64_t v[2] = {(int64_t)r * 1000000000000LL, -(int64_t)r}, vs[2], vmin[2];
+    CHECK(am_allreduce_i64(ctx, v, vs, 2, AM_SUM) == 0, "i64 sum");
+    CHECK(am_allreduce_i64(ctx, v, vmin, 2, AM_MIN) == 0, "i64 min");
+    CHECK(vs[0] == (int64_t)tri * 1000000000000LL && vs[1] == -(int64_t)tri,
+          "i64 sum %lld %lld", (long long)vs[0], (long long)vs[1]);
+    CHECK(vmin[0] == 0 && vmin[1] == -(int64_t)(P - 1), "i64 min");
+    /* Gather: rank r sends r*37 bytes of value r (rank 0 none). */
+    size_t len = (size_t)r * 37;
+    uint8_t *blob = malloc(len + 1);
+    memset(blob, r & 0xff, len);
+    void *all;
+    size_t *lens;
+    CHECK(am_gather(ctx, blob, len, &all, &lens) == 0, "gather");
+    if (r == 0) {
+        const uint8_t *p = all;
+        for (int i = 0; i < P; i++) {
+            CHECK(lens[i] == (size_t)i * 37, "gather length of %d: %zu", i, lens[i]);
+            for (size_t k = 0; k < lens[i]; k++)
+                if (p[k] != (uint8_t)i) {
+                    CHECK(0, "gather byte %zu of PE %d", k, i);
+                    break;
+                }
+            p += lens[i];
+        }
+        printf("coll: %d PEs: barrier, allreduce sum/min/max, gather ok\n", P);
+    } else {
+        CHECK(!all && !lens, "gather result outside rank 0");
+    }
+    free(all);
+    free(lens);
+    free(blob);
+    /* A collective called from a thread blocks that thread only. */
+    am_future_t *f;
+    am_future_new(ctx, &f);
+    double thread_sum = 0;
+    CHECK(am_thread_spawn(ctx, coll_thread, &thread_sum, f) == 0, "spawn");
+    CHECK(am_wait(ctx, f) == 0, "am_wait");
+    CHECK(thread_sum == P, "allreduce from threads gave %g", thread_sum);
+    am_future_free(&f);
+    return 0;
+}
+
+/* ----------------------------------------------------------------- kill */
+
+static int spin_work(am_ctx_t *ctx, void *arg)
+{
+    (void)arg;
+    /* Keep a ring of messages going for ever. */
+    static double next;
+    if (now_s() < next)
+        return 0;
+    next = now_s() + 0.01;
+    am_send(ctx, (am_rank(ctx) + 1) % am_size(ctx), H_SPIN, "x", 1);
+    return 1;
+}
+
+static void spin_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)m;
+    (void)arg;
+}
+
+static void spin_timer(am_ctx_t *ctx, am_timer_t *t, void *arg)
+{
+    (void)ctx;
+    (void)arg;
+    am_timer_start(t, 0.01); /* keeps the PE active: never terminates */
+}
+
+static int run_kill(am_ctx_t *ctx, int victim)
+{
+    am_register(ctx, H_SPIN, "spin", spin_handler, NULL);
+    am_barrier(ctx);
+    am_timer_t *t;
+    am_timer_new(ctx, spin_timer, NULL, &t);
+    am_timer_start(t, 0.01);
+    if (am_rank(ctx) == victim) {
+        am_sleep(ctx, 0.3);
+        fprintf(stderr, "am_mp: PE %d: killing myself with SIGKILL\n", victim);
+        fflush(stderr);
+        raise(SIGKILL);
+    }
+    double t0 = now_s();
+    int rc = am_run_until_done(ctx, spin_work, NULL);
+    /* Only reached if the default error handler did not exit. */
+    CHECK(0, "am_run_until_done returned %s after %.1f s instead of exiting",
+          am_strerror(rc), now_s() - t0);
+    return 1;
+}
+
+/* ------------------------------------------------------------ malformed */
+
+/* Sends one message from a fresh DEALER socket. The ROUTER refuses a
+ * second connection with a routing id already in use, so each call gets
+ * its own id: id[1] is bumped every time. */
+static void raw_send(void *zctx, const char *ep, uint8_t *id, size_t idlen,
+                     const void *frame, size_t len, int parts)
+{
+    id[1]++;
+    void *s = zmq_socket(zctx, ZMQ_DEALER);
+    int linger = 1000;
+    zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_setsockopt(s, ZMQ_ROUTING_ID, id, idlen);
+    zmq_connect(s, ep);
+    if (parts == 2)
+        zmq_send(s, frame, len, ZMQ_SNDMORE);
+    zmq_send(s, frame, len, 0);
+    zmq_close(s);
+}
+
+static void frame_header(uint8_t *f, uint8_t version, uint8_t flags,
+                         uint32_t sender, uint32_t len)
+{
+    memset(f, 0, 24);
+    f[0] = 'P';
+    f[1] = 'D';
+    f[2] = 'R';
+    f[3] = 0xA7;
+    f[4] = version;
+    f[5] = flags;
+    put32(f + 8, sender);
+    put32(f + 12, len);
+}
+
+static int run_malformed(am_ctx_t *ctx, int stranger)
+{
+    int r = am_rank(ctx);
+    am_barrier(ctx);
+    int expected = 0;
+    if (r == 0) {
+        const char *ep = am_endpoint(ctx, 1);
+        void *zctx = zmq_ctx_new();
+        uint8_t f[64];
+        uint8_t bad_id[5] = {'P', 99, 0, 0, 0}; /* rank 99: not in the job */
+        uint8_t other_id[2] = {'X', 'A'};
+        /* 1: truncated */
+        raw_send(zctx, ep, bad_id, 5, (const uint8_t *)"abc", 3, 1);
+        /* 2: bad magic */
+        memset(f, 'z', sizeof f);
+        raw_send(zctx, ep, bad_id, 5, f, 30, 1);
+        /* 3: another version */
+        frame_header(f, 9, 0, 99, 0);
+        raw_send(zctx, ep, bad_id, 5, f, 24, 1);
+        /* 4: unknown flags */
+        frame_header(f, 1, 0x80, 99, 0);
+        raw_send(zctx, ep, bad_id, 5, f, 24, 1);
+        /* 5: length mismatch */
+        frame_header(f, 1, 0, 99, 10);
+        raw_send(zctx, ep, bad_id, 5, f, 24, 1);
+        /* 6: well-formed, but from a routing id outside the job */
+        frame_header(f, 1, 0, 99, 0);
+        raw_send(zctx, ep, bad_id, 5, f, 24, 1);
+        raw_send(zctx, ep, other_id, 2, f, 24, 1);
+        /* 7: two parts */
+        raw_send(zctx, ep, bad_id, 5, f, 24, 2);
+        zmq_ctx_term(zctx);
+    }
+    if (r == 1) {
+        expected = 8;
+        am_stats_t st;
+        double limit = now_s() + 10;
+        do {
+            am_sleep(ctx, 0.02);
+            am_stats_get(ctx, &st);
+        } while (st.rejected < (uint64_t)expected && now_s() < limit);
+        if (stranger) {
+            /* Give stray frames a chance to arrive before concluding. */
+            am_sleep(ctx, 1.0);
+            am_stats_get(ctx, &st);
+            printf("stranger: PE 1 counted %llu frames from sockets outside "
+                   "the job (curve %s)\n",
+                   (unsigned long long)st.rejected,
+                   getenv("AM_CURVE_SERVER_PUBLIC") ? "on" : "off");
+        } else {
+            CHECK(st.rejected == (uint64_t)expected,
+                  "PE 1 rejected %llu frames, expected %d",
+                  (unsigned long long)st.rejected, expected);
+            printf("malformed: PE 1 rejected %llu malformed frames and lives\n",
+                   (unsigned long long)st.rejected);
+        }
+    }
+    am_barrier(ctx);
+    return 0;
+}
+
+/* Pretends to be PE 1 of a job speaking wire protocol VERSION: connects to
+ * rank 0's ENDPOINT and says hello. Runs without libam. */
+static int fake_peer(const char *endpoint, int version)
+{
+    void *zctx = zmq_ctx_new();
+    void *s = zmq_socket(zctx, ZMQ_DEALER);
+    uint8_t id[5] = {'P', 1, 0, 0, 0};
+    int linger = 2000;
+    zmq_setsockopt(s, ZMQ_ROUTING_ID, id, sizeof id);
+    zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(s, endpoint);
+    uint8_t f[24];
+    frame_header(f, (uint8_t)version, 1, 1, 0);
+    f[6] = 1; /* HELLO */
+    int rc = zmq_send(s, f, sizeof f, 0);
+    zmq_close(s);
+    zmq_ctx_term(zctx);
+    return rc == (int)sizeof f ? 0 : 1;
+}
+
+/* ----------------------------------------------------------------- main */
+
+int main(int argc, char **argv)
+{
+    if (argc == 4 && !strcmp(argv[1], "fake-peer"))
+        return fake_peer(argv[2], atoi(argv[3]));
+    if (argc >= 3 && !strcmp(argv[1], "sleep")) {
+        sleep((unsigned)atoi(argv[2]));
+        return 0;
+    }
+    am_ctx_t *ctx;
+    int rc = am_init(&argc, &argv, NULL, &ctx);
+    if (rc) {
+        fprintf(stderr, "am_mp: am_init: %s\n", am_strerror(rc));
+        return 1;
+    }
+    g_rank = am_rank(ctx);
+    rng_state = mix((uint64_t)g_rank * 7919 + 17);
+    /* Drop tag=... arguments. */
+    int n = 1;
+    for (int i = 1; i < argc; i++)
+        if (strncmp(argv[i], "tag=", 4))
+            argv[n++] = argv[i];
+    argc = n;
+    const char *mode = argc > 1 ? argv[1] : "";
+    int arg1 = argc > 2 ? atoi(argv[2]) : 0, arg2 = argc > 3 ? atoi(argv[3]) : 0;
+    if (!strcmp(mode, "storm"))
+        rc = run_storm(ctx, arg1 > 0 ? arg1 : 100, arg2 > 0 ? arg2 : 1000);
+    else if (!strcmp(mode, "term"))
+        rc = run_term(ctx, arg1 > 0 ? arg1 : 4, arg2 > 0 ? arg2 : 6);
+    else if (!strcmp(mode, "rpc"))
+        rc = run_rpc(ctx);
+    else if (!strcmp(mode, "rtt"))
+        rc = run_rtt(ctx, arg1 > 0 ? arg1 : 50);
+    else if (!strcmp(mode, "coll"))
+        rc = run_coll(ctx);
+    else if (!strcmp(mode, "kill"))
+        rc = run_kill(ctx, arg1);
+    else if (!strcmp(mode, "malformed"))
+        rc = run_malformed(ctx, 0);
+    else if (!strcmp(mode, "stranger"))
+        rc = run_malformed(ctx, 1);
+    else {
+        fprintf(stderr, "usage: am_mp storm|term|rpc|rtt|coll|kill|malformed|"
+                        "stranger [ARGS]\n");
+        rc = 2;
+    }
+    int frc = am_finalize(&ctx);
+    if (frc) {
+        fprintf(stderr, "am_mp: PE %d: am_finalize: %s\n", g_rank,
+                am_strerror(frc));
+        failures++;
+    }
+    if (rc == 2)
+        return 2;
+    return rc || failures ? 1 : 0;
+}

@@ -1,0 +1,6 @@
+/* Fuzz target: the header decoder (see fuzz.h, tools/fuzz-proto). */
+#include "config.h"
+
+#include "fuzz.h"
+
+PR_FUZZ_TARGET(PRS_HEADER)
