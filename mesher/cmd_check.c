@@ -230,7 +230,7 @@ int pdr_cmd_check(int argc, char **argv)
         }
         if (max_ratio > 0)
             printf("tetrahedra with radius-edge ratio >= %g: %zu%s\n", max_ratio, bad_ratio,
-                   bad_ratio ? "   <-- defect" : "");
+                   bad_ratio ? "   <-- DEFECT" : "");
         printf("check seconds: %.3f\n", pdr_now() - t0);
     }
     if (plot) {

@@ -320,7 +320,7 @@ size_t mc_defects(const mc_report *r)
 
 static void line(FILE *f, const char *what, size_t n, int defect)
 {
-    fprintf(f, "  %-40s %12zu%s\n", what, n, defect && n ? "   <-- defect" : "");
+    fprintf(f, "  %-34s %12zu%s\n", what, n, defect && n ? "   <-- DEFECT" : "");
 }
 
 void mc_print(const mc_report *r, FILE *f)
@@ -329,21 +329,21 @@ void mc_print(const mc_report *r, FILE *f)
         fprintf(f, "boundary\n");
         line(f, "boundary triangles given", r->faces, 0);
         line(f, "faces of exactly one tetrahedron", r->boundary_faces, 0);
-        line(f, "given triangles that are no mesh face", r->faces_not_in_mesh, 1);
+        line(f, "triangles that are no mesh face", r->faces_not_in_mesh, 1);
         line(f, "one-sided faces not among them", r->boundary_uncovered, 1);
     }
     if (r->with_plc) {
         fprintf(f, "facets\n");
         line(f, "input facets", r->facets, 0);
         line(f, "facets covered by subfacets", r->facets_covered, 0);
-        line(f, "facets outside the mesh (no triangle)", r->facets_outside, 0);
+        line(f, "facets with no triangle (outside)", r->facets_outside, 0);
         line(f, "facets not covered (area differs)", r->facets_uncovered, 1);
         line(f, "triangles in no input facet", r->faces_off_facet, 1);
-        fprintf(f, "  %-40s %12.3g\n", "largest relative area difference", r->area_err_max);
+        fprintf(f, "  %-34s %12.3g\n", "largest relative area difference", r->area_err_max);
         fprintf(f, "volume\n");
-        fprintf(f, "  %-40s %12.10g\n", "tetrahedra", r->volume_mesh);
-        fprintf(f, "  %-40s %12.10g\n", "domain (from the input)", r->volume_plc);
-        fprintf(f, "  %-40s %12.3g%s\n", "relative difference", r->volume_err,
-                r->volume_mismatch ? "   <-- defect" : "");
+        fprintf(f, "  %-34s %12.10g\n", "tetrahedra", r->volume_mesh);
+        fprintf(f, "  %-34s %12.10g\n", "domain (from the input)", r->volume_plc);
+        fprintf(f, "  %-34s %12.3g%s\n", "relative difference", r->volume_err,
+                r->volume_mismatch ? "   <-- DEFECT" : "");
     }
 }

@@ -75,3 +75,7 @@ TESTS += tests/test_refine
 tests_test_refine_SOURCES = tests/test_refine.c
 tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
 tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
+	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh
+TESTS += $(REFINE_TESTS)
+dist_check_SCRIPTS += $(REFINE_TESTS)
