@@ -30,6 +30,15 @@ static inline void cross3(const double *a, const double *b, double *o)
     o[1] = a[2] * b[0] - a[0] * b[2];
     o[2] = a[0] * b[1] - a[1] * b[0];
 }
+/* fmin/fmax are library calls (their NaN rules); these are not. */
+static inline double dmin(double a, double b)
+{
+    return b < a ? b : a;
+}
+static inline double dmax(double a, double b)
+{
+    return b > a ? b : a;
+}
 static inline double dist2(const double *a, const double *b)
 {
     double d[3];
@@ -501,49 +510,6 @@ static double region_maxvol(const ref_mesher *r, uint32_t t)
     return mv;
 }
 
-/* The smallest sine of the six dihedral angles of abcd (small for angles
- * near 0 and near 180 degrees): at the edge shared by faces i and j,
- * sin = 6 V |e| / (4 A_i A_j) = det |e| / (|n_i| |n_j|), n the face
- * normals (twice the areas). */
-static double min_dihedral_sin(const double *a, const double *b, const double *c,
-                               const double *d)
-{
-    const double *p[4] = {a, b, c, d};
-    double n[4];
-    for (int i = 0; i < 4; i++) {
-        const uint8_t *f = tm_face_vtx[i];
-        double u[3], v[3], x[3];
-        sub3(p[f[1]], p[f[0]], u);
-        sub3(p[f[2]], p[f[0]], v);
-        cross3(u, v, x);
-        n[i] = sqrt(dot3(x, x));
-    }
-    double u[3], v[3], w[3], vw[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
-    sub3(d, a, w);
-    cross3(v, w, vw);
-    double det = dot3(u, vw), best = INFINITY;
-    for (int e = 0; e < 6; e++) {
-        int s0 = tm_edge_vtx[e][0], s1 = tm_edge_vtx[e][1];
-        /* the faces containing edge s0-s1 are those opposite the other two
-         * slots */
-        int i = -1, j = -1;
-        for (int k = 0; k < 4; k++)
-            if (k != s0 && k != s1) {
-                if (i < 0)
-                    i = k;
-                else
-                    j = k;
-            }
-        double l = sqrt(dist2(p[s0], p[s1]));
-        double sn = det * l / (n[i] * n[j]);
-        if (sn < best)
-            best = sn;
-    }
-    return best;
-}
-
 /* 1 if all four vertices of t lie on one facet by construction: a flat
  * tetrahedron on that facet (possible where the facet is not axis-aligned
  * and four of its vertices are cocircular up to rounding errors). Its
@@ -581,27 +547,72 @@ static int flat_on_facet(const ref_mesher *r, const uint32_t *v)
     return 0;
 }
 
-/* 1 if interior tetrahedron t breaks a bound; cc gets its circumcentre. */
+/* 1 if interior tetrahedron t breaks a bound (2: only the dihedral angle
+ * bound, 3: it lies flat on a facet); cc gets its circumcentre and
+ * *ratio2 its squared radius-edge ratio. One pass without square roots:
+ * this runs on every new tetrahedron. With u, v, w the edges at a, the
+ * face normals (twice the areas) are n1 = v x w, n2 = w x u, n3 = u x v
+ * and n0 = n1 + n2 + n3 (the four sum to zero with outward orientation),
+ * and the dihedral angle at the edge e shared by faces i and j has
+ * sin = 6V |e| / (4 A_i A_j) = det |e| / (|n_i| |n_j|). */
 static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2)
 {
     const tm_mesh *m = &r->m;
-    const uint32_t *v = m->tets[t].v;
-    const double *a = X(m, v[0]), *b = X(m, v[1]), *c = X(m, v[2]), *d = X(m, v[3]);
-    double vol, lmax2;
-    double q = ref_tet_ratio2(a, b, c, d, &vol, &lmax2, cc);
+    const uint32_t *tv = m->tets[t].v;
+    const double *a = X(m, tv[0]), *b = X(m, tv[1]), *c = X(m, tv[2]), *d = X(m, tv[3]);
+    double u[3], v[3], w[3], n1[3], n2[3], n3[3];
+    sub3(b, a, u);
+    sub3(c, a, v);
+    sub3(d, a, w);
+    cross3(v, w, n1);
+    cross3(w, u, n2);
+    cross3(u, v, n3);
+    double det = dot3(u, n1);
+    double l2[6];
+    l2[0] = dot3(u, u);
+    l2[1] = dot3(v, v);
+    l2[2] = dot3(w, w);
+    l2[3] = dist2(b, c);
+    l2[4] = dist2(b, d);
+    l2[5] = dist2(c, d);
+    double lo = l2[0], hi = l2[0];
+    for (int k = 1; k < 6; k++) {
+        lo = dmin(lo, l2[k]);
+        hi = dmax(hi, l2[k]);
+    }
+    double q = INFINITY;
+    if (det > 0.0 && lo > 0.0) {
+        double inv = 0.5 / det, x[3];
+        for (int k = 0; k < 3; k++) {
+            x[k] = (l2[0] * n1[k] + l2[1] * n2[k] + l2[2] * n3[k]) * inv;
+            cc[k] = a[k] + x[k];
+        }
+        q = dot3(x, x) / lo;
+    } else {
+        cc[0] = cc[1] = cc[2] = NAN;
+    }
     if (ratio2)
         *ratio2 = q;
-    if (flat_on_facet(r, v))
+    if (flat_on_facet(r, tv))
         return 3;
     if (r->b2 > 0 && q >= r->b2)
         return 1;
     double mv = region_maxvol(r, t);
-    if (mv > 0 && vol > mv)
+    if (mv > 0 && det > 6.0 * mv)
         return 1;
-    if (r->o.maxedge > 0 && lmax2 > r->o.maxedge * r->o.maxedge)
+    if (r->o.maxedge > 0 && hi > r->o.maxedge * r->o.maxedge)
         return 1;
-    if (r->sin_min > 0 && min_dihedral_sin(a, b, c, d) < r->sin_min)
-        return 2;
+    if (r->sin_min > 0) {
+        double n0[3] = {n1[0] + n2[0] + n3[0], n1[1] + n2[1] + n3[1], n1[2] + n2[2] + n3[2]};
+        double f0 = dot3(n0, n0), f1 = dot3(n1, n1), f2 = dot3(n2, n2), f3 = dot3(n3, n3);
+        double s2 = r->sin_min * r->sin_min, d2 = det * det;
+        /* edges 01 02 03 12 13 23 lie on faces (2,3) (1,3) (1,2) (0,3)
+         * (0,2) (0,1) */
+        if (d2 * l2[0] < s2 * f2 * f3 || d2 * l2[1] < s2 * f1 * f3 ||
+            d2 * l2[2] < s2 * f1 * f2 || d2 * l2[3] < s2 * f0 * f3 ||
+            d2 * l2[4] < s2 * f0 * f2 || d2 * l2[5] < s2 * f0 * f1)
+            return 2;
+    }
     return 0;
 }
 
@@ -1215,6 +1226,8 @@ static int repair_and_queue(ref_mesher *r, uint32_t *ids, size_t n)
                 ids[i] = BD_NONE;
                 changed = 1;
                 r->flips++;
+                if (r->classified)
+                    r->region_doubts++;
                 break;
             }
         }
@@ -1258,6 +1271,7 @@ static int reclassify_new(ref_mesher *r)
         uint32_t n = c->newtets[i];
         if (tm_is_ghost(m, n) || !flat_on_facet(r, m->tets[n].v))
             continue;
+        r->region_doubts++;
         for (int k = 0; k < 4; k++) {
             tm_link l = m->tets[n].n[k];
             if ((m->flags[n] & TM_F_FACEMARK(k)) || tm_is_special(l))
@@ -2091,11 +2105,13 @@ int ref_refine(ref_mesher *r)
         rc = ref_run(r, 1);
     /* Regions follow the tetrahedra through every insertion; a flat
      * tetrahedron on a facet that is not axis-aligned can pass on the
-     * wrong one (see reclassify_new). A fresh classification of the
-     * finished mesh is cheap: when it moves a tetrahedron, refinement
-     * resumes (that tetrahedron may need it now), at most a few times. */
-    for (int round = 0; round < 4 && !rc; round++) {
+     * wrong one (see reclassify_new). When one was met, the finished mesh
+     * is classified afresh (a flood fill, cheap); when that moves a
+     * tetrahedron, refinement resumes (that tetrahedron may need it now),
+     * at most a few times. */
+    for (int round = 0; round < 4 && !rc && r->region_doubts; round++) {
         size_t changed = 0;
+        r->region_doubts = 0;
         rc = ref_classify(r, NULL, &changed, NULL);
         if (rc || !changed)
             break;

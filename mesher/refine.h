@@ -216,6 +216,8 @@ typedef struct ref_mesher {
     size_t anomalies;  /* 2D cavities that were not star-shaped */
     size_t flips;      /* facet triangulation edges flipped to match T */
     const char *last_op; /* what the last step split (for debugging) */
+    size_t region_doubts; /* flat tetrahedra on facets met, flips after
+                             classification: reasons to classify again */
     uint32_t *miss;    /* new subfacets missing from T */
     size_t nmiss, cap_miss;
 } ref_mesher;

@@ -13,6 +13,7 @@
 #include "domain.h"
 #include "initmesh.h"
 #include "meshcheck.h"
+#include "numfmt.h"
 #include "plc.h"
 #include "refine.h"
 #include "unit.h"
@@ -501,6 +502,49 @@ START_TEST(small_angles_terminate)
 }
 END_TEST
 
+/* ---------------------------------------------------- number format */
+
+static uint64_t rng = 88172645463325252ULL;
+static uint64_t next_rand(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return rng;
+}
+
+static void same_as_printf(double x)
+{
+    char want[64], got[NF_DOUBLE17_MAX];
+    snprintf(want, sizeof want, "%.17g", x);
+    size_t n = nf_double17(x, got);
+    ck_assert_str_eq(got, want);
+    ck_assert_uint_eq(n, strlen(want));
+}
+
+START_TEST(double17_matches_printf)
+{
+    static const double special[] = {0.0, -0.0, 1.0, -1.0, 0.5, 0.1, 0.001, 0.000999,
+                                     1e16, 9999999999999998.0, 1234567890123456.25,
+                                     0.59143204004695962, 3.1339745962155612, 1e-300,
+                                     1e300, 0.3, 2.0 / 3.0, 1e15 + 0.5, 123.456};
+    for (size_t i = 0; i < sizeof special / sizeof special[0]; i++)
+        same_as_printf(special[i]);
+    for (int i = 0; i < 200000; i++) {
+        /* random bits (all magnitudes) and random values in [-8, 8] */
+        uint64_t b = next_rand();
+        double x;
+        memcpy(&x, &b, sizeof x);
+        if (isfinite(x))
+            same_as_printf(x);
+        x = ((double)(next_rand() >> 11) * 0x1p-53 - 0.5) * 16.0;
+        same_as_printf(x);
+        same_as_printf(x * 1e-3);
+        same_as_printf(ldexp(x, (int)(next_rand() % 60) - 10));
+    }
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("refine");
@@ -515,6 +559,9 @@ static Suite *suite(void)
     tcase_add_test(t, decide_projection_lemma);
     tcase_add_test(t, decide_coplanar_point_does_not_encroach);
     tcase_add_test(t, split_point_shells);
+    suite_add_tcase(s, t);
+    t = tcase_create("numfmt");
+    tcase_add_test(t, double17_matches_printf);
     suite_add_tcase(s, t);
     t = tcase_create("plc");
     tcase_add_test(t, paper_d_cube_in_cube);
