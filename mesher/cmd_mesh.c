@@ -36,8 +36,11 @@ static void usage(FILE *f)
             "(Shewchuk's Delaunay refinement). Without an input it meshes the built-in\n"
             "cube-in-cube with -a %g.\n\n"
             "Options (TetGen's letters where TetGen has the switch):\n"
-            "  -q, --quality B      radius-edge bound, B > 1 (default 2); below 2 the\n"
-            "                       refinement is not guaranteed to terminate (a warning)\n"
+            "  -q, --quality B[/D]  radius-edge bound, B > 1 (default 2); below 2 the\n"
+            "                       refinement is not guaranteed to terminate (a warning).\n"
+            "                       D: smallest dihedral angle in degrees (default 10;\n"
+            "                       slivers below it are split; 0 turns that off)\n"
+            "      --min-dihedral D the same as -q B/D\n"
             "  -a, --max-volume V   maximum tetrahedron volume (regions of the input may\n"
             "                       set smaller ones; see --no-region-volume)\n"
             "  -L, --max-edge L     maximum edge length\n"
@@ -508,7 +511,7 @@ int pdr_cmd_mesh(int argc, char **argv)
         printf("quality: radius-edge %.4f .. %.4f, dihedral %.2f .. %.2f degrees\n", qs.re_min,
                qs.re_max, qs.dih_min, qs.dih_max);
     }
-    if (r.st.left_ratio || r.st.left_size || !quiet) {
+    if (r.st.left_ratio || r.st.left_size || r.st.left_sliver || !quiet) {
         printf("left above the bound: %zu tetrahedra with radius-edge >= %g", r.st.left_ratio,
                ro.ratio);
         if (r.st.left_ratio)
@@ -517,6 +520,9 @@ int pdr_cmd_mesh(int argc, char **argv)
                    r.st.left_ratio - r.st.left_ratio_angle - r.st.left_ratio_degenerate);
         if (r.st.left_size)
             printf(", %zu above the size bound", r.st.left_size);
+        if (r.st.left_sliver)
+            printf(", %zu with a dihedral angle below %g degrees", r.st.left_sliver,
+                   ro.min_dihedral);
         printf("\n");
     }
     if (!quiet) {

@@ -409,9 +409,10 @@ int im_mo_size(ref_mesher *r, size_t ntets)
         return PDR_EINVAL;
     double vol = im_interior_volume(r);
     double save = r->o.maxvol;
-    /* Delaunay refinement under a volume bound a leaves tetrahedra of
-     * about a / 2.5 on average (measured on the model problems). */
-    r->o.maxvol = 2.5 * vol / (double)ntets;
+    /* Delaunay refinement under a volume bound a (with the quality
+     * bounds) leaves tetrahedra of about a / 2 on average (measured on
+     * the model problems at 2e4 and 1e5 tetrahedra). */
+    r->o.maxvol = 2.0 * vol / (double)ntets;
     int rc = ref_refine(r);
     r->o.maxvol = save;
     return rc;

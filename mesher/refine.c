@@ -2136,13 +2136,14 @@ void ref_count_bad(ref_mesher *r)
 {
     const tm_mesh *m = &r->m;
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
-    r->st.left_size = 0;
+    r->st.left_size = r->st.left_sliver = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
         if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
             continue;
-        const uint32_t *v = m->tets[t].v;
-        double vol, lmax2, cc[3];
-        double q = ref_tet_ratio2(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3]), &vol, &lmax2, cc);
+        double cc[3], q;
+        int why = tet_bad(r, t, cc, &q);
+        if (!why)
+            continue;
         if (r->b2 > 0 && q >= r->b2) {
             r->st.left_ratio++;
             if (m->flags[t] & REF_F_GIVEUP) {
@@ -2151,11 +2152,10 @@ void ref_count_bad(ref_mesher *r)
                 else
                     r->st.left_ratio_angle++;
             }
+        } else if (why == 2) {
+            r->st.left_sliver++;
         } else {
-            double mv = region_maxvol(r, t);
-            if ((mv > 0 && vol > mv) ||
-                (r->o.maxedge > 0 && lmax2 > r->o.maxedge * r->o.maxedge))
-                r->st.left_size++;
+            r->st.left_size++;
         }
     }
 }

@@ -158,6 +158,7 @@ typedef struct ref_stats {
                                  boundary split the safety net refused */
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
     size_t left_size;    /* interior tetrahedra above the size bound */
+    size_t left_sliver;  /* ... with a dihedral angle below the bound */
 } ref_stats;
 
 typedef struct ref_opts {

@@ -46,6 +46,15 @@ cic 0.0005 2000
 tee 0.002 2000
 TABLE
 
+# The dihedral angle histograms as a PNG (the paper's fig. 9), when gnuplot
+# is there.
+if command -v "${PDR_GNUPLOT:-gnuplot}" >/dev/null 2>&1; then
+    "$PDR" check -q --plot "$tmp/fig9.png" "$tmp/tee.1" >/dev/null || fail "--plot exited $?"
+    [ "$(od -An -c -N4 "$tmp/fig9.png" | tr -d ' ')" = "211PNG" ] || fail "--plot wrote no PNG"
+else
+    echo "no gnuplot: --plot not tried"
+fi
+
 # The paper's initial mesh of the cube-in-cube: d = 0.25/sqrt(2).
 "$PDR" mesh --mo paper --mo-only -f none "$tmp/cic.poly" >"$tmp/mo.out" ||
     fail "--mo paper exited $?"
