@@ -715,7 +715,7 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
 /* Sets the subsegment bit of edge (v, x) in every new tetrahedron around
  * it (they all contain v, so they are all new). Returns 1 if the edge
  * exists. */
-static int mark_new_subseg(ref_mesher *r, uint32_t v, uint32_t x)
+static int mark_new_subseg(ref_mesher *r, uint32_t x)
 {
     tm_mesh *m = &r->m;
     const dt_cavity *c = &r->cav;
@@ -729,7 +729,6 @@ static int mark_new_subseg(ref_mesher *r, uint32_t v, uint32_t x)
         m->flags[n] |= TM_F_SUBSEG(tm_edge_of[s][3]);
         found = 1;
     }
-    (void)v;
     return found;
 }
 
@@ -755,8 +754,6 @@ static int find_new_face(const ref_mesher *r, uint32_t x, uint32_t y, uint32_t *
     return 0;
 }
 
-/* Encroachment of subsegment ab by the vertices of the tetrahedra around
- * it: returns the encroaching vertex or TM_NONE. */
 static int incident(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t facet);
 
 struct enc_arg {
@@ -1317,7 +1314,7 @@ static int update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
             rc = bd_add_subseg(bd, s.v[h], v, s.seg, &id);
             if (rc)
                 break;
-            if (mark_new_subseg(r, v, s.v[h])) {
+            if (mark_new_subseg(r, s.v[h])) {
                 uint32_t t = TM_NONE; /* a new tetrahedron with the edge */
                 for (size_t i = 0; i < r->cav.nnew && t == TM_NONE; i++)
                     if (slot_in(&m->tets[r->cav.newtets[i]], s.v[h]) >= 0)
