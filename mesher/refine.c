@@ -672,6 +672,8 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
     dt_cavity *c = &r->cav;
     size_t nb = c->nbnd;
     int keep_ext = (any & REF_F_EXTERIOR) != 0, keep_reg = r->region != NULL;
+    if (keep_reg && ref_region_room(r))
+        return PDR_ENOMEM;
     if (keep_ext || keep_reg) {
         size_t cap = r->cap_b;
         if (grow_arr((void **)&r->bflag, &cap, nb, sizeof *r->bflag))

@@ -53,6 +53,29 @@
  * on the same side of that face, next to it, and regions change only
  * across subfacets.
  *
+ * Termination where input angles are small (the safety net). Shewchuk's
+ * guarantee needs the projection condition (no two input features meeting
+ * at less than 90 degrees); the tee has 60-degree edges, real inputs have
+ * worse. Three rules keep the refinement finite on any input, and the
+ * tetrahedra they leave above the bound are counted (ref_count_bad):
+ *  - a subsegment or subfacet encroached by a vertex that lies on an
+ *    input feature meeting its own (sharing an input vertex) is not split
+ *    eagerly: two facets meeting at an acute angle would otherwise split
+ *    each other down to their common edge. Encroachment by unrelated
+ *    features is split, refused only when the new vertex would be nearer
+ *    than rho times the encroacher's insertion radius to another vertex;
+ *  - a split asked for by a bad tetrahedron (its circumcentre encroaches)
+ *    is refused when the new vertex would be nearer to an existing one
+ *    than the tetrahedron's shortest edge (half its circumradius when only
+ *    its size is bad). On inputs meeting the projection condition that
+ *    never happens: such a split point is at least r/sqrt(2) >= B l /
+ *    sqrt(2) from every vertex. A refused split leaves the tetrahedron
+ *    (REF_F_GIVEUP). So apart from recovering missing pieces, no vertex
+ *    is inserted nearer to another than the shortest edge already near it;
+ *  - slivers (bad only by a dihedral angle) whose circumradius is below
+ *    0.7 of their shortest edge are left.
+ * Missing pieces are always split: the mesh must conform.
+ *
  * Subsegments and subfacets are kept in a bd_set (bnd.h) next to the marks
  * on the mesh: marks say where they are in the tetrahedralization, the set
  * says which exist, so one that an insertion deletes (possible where input
