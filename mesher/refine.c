@@ -827,15 +827,9 @@ static int facet_has_vertex(const plc *p, uint32_t f, uint32_t v)
 }
 
 /* 1 if vertex w lies on an input feature that meets the feature of a
- * piece (segment seg when facet is BD_NONE, else facet 'facet'). Such
- * encroachment is the mark of two features meeting at a point or edge; it
- * is not worth an eager split: where the features meet at an acute angle
- * the splits would chase each other down to the meeting point (the tee's
- * 60-degree edges did), and elsewhere the bad tetrahedra there ask for the
- * same splits anyway, with the insertion-radius floor that keeps them
- * from cascading. Encroachment by unrelated features (at a distance
- * bounded below by the input) is still split eagerly. */
-static int incident(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t facet)
+ * piece (segment seg when facet is BD_NONE, else facet 'facet'), without
+ * one containing the other. */
+static int meets(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t facet)
 {
     const plc *p = r->p;
     uint32_t x = r->bd.vfeat[w];
@@ -844,11 +838,15 @@ static int incident(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t face
         const uint32_t *e = p->segs[x].v;
         if (facet == BD_NONE) {
             const uint32_t *s = p->segs[seg].v;
-            return x == seg || e[0] == s[0] || e[0] == s[1] || e[1] == s[0] || e[1] == s[1];
+            return x != seg && (e[0] == s[0] || e[0] == s[1] || e[1] == s[0] || e[1] == s[1]);
         }
         return facet_has_vertex(p, facet, e[0]) || facet_has_vertex(p, facet, e[1]);
     }
     case BD_V_FACET: {
+        if (facet == BD_NONE)
+            for (size_t i = p->seg_fstart[seg]; i < p->seg_fstart[seg + 1]; i++)
+                if (p->seg_facets[i] == x)
+                    return 0; /* seg is an edge of w's facet */
         const plc_facet *F = &p->facets[x];
         for (size_t q = F->poly_first; q < F->poly_first + F->npoly; q++) {
             const plc_polygon *P = &p->polys[q];
@@ -861,13 +859,57 @@ static int incident(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t face
         }
         return 0;
     }
-    case BD_V_INPUT:
-        if (facet == BD_NONE)
-            return x == p->segs[seg].v[0] || x == p->segs[seg].v[1];
-        return facet_has_vertex(p, facet, x);
     default:
         return 0;
     }
+}
+
+/* 1 if point w projects orthogonally into the interior of facet f (or of
+ * segment seg when f is BD_NONE), with a relative margin. */
+static int projects_inside(const ref_mesher *r, const double *w, uint32_t seg, uint32_t f)
+{
+    const plc *p = r->p;
+    if (f == BD_NONE) {
+        const double *a = p->xyz[p->segs[seg].v[0]], *b = p->xyz[p->segs[seg].v[1]];
+        double ab[3], aw[3];
+        sub3(b, a, ab);
+        sub3(w, a, aw);
+        double t = dot3(aw, ab) / dot3(ab, ab);
+        return t > 1e-9 && t < 1 - 1e-9;
+    }
+    const plc_facet *F = &p->facets[f];
+    double h = dot3(F->normal, w) - F->offset, q[3];
+    for (int k = 0; k < 3; k++)
+        q[k] = w[k] - h * F->normal[k];
+    int i = (F->axis + 1) % 3, j = (F->axis + 2) % 3;
+    for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++) {
+        const double *a = p->xyz[p->ftri[t][0]], *b = p->xyz[p->ftri[t][1]],
+                     *c = p->xyz[p->ftri[t][2]];
+        double d = (b[i] - a[i]) * (c[j] - a[j]) - (b[j] - a[j]) * (c[i] - a[i]);
+        if (d == 0)
+            continue;
+        double l1 = ((q[i] - a[i]) * (c[j] - a[j]) - (q[j] - a[j]) * (c[i] - a[i])) / d;
+        double l2 = ((b[i] - a[i]) * (q[j] - a[j]) - (b[j] - a[j]) * (q[i] - a[i])) / d;
+        if (l1 > 1e-9 && l2 > 1e-9 && 1 - l1 - l2 > 1e-9)
+            return 1;
+    }
+    return 0;
+}
+
+/* 1 if vertex w lies on an input feature that meets the feature of a piece
+ * (segment seg when facet is BD_NONE, else facet 'facet') at an acute
+ * angle: the two meet, and w's orthogonal projection onto the piece's
+ * feature falls inside it. That is Shewchuk's projection condition, broken
+ * locally. There encroachment is not split eagerly: the two features would
+ * split each other down to where they meet (the tee's 60-degree edges
+ * did); the bad tetrahedra there ask for the splits they need, under the
+ * insertion-radius floor of split_tet. Where features meet at 90 degrees
+ * or more (a cube's edges, the creases of a curved surface made of flat
+ * facets) the projection falls outside, and encroachment is split as
+ * usual. */
+static int incident(const ref_mesher *r, uint32_t w, uint32_t seg, uint32_t facet)
+{
+    return meets(r, w, seg, facet) && projects_inside(r, X(&r->m, w), seg, facet);
 }
 
 /* The apex of face k of t or of the tetrahedron across it that encroaches
@@ -1806,6 +1848,13 @@ int ref_run(ref_mesher *r, int tets)
             break;
         }
     }
+    if (trace)
+        fprintf(stderr,
+                "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
+                "slivers %zu miss %zu anom %zu flips %zu\n",
+                iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
+                r->st.rejected, r->st.tolerated, r->st.gave_up, r->st.slivers_left,
+                r->st.missing_recovered, r->anomalies, r->flips);
     return rc;
 }
 

@@ -59,11 +59,13 @@
  * worse. Three rules keep the refinement finite on any input, and the
  * tetrahedra they leave above the bound are counted (ref_count_bad):
  *  - a subsegment or subfacet encroached by a vertex that lies on an
- *    input feature meeting its own (sharing an input vertex) is not split
- *    eagerly: two facets meeting at an acute angle would otherwise split
- *    each other down to their common edge. Encroachment by unrelated
- *    features is split, refused only when the new vertex would be nearer
- *    than rho times the encroacher's insertion radius to another vertex;
+ *    input feature meeting its own at an acute angle (the two share an
+ *    input vertex and the vertex projects into the piece's feature: the
+ *    projection condition fails there) is not split eagerly: two facets
+ *    meeting at an acute angle would otherwise split each other down to
+ *    their common edge. Other encroachment is split, refused only when the
+ *    new vertex would be nearer than rho times the encroacher's insertion
+ *    radius to another vertex;
  *  - a split asked for by a bad tetrahedron (its circumcentre encroaches)
  *    is refused when the new vertex would be nearer to an existing one
  *    than the tetrahedron's shortest edge (half its circumradius when only
