@@ -442,9 +442,10 @@ int pdr_cmd_mesh(int argc, char **argv)
     }
     double t_read = pdr_now();
     if (!quiet)
-        printf("input: %s: %zu vertices, %zu segments, %zu facets, %zu holes, %zu regions "
+        printf("input: %s: %zu vertices, %zu segments, %zu facets, %zu hole%s, %zu region%s "
                "(%.3f s)\n",
-               in ? in : domain, p.nv, p.nseg, p.nfacet, p.nhole, p.nregion, t_read - t0);
+               in ? in : domain, p.nv, p.nseg, p.nfacet, p.nhole, p.nhole == 1 ? "" : "s",
+               p.nregion, p.nregion == 1 ? "" : "s", t_read - t0);
 
     ro.progress = show_progress;
     ro.progress_arg = &pg;

@@ -1672,7 +1672,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
 
 static void give_up(ref_mesher *r, uint32_t t, int degenerate)
 {
-    r->m.flags[t] |= REF_F_GIVEUP;
+    r->m.flags[t] |= REF_F_GIVEUP | (degenerate ? REF_F_DEGENERATE : 0);
     r->st.gave_up++;
     if (degenerate)
         r->st.degenerate++;
@@ -1702,6 +1702,25 @@ static int split_tet(ref_mesher *r, uint32_t t)
         give_up(r, t, 0);
         r->st.slivers_left++;
         return 0;
+    }
+    if (why == 3) {
+        /* Flat on a facet: its circumcentre is ill-conditioned, and what
+         * removes it is the split of the subfacet it lies on. */
+        int rc = 0, outcome = SPLIT_REFUSED;
+        for (int k = 0; k < 4 && outcome == SPLIT_REFUSED && !rc; k++) {
+            if (!(m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            const uint32_t *tv = m->tets[t].v;
+            uint32_t g = bd_find_subfac(&r->bd, tv[tm_face_vtx[k][0]], tv[tm_face_vtx[k][1]],
+                                        tv[tm_face_vtx[k][2]]);
+            if (g != BD_NONE)
+                rc = split_subfac(r, g, 0.0, &outcome);
+        }
+        if (rc || outcome != SPLIT_REFUSED) {
+            if (!rc && !tm_is_dead(m, t))
+                rc = queue_tet(r, t);
+            return rc;
+        }
     }
     if (!isfinite(cc[0]) || !isfinite(cc[1]) || !isfinite(cc[2]) || dt_conflict(m, t, cc) <= 0) {
         give_up(r, t, 1);
@@ -2001,7 +2020,7 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
                 (was != (m->flags[t] & REF_F_EXTERIOR) ||
                  (old && state[t] != 1 && old[t] != r->region[t]))) {
                 nchanged++;
-                m->flags[t] &= (uint16_t)~REF_F_GIVEUP;
+                m->flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE);
             }
         }
         r->classified = 1;
@@ -2195,7 +2214,7 @@ void ref_count_bad(ref_mesher *r)
         if (r->b2 > 0 && q >= r->b2) {
             r->st.left_ratio++;
             if (m->flags[t] & REF_F_GIVEUP) {
-                if (!isfinite(q) || !isfinite(cc[0]))
+                if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0]))
                     r->st.left_ratio_degenerate++;
                 else
                     r->st.left_ratio_angle++;

@@ -103,6 +103,7 @@ struct ref_mesher;
 /* Tetrahedron flags of the refinement (spare bits of tetmesh.h). */
 #define REF_F_EXTERIOR TM_F_SPARE0 /* outside the domain or in a hole */
 #define REF_F_GIVEUP TM_F_SPARE1   /* bad, but left (reason counted) */
+#define REF_F_DEGENERATE TM_F_SPARE2 /* ... because its circumcentre is unusable */
 
 /* ---------------------------------------------------- cavity decision */
 
