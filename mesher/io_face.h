@@ -13,10 +13,21 @@
 #ifndef PDR_IO_FACE_H
 #define PDR_IO_FACE_H
 
+#include <stddef.h>
+#include <stdint.h>
+
 #include "mesh_export.h"
 #include "pdr_error.h"
 
 /* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. */
 int face_write(const mesh_export *m, const char *path, int base, pdr_diag *diag);
+
+/* Reads a .face file whose vertex numbers refer to nnodes points numbered
+ * from 'first' (the .node file's first index). *tri gets 3 0-based point
+ * numbers per face and *marker one marker per face, or NULL when the file
+ * has none; the caller frees both. Returns 0, or PDR_EIO/PDR_EPARSE/
+ * PDR_ENOMEM with "file:line: ..." messages in diag. */
+int face_read(const char *path, size_t nnodes, long first, uint32_t **tri, int **marker,
+              size_t *nface, pdr_diag *diag);
 
 #endif /* PDR_IO_FACE_H */

@@ -23,6 +23,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "mesh_export.h"
 #include "pdr_error.h"
 #include "tetmesh.h"
 
@@ -50,6 +51,11 @@ int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, si
 /* Writes the live real tetrahedra of m; mesh vertex v is point o-1, written
  * as o - 1 + first, where o = gid[v] if m has global ids, else v. */
 int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag);
+/* Writes the tetrahedra of a mesh_export view, vertex i written as
+ * i + first, with one attribute per tetrahedron (the region attribute)
+ * when attr is not NULL. */
+int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr, long first,
+                      pdr_diag *diag);
 /* Writes the convex hull faces (the real faces of ghosts) and the domain
  * boundary faces of m. */
 int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag);

@@ -54,3 +54,11 @@ noinst_HEADERS += mesher/pred.h mesher/tetmesh.h mesher/delaunay.h \
 libpdrmesh_la_SOURCES += mesher/pred.c mesher/tetmesh.c mesher/delaunay.c \
 	mesher/spatial_sort.c mesher/verify.c mesher/io_tetgen.c
 pdr_SOURCES += mesher/cmd_delaunay.c mesher/cmd_check.c
+
+# Quality refinement: boundary bookkeeping, the refinement engine, the
+# initial mesh, 'pdr mesh' (issue 4, refine branch).
+noinst_HEADERS += mesher/bnd.h mesher/refine.h mesher/initmesh.h mesher/meshcheck.h \
+	mesher/numfmt.h
+libpdrmesh_la_SOURCES += mesher/bnd.c mesher/refine.c mesher/initmesh.c mesher/meshcheck.c \
+	mesher/numfmt.c
+pdr_SOURCES += mesher/cmd_mesh.c

@@ -15,7 +15,8 @@
     X(delaunay, "Delaunay tetrahedralization of a point set (.node)")        \
     X(check, "verify a tetrahedral mesh (.node/.ele) with exact predicates") \
     X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")   \
-    X(run, "start a program as a parallel libam job (like am-run)")
+    X(run, "start a program as a parallel libam job (like am-run)")          \
+    X(mesh, "quality tetrahedral mesh of a PLC (.poly/.smesh/.off/.stl)")
 
 #define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
 PDR_COMMANDS(PDR_CMD_DECLARE)

@@ -68,3 +68,14 @@ tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 
 TESTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
 dist_check_SCRIPTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
+
+# The quality mesher (refine branch).
+check_PROGRAMS += tests/test_refine
+TESTS += tests/test_refine
+tests_test_refine_SOURCES = tests/test_refine.c
+tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
+tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
+	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh
+TESTS += $(REFINE_TESTS)
+dist_check_SCRIPTS += $(REFINE_TESTS)

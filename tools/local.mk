@@ -9,3 +9,5 @@ tools_am_bench_LDADD = libam.la $(ZMQ_LIBS)
 dist_noinst_SCRIPTS += tools/bench-runtime
 dist_noinst_SCRIPTS += tools/bench-delaunay
 EXTRA_DIST += bench/kernel.md
+dist_noinst_SCRIPTS += tools/bench-mesh
+EXTRA_DIST += bench/mesh.md
