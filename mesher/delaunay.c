@@ -830,7 +830,15 @@ static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
     } else {
         t = m->nslots++;
     }
+    /* Tetrahedra made by dt_build carry no markers and no locks, so pool
+     * slots have zeros there already; these slots may not. */
     m->flags[t] = 0;
+    if (m->marker) {
+        int32_t *mk = m->marker + 4 * (size_t)t;
+        mk[0] = mk[1] = mk[2] = mk[3] = 0;
+    }
+    if (m->lock)
+        m->lock[t] = 0;
     return t;
 }
 
@@ -1243,11 +1251,11 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     dt_cavity_init(&c);
     struct dt_bulk bk;
     memset(&bk, 0, sizeof bk);
-    /* The fused insertion needs the mark bit free in vertex numbers, no
-     * per-tet arrays to initialise, the infinite vertex at NaN (as tm_init
-     * leaves it) and its scratch arrays. */
+    /* The bulk insertion needs the mark bit free in vertex numbers, the
+     * infinite vertex at NaN (as tm_init leaves it) and its scratch
+     * arrays. */
     bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
-    int fused = bk.half && m->nv <= DT_MARK && !m->marker && !m->lock &&
+    int fused = bk.half && m->nv <= DT_MARK &&
                 m->xyz[0] != m->xyz[0] && /* NaN: ghosts fail the filter */
                 !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
                 !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);

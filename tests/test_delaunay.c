@@ -178,6 +178,27 @@ START_TEST(large_cavities_on_a_helix)
 }
 END_TEST
 
+/* With the optional per-tet arrays enabled (the quality mesher builds its
+ * first mesh with markers on), the bulk build leaves them at zero. */
+START_TEST(build_with_markers_and_locks)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, TM_FEAT_MARKERS | TM_FEAT_LOCKS), 0);
+    rng_state = 4;
+    for (int i = 0; i < 4000; i++)
+        add(&m, rnd01(), rnd01(), rnd01());
+    build_and_check(&m, 0);
+    for (uint32_t t = 0; t < m.nslots; t++) {
+        if (tm_is_dead(&m, t))
+            continue;
+        ck_assert_uint_eq(m.lock[t], 0);
+        for (int i = 0; i < 4; i++)
+            ck_assert_int_eq(m.marker[4 * (size_t)t + (size_t)i], 0);
+    }
+    tm_free(&m);
+}
+END_TEST
+
 START_TEST(points_on_a_few_planes)
 {
     tm_mesh m;
@@ -695,6 +716,7 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, points_on_a_sphere);
     tcase_add_test(tc, points_on_a_few_planes);
     tcase_add_test(tc, large_cavities_on_a_helix);
+    tcase_add_test(tc, build_with_markers_and_locks);
     tcase_add_test(tc, duplicates_are_skipped_and_counted);
     tcase_add_test(tc, degenerate_inputs_are_refused);
     suite_add_tcase(s, tc);
