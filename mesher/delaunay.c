@@ -452,8 +452,11 @@ struct dt_edge_slot {
 static int link_by_hash(tm_mesh *m, dt_cavity *c)
 {
     size_t nb = c->nbnd, cap = 64;
-    while (cap < 4 * nb)
+    int bits = 6;
+    while (cap < 4 * nb) {
         cap *= 2;
+        bits++;
+    }
     if (cap > c->cap_hash) {
         struct dt_edge_slot *h = realloc(c->edge_hash, cap * sizeof *h);
         if (!h)
@@ -470,7 +473,9 @@ static int link_by_hash(tm_mesh *m, dt_cavity *c)
             uint32_t a = tets[n].v[k == 0 ? 1 : 0], b = tets[n].v[k == 2 ? 1 : 2];
             uint32_t lo = a < b ? a : b, hi = a ^ b ^ lo;
             uint64_t key = ((uint64_t)lo << 32 | hi) + 1;
-            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> 20) & (cap - 1);
+            /* The top bits of the product depend on every bit of the
+             * key (its low bits would ignore the first vertex). */
+            size_t j = (size_t)((key * 0x9E3779B97F4A7C15ULL) >> (64 - bits));
             while (h[j].key && h[j].key != key)
                 j = (j + 1) & (cap - 1);
             tm_link me = tm_mklink(n, k);
@@ -745,6 +750,350 @@ int dt_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c)
     return rc;
 }
 
+/* ------------------------------------------------- fused bulk insertion */
+
+/* dt_build inserts points one after the other and always commits, so it
+ * has an insertion of its own (bulk_insert) that keeps no public cavity
+ * record and is shaped for speed (measurements in bench/kernel.md):
+ *
+ * - The search runs over a flat queue of faces (links out of cavity
+ *   tetrahedra) and does not branch on the outcome of a conflict test (a
+ *   coin toss for the branch predictor): the cavity record and the
+ *   boundary record are both written, only the counts move. It prefetches
+ *   the neighbours of every tetrahedron that joins the cavity.
+ * - Cavity membership is a mark bit in the tetrahedron record itself (bit
+ *   31 of v[0]), not TM_F_CAVITY in the flags array: the search reads the
+ *   neighbour's record anyway, so the mark costs no extra memory access.
+ *   Vertex numbers stay below 2^31 whenever the mesh can hold the
+ *   tetrahedra (a tetrahedralization of n points has at least n - 3
+ *   tetrahedra, and TM_MAX_TETS < 2^31); dt_build checks it. Marked records
+ *   are never visible outside an insertion: every marked tetrahedron is
+ *   deleted by it (or unmarked if it fails).
+ * - The new tetrahedra are made from the boundary list afterwards and
+ *   linked around their edges through a half-edge table indexed by small
+ *   local vertex numbers, filled and read without branches.
+ * - Slots of deleted tetrahedra go to a private pool instead of the free
+ *   list, and the next insertion takes its new tetrahedra from the pool
+ *   first: a slot that goes from live to pool to live keeps flags 0 (bulk
+ *   building sets no flag), so the flags array is not touched at all in
+ *   the usual case, and the slots are the ones the previous insertion just
+ *   had in the cache. Pool slots are dead but not on the free list and
+ *   counted neither in nlive nor in nfree; dt_build hands them to the free
+ *   list at the end (bulk_flush).
+ * - The outer tetrahedra's links are redirected to the new tetrahedra only
+ *   once nothing can fail any more, so that an insertion that fails (out
+ *   of memory) is undone without a trace. */
+#define DT_MARK 0x80000000u
+
+struct dt_bulk {
+    uint32_t *pool; /* dead slots with flags 0, not on the free list */
+    size_t npool, cap_pool;
+    /* Local vertex k: its number and a new tetrahedron on it. Entry
+     * DT_LOCAL_MAX is a sink for the vertices that do not fit. */
+    uint32_t loc_vert[DT_LOCAL_MAX + 1];
+    uint32_t loc_tet[DT_LOCAL_MAX + 1];
+    /* half[a * DT_LOCAL_MAX + b]: the side face of the new tetrahedron
+     * whose boundary face has the directed edge a -> b. Entries are only
+     * read after this insertion wrote them, so it is never cleared. */
+    uint32_t *half;
+    uint8_t *ids; /* 3 local numbers per new tetrahedron */
+    size_t cap_ids;
+    uint32_t *fq; /* faces to look at: links out of cavity tets */
+    size_t cap_fq;
+    uint32_t *bf; /* boundary faces: links out of cavity tets */
+    size_t cap_bf;
+};
+
+static void bulk_flush(tm_mesh *m, struct dt_bulk *bk)
+{
+    for (size_t i = 0; i < bk->npool; i++) {
+        uint32_t t = bk->pool[i];
+        m->flags[t] = TM_F_DEAD;
+        m->tets[t].n[0] = m->free_head;
+        m->free_head = t;
+        m->nfree++;
+    }
+    bk->npool = 0;
+}
+
+/* A slot for a new tetrahedron: from the pool, else the free list, else the
+ * end (the caller made room). */
+static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
+{
+    if (__builtin_expect(bk->npool > 0, 1))
+        return bk->pool[--bk->npool];
+    uint32_t t;
+    if (m->free_head != TM_NONE) {
+        t = m->free_head;
+        m->free_head = m->tets[t].n[0];
+        m->nfree--;
+    } else {
+        t = m->nslots++;
+    }
+    /* Tetrahedra made by dt_build carry no markers and no locks, so pool
+     * slots have zeros there already; these slots may not. */
+    m->flags[t] = 0;
+    if (m->marker) {
+        int32_t *mk = m->marker + 4 * (size_t)t;
+        mk[0] = mk[1] = mk[2] = mk[3] = 0;
+    }
+    if (m->lock)
+        m->lock[t] = 0;
+    return t;
+}
+
+/* Undoes a bulk insertion that failed half-way: the cavity is unmarked,
+ * the new slots go to the free list, and every vertex whose hint holds a
+ * local number gets a cavity tetrahedron as its hint (each such vertex is
+ * on a face of one, and the cavity lives on). c->tets holds links (see
+ * bulk_insert). */
+static void bulk_undo(tm_mesh *m, dt_cavity *c, size_t nt, size_t nn)
+{
+    for (size_t i = 0; i < nn; i++) {
+        uint32_t t = c->newtets[i];
+        m->flags[t] = TM_F_DEAD;
+        m->tets[t].n[0] = m->free_head;
+        m->free_head = t;
+        m->nfree++;
+    }
+    for (size_t i = 0; i < nt; i++) {
+        uint32_t t = tm_ltet(c->tets[i]);
+        tm_tet *T = &m->tets[t];
+        T->v[0] &= ~DT_MARK;
+        for (int s = 0; s < 4; s++)
+            if (m->vhint[T->v[s]] >= LOCAL_TAG)
+                m->vhint[T->v[s]] = t;
+    }
+}
+
+/* The local number of boundary vertex w (see commit_reusing_cavity), or
+ * DT_LOCAL_MAX when the boundary has too many vertices for the table.
+ * Without branches: whether w is new is a coin toss. For a vertex seen
+ * before, the stores rewrite what is there (loc_tet gets another new
+ * tetrahedron on w, as good as the first). */
+static inline uint32_t bulk_local(uint32_t *restrict hint, struct dt_bulk *restrict bk,
+                                  uint32_t *restrict nloc, uint32_t w, uint32_t n)
+{
+    uint32_t k = hint[w] - LOCAL_TAG, next = *nloc;
+    uint32_t fresh = -(uint32_t)(k >= next); /* all ones if w is new */
+    k ^= (k ^ next) & fresh;
+    bk->loc_vert[k] = w;
+    bk->loc_tet[k] = n;
+    hint[w] = LOCAL_TAG + k;
+    *nloc = next + (fresh & (next < DT_LOCAL_MAX));
+    return k;
+}
+
+/* Inserts vertex v (coordinates p) by walking from start. Returns 0 with
+ * c->status DT_OK or DT_DUPLICATE, or a negative error with the mesh as it
+ * was. c->tets gets the cavity as links (u << 2 | j: tetrahedron u, reached
+ * through its face j; the located tetrahedron first, with j = 0),
+ * c->newtets the new tetrahedra. */
+static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
+                       struct dt_bulk *bk)
+{
+    double p[3];
+    memcpy(p, X(m, v), sizeof p);
+    uint32_t t0;
+    int rc = dt_locate(m, p, start, &t0, NULL);
+    if (rc)
+        return rc < 0 ? rc : PDR_ETOPOLOGY; /* no boundary in a hull mesh */
+    if (!tm_is_ghost(m, t0) && (c->dup_vertex = vertex_at(m, t0, p)) != TM_NONE) {
+        c->status = DT_DUPLICATE;
+        return 0;
+    }
+    c->status = DT_OK;
+    /* Every real vertex of the mesh is different from p, so no conflict
+     * test below can return 0 (p is no vertex of any tetrahedron). */
+    tm_tet *tets = m->tets;
+    uint32_t *half = bk->half, *hint = m->vhint;
+    size_t nt = 1, nb = 0, nn = 0, nq = 4;
+    uint32_t nloc = 0, overflow = 0;
+    int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
+    c->tets[0] = tm_mklink(t0, 0);
+    tets[t0].v[0] |= DT_MARK;
+    if (bk->cap_fq < 4 && grow((void **)&bk->fq, &bk->cap_fq, 4, sizeof *bk->fq)) {
+        tets[t0].v[0] &= ~DT_MARK;
+        return PDR_ENOMEM;
+    }
+    uint32_t *fq = bk->fq, *bf = bk->bf;
+    for (int f = 0; f < 4; f++)
+        fq[f] = tets[t0].n[f];
+    rc = 0;
+    /* 1. The search, over a queue of faces of cavity tets, each given by
+     * its link (u << 2 | j: the neighbour u across it, and the face's
+     * number j in u). A neighbour in the cavity already is skipped; any
+     * other is tested. Each test's outcome is a coin toss, so the search
+     * does not branch on it: a tet in conflict is marked, appended to the
+     * cavity and its three other faces to the queue; a tet not in
+     * conflict makes the face a boundary face, appended to bk->bf (as the
+     * same link); both records are written and only the counts depend on
+     * the outcome. The loop goes on while there is room for three more
+     * queued faces, one cavity tet and one boundary face. */
+    size_t lim_q = 0, lim_t = 0, lim_b = 0;
+    for (size_t q = 0; q < nq; q++) {
+        if (__builtin_expect(nq + 3 > lim_q || nt + 1 > lim_t || nb + 1 > lim_b, 0)) {
+            if (grow((void **)&bk->fq, &bk->cap_fq, nq + 3, sizeof *bk->fq) ||
+                grow((void **)&c->tets, &c->cap_tets, nt + 1, sizeof *c->tets) ||
+                grow((void **)&bk->bf, &bk->cap_bf, nb + 1, sizeof *bk->bf)) {
+                rc = PDR_ENOMEM;
+                break;
+            }
+            fq = bk->fq;
+            bf = bk->bf;
+            lim_q = bk->cap_fq;
+            lim_t = c->cap_tets;
+            lim_b = bk->cap_bf;
+        }
+        tm_link l = fq[q];
+        if (__builtin_expect(tm_is_special(l), 0)) {
+            rc = PDR_ETOPOLOGY; /* no boundary in a hull mesh */
+            break;
+        }
+        uint32_t u = tm_ltet(l);
+        tm_tet *U = &tets[u];
+        uint32_t u0 = U->v[0];
+        if (u0 & DT_MARK)
+            continue;
+        /* The filter first, ghost or not: the infinite vertex's
+         * coordinates are NaN, which makes the determinant NaN and the
+         * filter decline, so ghosts are told apart only on the rare path
+         * where the filter could not decide. */
+        int s = pred_insphere_filter_(X(m, u0), X(m, U->v[1]), X(m, U->v[2]), X(m, U->v[3]), p);
+        int ug = 0;
+        if (__builtin_expect(s == 2, 0)) {
+            ug = tm_is_ghost(m, u);
+            s = ug ? conflict(m, u, p)
+                   : pred__insphere_sos_after_filter(X(m, u0), X(m, U->v[1]), X(m, U->v[2]),
+                                                     X(m, U->v[3]), p);
+            if (s == 0) {
+                rc = PDR_ETOPOLOGY;
+                break;
+            }
+        }
+        uint32_t in = s > 0;
+        U->v[0] = u0 | (in << 31);
+        c->tets[nt] = l;
+        nt += in;
+        ghosts -= (int)in & ug;
+        unsigned j = tm_lface(l);
+        tm_link l1 = U->n[(j + 1) & 3], l2 = U->n[(j + 2) & 3], l3 = U->n[(j + 3) & 3];
+        fq[nq] = l1;
+        fq[nq + 1] = l2;
+        fq[nq + 2] = l3;
+        nq += 3 * in;
+        /* The queued neighbours are read soon: start loading them (for a
+         * boundary face, slot 0 instead, which is hot). The addresses are
+         * integers (a special link, impossible here, would only prefetch
+         * some address). */
+        uintptr_t base = (uintptr_t)tets, keep = -(uintptr_t)in;
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l1) * sizeof *tets) & keep)));
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l2) * sizeof *tets) & keep)));
+        __builtin_prefetch((const void *)(base + (((uintptr_t)tm_ltet(l3) * sizeof *tets) & keep)));
+        bf[nb] = l;
+        nb += in ^ 1u;
+    }
+    /* 2. Room for the new tets (arrays and slots). */
+    if (!rc) {
+        size_t slots = bk->npool + m->nfree + (m->tcap - m->nslots);
+        if (grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets) ||
+            grow((void **)&bk->ids, &bk->cap_ids, 3 * nb, 1) ||
+            (slots < nb && tm_room(m, m->nfree + nb + (m->tcap >> 3))))
+            rc = PDR_ENOMEM;
+        tets = m->tets;
+    }
+    if (rc) {
+        for (size_t i = 0; i < nt; i++)
+            tets[tm_ltet(c->tets[i])].v[0] &= ~DT_MARK;
+        return rc;
+    }
+    /* 3. One new tet per boundary face, (face, v), its side faces entered
+     * in the half-edge table. */
+    for (size_t i = 0; i < nb; i++) {
+        /* The face is face j of the outer tet u, which is not in the
+         * cavity; seen from the cavity it has the opposite orientation. */
+        tm_link l = bf[i];
+        const tm_tet *U = &tets[tm_ltet(l)];
+        const uint8_t *fv = tm_face_vtx[tm_lface(l)];
+        uint32_t a = U->v[fv[0]], bb = U->v[fv[2]], d = U->v[fv[1]];
+        uint32_t n = bulk_slot(m, bk);
+        tm_tet *N = &tets[n];
+        N->v[0] = a;
+        N->v[1] = bb;
+        N->v[2] = d;
+        N->v[3] = v;
+        N->n[3] = l;
+        ghosts += (a == TM_VINF) | (bb == TM_VINF) | (d == TM_VINF);
+        uint32_t ka = bulk_local(hint, bk, &nloc, a, n);
+        uint32_t kb = bulk_local(hint, bk, &nloc, bb, n);
+        uint32_t kd = bulk_local(hint, bk, &nloc, d, n);
+        overflow |= (ka | kb | kd) >= DT_LOCAL_MAX;
+        /* Face k of n holds the boundary edge opposite slot k: its directed
+         * edges are a->b (face 2), b->d (face 0), d->a (face 1). The sink
+         * number DT_LOCAL_MAX keeps the stores inside the table (of
+         * (DT_LOCAL_MAX + 1)^2 entries) when it overflows. */
+        half[ka * DT_LOCAL_MAX + kb] = tm_mklink(n, 2);
+        half[kb * DT_LOCAL_MAX + kd] = tm_mklink(n, 0);
+        half[kd * DT_LOCAL_MAX + ka] = tm_mklink(n, 1);
+        uint8_t *id = &bk->ids[3 * i];
+        id[0] = (uint8_t)ka;
+        id[1] = (uint8_t)kb;
+        id[2] = (uint8_t)kd;
+        c->newtets[i] = n;
+    }
+    nn = nb;
+    /* Everything that can fail comes before the first change to the mesh
+     * outside the new slots. */
+    if (!rc && (bk->npool + nt > bk->cap_pool &&
+                grow((void **)&bk->pool, &bk->cap_pool, bk->npool + nt, sizeof *bk->pool)))
+        rc = PDR_ENOMEM;
+    if (!rc && overflow) {
+        c->nbnd = nn;
+        rc = link_by_hash(m, c);
+    }
+    if (rc) {
+        bulk_undo(m, c, nt, nn);
+        return rc;
+    }
+    if (!overflow) {
+        /* The side face over a -> b meets the neighbour's face over
+         * b -> a (the boundary is a closed oriented surface). */
+        for (size_t i = 0; i < nn; i++) {
+            tm_tet *N = &tets[c->newtets[i]];
+            const uint8_t *id = &bk->ids[3 * i];
+            uint32_t ka = id[0], kb = id[1], kd = id[2];
+            N->n[0] = half[kd * DT_LOCAL_MAX + kb];
+            N->n[1] = half[ka * DT_LOCAL_MAX + kd];
+            N->n[2] = half[kb * DT_LOCAL_MAX + ka];
+        }
+    }
+    for (size_t i = 0; i < nn; i++) {
+        uint32_t n = c->newtets[i];
+        tm_link l = tets[n].n[3];
+        tets[tm_ltet(l)].n[tm_lface(l)] = tm_mklink(n, 3);
+    }
+    if (!overflow) {
+        for (uint32_t k = 0; k < nloc; k++)
+            hint[bk->loc_vert[k]] = bk->loc_tet[k];
+    } else {
+        for (size_t i = 0; i < nn; i++) {
+            uint32_t n = c->newtets[i];
+            const tm_tet *N = &tets[n];
+            hint[N->v[0]] = hint[N->v[1]] = hint[N->v[2]] = n;
+        }
+    }
+    hint[v] = c->newtets[nn - 1];
+    uint32_t *pool = bk->pool + bk->npool;
+    for (size_t i = 0; i < nt; i++)
+        pool[i] = tm_ltet(c->tets[i]);
+    bk->npool += nt;
+    m->nlive = m->nlive + (uint32_t)nn - (uint32_t)nt;
+    m->nghost = (uint32_t)((int64_t)m->nghost + ghosts);
+    c->ntets = nt;
+    c->nnew = nn;
+    return 0;
+}
+
 /* -------------------------------------------------------- bulk building */
 
 int dt_init_simplex(tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d)
@@ -900,12 +1249,22 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     st.inserted = 4;
     dt_cavity c;
     dt_cavity_init(&c);
+    struct dt_bulk bk;
+    memset(&bk, 0, sizeof bk);
+    /* The bulk insertion needs the mark bit free in vertex numbers, the
+     * infinite vertex at NaN (as tm_init leaves it) and its scratch
+     * arrays. */
+    bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
+    int fused = bk.half && m->nv <= DT_MARK &&
+                m->xyz[0] != m->xyz[0] && /* NaN: ghosts fail the filter */
+                !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
+                !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
     uint32_t last = m->vhint[order[0]];
     for (i = 1; i < n && !rc; i++) {
         if (i == pick[1] || i == pick[2] || i == pick[3])
             continue;
         uint32_t v = order[i];
-        rc = dt_insert(m, v, last, &c);
+        rc = fused ? bulk_insert(m, v, last, &c, &bk) : dt_insert(m, v, last, &c);
         if (rc)
             break;
         if (c.status == DT_DUPLICATE) {
@@ -917,10 +1276,18 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
             break;
         }
         st.inserted++;
+        if (c.nnew > st.largest_cavity)
+            st.largest_cavity = c.nnew;
         last = m->vhint[v];
         if (opts && opts->progress && (i & 0xffff) == 0)
             opts->progress(opts->progress_arg, i, n);
     }
+    bulk_flush(m, &bk);
+    free(bk.pool);
+    free(bk.half);
+    free(bk.ids);
+    free(bk.bf);
+    free(bk.fq);
     dt_cavity_free(&c);
     free(order);
     st.insert_seconds = pdr_now() - t1;

@@ -167,6 +167,7 @@ typedef struct dt_build_opts {
 typedef struct dt_build_stats {
     size_t inserted;   /* vertices in the tetrahedralization */
     size_t duplicates; /* points equal to an earlier point, skipped */
+    size_t largest_cavity; /* most new tetrahedra made by one insertion */
     double sort_seconds, insert_seconds;
 } dt_build_stats;
 

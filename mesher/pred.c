@@ -810,13 +810,19 @@ int pred__insphere_filter2(const double *a, const double *b, const double *c, co
     return 2;
 }
 
+/* pred_insphere once the first filter has declined. */
+static int insphere_after_filter(const double *a, const double *b, const double *c,
+                                 const double *d, const double *e)
+{
+    int s = pred__insphere_filter2(a, b, c, d, e);
+    return s != 2 ? s : insphere_exact(a, b, c, d, e);
+}
+
 int pred_insphere(const double *a, const double *b, const double *c, const double *d,
                   const double *e)
 {
     int s = pred__insphere_filter(a, b, c, d, e);
-    if (s == 2)
-        s = pred__insphere_filter2(a, b, c, d, e);
-    return s != 2 ? s : insphere_exact(a, b, c, d, e);
+    return s != 2 ? s : insphere_after_filter(a, b, c, d, e);
 }
 
 /* ============================================================ 2D */
@@ -939,12 +945,27 @@ static int order_by_perturbation(const double *const *pts, int n, int dim, int *
  * w_r (row r, 1-based) by eps_r adds eps_r * (-1)^(r+4) * M_r to det5,
  * where the minor M_r = det[x y z 1] of the other rows = -orient3d of them.
  * So the perturbed insphere gains eps_r * (-1)^r * orient3d(others). */
+static int insphere_perturbed(const double *a, const double *b, const double *c,
+                              const double *d, const double *e);
+
 int pred_insphere_sos(const double *a, const double *b, const double *c, const double *d,
                       const double *e)
 {
     int s = pred_insphere(a, b, c, d, e);
-    if (s)
-        return s;
+    return s ? s : insphere_perturbed(a, b, c, d, e);
+}
+
+int pred__insphere_sos_after_filter(const double *a, const double *b, const double *c,
+                                    const double *d, const double *e)
+{
+    int s = insphere_after_filter(a, b, c, d, e);
+    return s ? s : insphere_perturbed(a, b, c, d, e);
+}
+
+/* The sign of the perturbed insphere when the exact one is 0. */
+static int insphere_perturbed(const double *a, const double *b, const double *c,
+                              const double *d, const double *e)
+{
     const double *pts[5] = {a, b, c, d, e};
     int idx[5];
     if (!order_by_perturbation(pts, 5, 3, idx))

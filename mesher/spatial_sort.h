@@ -3,7 +3,7 @@
  *
  * ss_brio_hilbert() returns a biased randomised insertion order (BRIO,
  * Amenta-Choi-Rote): points are dealt into rounds at random, each round
- * about twice the size of the previous one, and each round is sorted along
+ * about four times the size of the previous one, and each round is sorted along
  * a 3D Hilbert curve. Randomness between rounds keeps the expected work of
  * incremental Delaunay optimal; the curve order inside a round makes
  * consecutive points close, so point location from the last tetrahedron

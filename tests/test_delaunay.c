@@ -31,6 +31,33 @@ static void add(tm_mesh *m, double x, double y, double z)
     ck_assert_int_eq(tm_add_vertex(m, p, &v), 0);
 }
 
+/* The mesh's counters agree with its slots: every slot is live or on the
+ * free list, the free list holds exactly the dead slots, and nlive/nghost
+ * count the live ones. */
+static void check_counts(const tm_mesh *m)
+{
+    size_t live = 0, ghosts = 0, dead = 0, listed = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t)) {
+            dead++;
+            continue;
+        }
+        live++;
+        ghosts += (size_t)tm_is_ghost(m, t);
+        ck_assert_uint_eq(m->flags[t] & TM_F_CAVITY, 0);
+        for (int s = 0; s < 4; s++)
+            ck_assert_uint_lt(m->tets[t].v[s], m->nv);
+    }
+    for (uint32_t t = m->free_head; t != TM_NONE && listed <= m->nslots; t = m->tets[t].n[0]) {
+        ck_assert(tm_is_dead(m, t));
+        listed++;
+    }
+    ck_assert_uint_eq(live, m->nlive);
+    ck_assert_uint_eq(ghosts, m->nghost);
+    ck_assert_uint_eq(dead, m->nfree);
+    ck_assert_uint_eq(listed, m->nfree);
+}
+
 /* Builds the tetrahedralization of m's vertices and checks it fully. */
 static void build_and_check(tm_mesh *m, size_t expect_dups)
 {
@@ -49,6 +76,7 @@ static void build_and_check(tm_mesh *m, size_t expect_dups)
     ck_assert_uint_gt(r.tets, 0);
     ck_assert_uint_eq(r.hull_faces, m->nghost);
     ck_assert_uint_gt(r.probes, 0);
+    check_counts(m);
 }
 
 START_TEST(random_points)
@@ -117,6 +145,56 @@ START_TEST(points_on_a_sphere)
     }
     add(&m, 0, 0, 0);
     build_and_check(&m, 0);
+    tm_free(&m);
+}
+END_TEST
+
+/* Points on a helix: cavities of hundreds of tetrahedra, whose boundary
+ * has more vertices than the edge table of the bulk insertion holds, so
+ * their new tetrahedra are linked through the edge hash. */
+START_TEST(large_cavities_on_a_helix)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    rng_state = 3;
+    for (int i = 0; i < 600; i++) {
+        double t = rnd01();
+        add(&m, cos(50 * t), sin(50 * t), t);
+    }
+    dt_build_opts o = {.seed = 7};
+    dt_build_stats st;
+    ck_assert_int_eq(dt_build(&m, &o, &st), 0);
+    /* More than 124 new tets = more than 64 boundary vertices. */
+    ck_assert_uint_gt(st.largest_cavity, 124);
+    ck_assert_uint_eq(st.inserted, 600);
+    vf_report r = {0};
+    ck_assert_int_eq(vf_check(&m, VF_ALL, &r), 0);
+    if (vf_defects(&r))
+        vf_print(&r, stderr);
+    ck_assert_uint_eq(vf_defects(&r), 0);
+    ck_assert_uint_eq(r.hull_faces, m.nghost);
+    check_counts(&m);
+    tm_free(&m);
+}
+END_TEST
+
+/* With the optional per-tet arrays enabled (the quality mesher builds its
+ * first mesh with markers on), the bulk build leaves them at zero. */
+START_TEST(build_with_markers_and_locks)
+{
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, TM_FEAT_MARKERS | TM_FEAT_LOCKS), 0);
+    rng_state = 4;
+    for (int i = 0; i < 4000; i++)
+        add(&m, rnd01(), rnd01(), rnd01());
+    build_and_check(&m, 0);
+    for (uint32_t t = 0; t < m.nslots; t++) {
+        if (tm_is_dead(&m, t))
+            continue;
+        ck_assert_uint_eq(m.lock[t], 0);
+        for (int i = 0; i < 4; i++)
+            ck_assert_int_eq(m.marker[4 * (size_t)t + (size_t)i], 0);
+    }
     tm_free(&m);
 }
 END_TEST
@@ -637,6 +715,8 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, grid_8x8x8);
     tcase_add_test(tc, points_on_a_sphere);
     tcase_add_test(tc, points_on_a_few_planes);
+    tcase_add_test(tc, large_cavities_on_a_helix);
+    tcase_add_test(tc, build_with_markers_and_locks);
     tcase_add_test(tc, duplicates_are_skipped_and_counted);
     tcase_add_test(tc, degenerate_inputs_are_refused);
     suite_add_tcase(s, tc);

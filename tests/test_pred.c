@@ -13,6 +13,7 @@
 #include <gmp.h>
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "pred.h"
 #include "unit.h"
@@ -200,6 +201,71 @@ static void apply(const affine *t, const int *ip, double *p)
 }
 
 /* --------------------------------------------------------------- tests */
+
+/* The insphere filter's determinant, written out in scalar operations in
+ * the order pred.c derives the bound for. */
+static double scalar_insphere_det(const double *a, const double *b, const double *c,
+                                  const double *d, const double *e, double *L)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    *L = fmax(fmax(la, lb), fmax(lc, ld));
+    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+}
+
+/* pred.h evaluates the insphere filter two operations at a time (vector
+ * extensions); its certified bound holds only if every rounded operation is
+ * the scalar one. Bit-for-bit equality of the determinant and of the
+ * largest lift on random inputs of many magnitudes and signs, and on
+ * near-cospherical ones where the determinant is mostly rounding error,
+ * shows that each lane computes its own scalar operation (a swapped
+ * operand or a different association changes the low bits at once). */
+START_TEST(insphere_filter_is_the_scalar_formula)
+{
+    rng_state = 11;
+    for (int it = 0; it < 200000; it++) {
+        double p[5][3];
+        int scale = rndint(41) - 20;
+        for (int i = 0; i < 5; i++)
+            for (int k = 0; k < 3; k++)
+                p[i][k] = ldexp(2 * rnd01() - 1, scale + rndint(3)) + (it % 3 == 0 ? 1000.0 : 0.0);
+        if (it % 2) {
+            /* near-cospherical: five points of a sphere, rounded */
+            double cx = rnd01(), cy = rnd01(), cz = rnd01(), r = 0.5 + rnd01();
+            for (int i = 0; i < 5; i++) {
+                double z = 2 * rnd01() - 1, t = 6.283185307179586 * rnd01(), q = sqrt(1 - z * z);
+                p[i][0] = cx + r * q * cos(t);
+                p[i][1] = cy + r * q * sin(t);
+                p[i][2] = cz + r * z;
+            }
+        }
+        double L1, L2;
+        double d1 = pred_insphere_det_(p[0], p[1], p[2], p[3], p[4], &L1);
+        double d2 = scalar_insphere_det(p[0], p[1], p[2], p[3], p[4], &L2);
+        if (memcmp(&d1, &d2, sizeof d1) || L1 != L2)
+            ck_abort_msg("iteration %d: det %a vs scalar %a, L %a vs %a", it, d1, d2, L1, L2);
+        /* The bulk Delaunay search relies on this: a point at NaN (the
+         * infinite vertex of a ghost) in any of the four tet slots makes
+         * the filter decline. */
+        double nanp[3] = {NAN, NAN, NAN};
+        const double *q[4] = {p[0], p[1], p[2], p[3]};
+        q[it % 4] = nanp;
+        ck_assert_int_eq(pred_insphere_filter_(q[0], q[1], q[2], q[3], p[4]), 2);
+    }
+}
+END_TEST
 
 START_TEST(hand_made_signs)
 {
@@ -584,6 +650,7 @@ static Suite *pred_suite(void)
     TCase *tc = tcase_create("pred");
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, hand_made_signs);
+    tcase_add_test(tc, insphere_filter_is_the_scalar_formula);
     tcase_add_test(tc, random_points_agree_with_gmp);
     tcase_add_test(tc, near_cospherical_agree_with_gmp);
     tcase_add_test(tc, near_coplanar_agree_with_gmp);
