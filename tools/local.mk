@@ -8,6 +8,6 @@ tools_am_bench_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
 tools_am_bench_LDADD = libam.la $(ZMQ_LIBS)
 dist_noinst_SCRIPTS += tools/bench-runtime
 dist_noinst_SCRIPTS += tools/bench-delaunay
-EXTRA_DIST += bench/kernel.md
+EXTRA_DIST += bench/README.md bench/kernel.md bench/runtime.md bench/proto.md
 dist_noinst_SCRIPTS += tools/bench-mesh
 EXTRA_DIST += bench/mesh.md
