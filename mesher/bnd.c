@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "bnd.h"
+#include "pdr_util.h"
 
 /* ------------------------------------------------------------------ map */
 
@@ -133,21 +134,6 @@ void bd_free(bd_set *b)
     bd_init(b);
 }
 
-static int grow(void **p, size_t *cap, size_t need, size_t size)
-{
-    if (need <= *cap)
-        return 0;
-    size_t c = *cap ? *cap : 64;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, c * size);
-    if (!q)
-        return PDR_ENOMEM;
-    *p = q;
-    *cap = c;
-    return 0;
-}
-
 int bd_vertex_room(bd_set *b, size_t nv)
 {
     if (nv <= b->vcap)
@@ -185,7 +171,7 @@ int bd_add_subseg(bd_set *b, uint32_t a, uint32_t c, uint32_t seg, uint32_t *out
     }
     uint32_t i = b->seg_free;
     if (i == BD_NONE) {
-        if (grow((void **)&b->segs, &b->cap_segs, b->nsegs + 1, sizeof *b->segs))
+        if (pdr_grow((void **)&b->segs, &b->cap_segs, b->nsegs + 1, sizeof *b->segs))
             return PDR_ENOMEM;
         i = (uint32_t)b->nsegs;
     }
@@ -234,7 +220,7 @@ int bd_add_subfac(bd_set *b, uint32_t a, uint32_t c, uint32_t d, uint32_t f, uin
 {
     uint32_t i = b->fac_free;
     if (i == BD_NONE) {
-        if (grow((void **)&b->facs, &b->cap_facs, b->nfacs + 1, sizeof *b->facs))
+        if (pdr_grow((void **)&b->facs, &b->cap_facs, b->nfacs + 1, sizeof *b->facs))
             return PDR_ENOMEM;
         i = (uint32_t)b->nfacs;
     }

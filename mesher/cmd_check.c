@@ -55,16 +55,6 @@ static void usage(FILE *f)
             "Exit status: 0 no defect, 1 defects found or unreadable input, 2 usage error.\n");
 }
 
-static char *with_ext(const char *base, size_t n, const char *ext)
-{
-    char *s = malloc(n + strlen(ext) + 1);
-    if (s) {
-        memcpy(s, base, n);
-        strcpy(s + n, ext);
-    }
-    return s;
-}
-
 int pdr_cmd_check(int argc, char **argv)
 {
     enum { O_PLC = 256, O_FACE, O_MAXRATIO, O_PLOT, O_NOQ };
@@ -135,8 +125,8 @@ int pdr_cmd_check(int argc, char **argv)
         n -= 5;
     else if (n > 4 && !strcmp(arg + n - 4, ".ele"))
         n -= 4;
-    char *pnode = with_ext(arg, n, ".node"), *pele = with_ext(arg, n, ".ele");
-    char *pface = face_path ? strdup(face_path) : with_ext(arg, n, ".face");
+    char *pnode = pdr_path_ext(arg, n, ".node"), *pele = pdr_path_ext(arg, n, ".ele");
+    char *pface = face_path ? strdup(face_path) : pdr_path_ext(arg, n, ".face");
     int status = PDR_EXIT_FAIL;
     pdr_diag diag = {0};
     tg_nodes nodes = {0};

@@ -47,35 +47,16 @@ static uint64_t splitmix(uint64_t *s)
     return z ^ (z >> 31);
 }
 
-struct progress {
-    double t0, last;
-    int quiet, tty, shown;
-};
-
-/* A progress line on stderr once a run takes more than two seconds: a
- * rewritten line on a terminal, a line every ten seconds otherwise. */
+/* dt_build's progress callback: a pdr_progress line on stderr. */
 static void show_progress(void *arg, size_t done, size_t total)
 {
-    struct progress *p = arg;
-    double now = pdr_now();
-    if (p->quiet || now - p->t0 < 2.0 || now - p->last < (p->tty ? 0.5 : 10.0))
-        return;
-    p->last = now;
-    fprintf(stderr, "%spdr delaunay: %zu of %zu points inserted (%.0f%%), %.1f s%s",
-            p->tty ? "\r" : "", done, total, 100.0 * (double)done / (double)total, now - p->t0,
-            p->tty ? "" : "\n");
-    p->shown = 1;
+    pdr_progress_line(arg, "pdr delaunay: %zu of %zu points inserted (%.0f%%)", done, total,
+                      100.0 * (double)done / (double)total);
 }
 
 static char *join(const char *base, const char *ext)
 {
-    size_t n = strlen(base);
-    char *s = malloc(n + strlen(ext) + 1);
-    if (s) {
-        memcpy(s, base, n);
-        strcpy(s + n, ext);
-    }
-    return s;
+    return pdr_path_ext(base, strlen(base), ext);
 }
 
 int pdr_cmd_delaunay(int argc, char **argv)
@@ -220,12 +201,12 @@ int pdr_cmd_delaunay(int argc, char **argv)
         free(nodes.xyz);
         nodes.xyz = NULL;
     }
-    struct progress prog = {t_read, 0, quiet, isatty(2), 0};
+    pdr_progress prog;
+    pdr_progress_start(&prog, t_read, quiet);
     dt_build_opts bo = {.seed = seed, .renumber = 1, .progress = show_progress, .progress_arg = &prog};
     dt_build_stats st;
     rc = dt_build(&m, &bo, &st);
-    if (prog.shown && prog.tty)
-        fputc('\n', stderr);
+    pdr_progress_end(&prog);
     if (rc == PDR_EGEOMETRY) {
         pdr_cli_error("delaunay",
                       "%s: the points are all coplanar (or fewer than 4 are distinct): "

@@ -76,47 +76,22 @@ static void usage(FILE *f)
             DEFAULT_DOMAIN_MAXVOL);
 }
 
-struct prog {
-    double t0, last;
-    int quiet, tty, shown;
-};
-
+/* The refinement's progress callback: a pdr_progress line on stderr. */
 static void show_progress(void *arg, const ref_mesher *r)
 {
-    struct prog *p = arg;
-    double now = pdr_now();
-    if (p->quiet || now - p->t0 < 2.0 || now - p->last < (p->tty ? 0.5 : 10.0))
-        return;
-    p->last = now;
-    fprintf(stderr, "%spdr mesh: %u vertices, %u tetrahedra (with exterior), %.1f s%s",
-            p->tty ? "\r" : "", r->m.nv - 1, r->m.nlive - r->m.nghost, now - p->t0,
-            p->tty ? "" : "\n");
-    p->shown = 1;
+    pdr_progress_line(arg, "pdr mesh: %u vertices, %u tetrahedra (with exterior)", r->m.nv - 1,
+                      r->m.nlive - r->m.nghost);
 }
 
 static char *join(const char *base, const char *ext)
 {
-    size_t n = strlen(base);
-    char *s = malloc(n + strlen(ext) + 1);
-    if (s) {
-        memcpy(s, base, n);
-        strcpy(s + n, ext);
-    }
-    return s;
+    return pdr_path_ext(base, strlen(base), ext);
 }
 
 /* IN.poly -> IN.1 (TetGen's naming, which never overwrites an input). */
 static char *default_base(const char *in)
 {
-    const char *slash = strrchr(in, '/');
-    const char *dot = strrchr(in, '.');
-    size_t n = dot && (!slash || dot > slash) ? (size_t)(dot - in) : strlen(in);
-    char *s = malloc(n + 3);
-    if (s) {
-        memcpy(s, in, n);
-        strcpy(s + n, ".1");
-    }
-    return s;
+    return pdr_path_ext(in, pdr_path_stem(in), ".1");
 }
 
 enum { FMT_NODE = 1, FMT_VTU = 2, FMT_MSH = 4 };
@@ -409,7 +384,8 @@ int pdr_cmd_mesh(int argc, char **argv)
     char *base = NULL;
     memset(&o, 0, sizeof o);
     double t0 = pdr_now();
-    struct prog pg = {t0, t0, quiet, isatty(2), 0};
+    pdr_progress pg;
+    pdr_progress_start(&pg, t0, quiet);
 
     if ((rc = plc_init(&p, in ? in : domain)))
         goto fail;
@@ -479,21 +455,12 @@ int pdr_cmd_mesh(int argc, char **argv)
             goto fail;
     }
     double t_ref = pdr_now();
-    if (pg.shown && pg.tty)
-        fputc('\n', stderr);
+    pdr_progress_end(&pg);
     ref_count_bad(&r);
     if ((rc = ref_export(&r, &o)))
         goto fail;
     have_o = 1;
     double t_exp = pdr_now();
-    if (fmt) {
-        rc = write_outputs(&o, base, fmt, quiet, &diag);
-        if (rc) {
-            pdr_diag_print(&diag, stderr);
-            goto done;
-        }
-    }
-    double t_out = pdr_now();
     size_t nt = o.view.nt;
     if (!quiet) {
         double tref = t_ref - t_mo;
@@ -504,6 +471,14 @@ int pdr_cmd_mesh(int argc, char **argv)
         printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", o.view.nv, nt,
                o.view.nf);
     }
+    if (fmt) {
+        rc = write_outputs(&o, base, fmt, quiet, &diag);
+        if (rc) {
+            pdr_diag_print(&diag, stderr);
+            goto done;
+        }
+    }
+    double t_out = pdr_now();
     /* Quality of the result. */
     ref_quality qs;
     ref_quality_range(&o.view, &qs);

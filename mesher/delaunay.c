@@ -11,21 +11,6 @@
 
 #define X(m, v) ((m)->xyz + 3 * (size_t)(v))
 
-static int grow(void **p, size_t *cap, size_t need, size_t size)
-{
-    if (need <= *cap)
-        return 0;
-    size_t c = *cap ? *cap * 2 : 64;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, c * size);
-    if (!q)
-        return PDR_ENOMEM;
-    *p = q;
-    *cap = c;
-    return 0;
-}
-
 void dt_cavity_init(dt_cavity *c)
 {
     memset(c, 0, sizeof *c);
@@ -224,7 +209,7 @@ static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
         return 1;
     if (owner != 0)
         return 0;
-    if (grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
+    if (pdr_grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
         return PDR_ENOMEM;
     m->lock[t] = c->lock_owner;
     c->held[c->nheld++] = t;
@@ -234,7 +219,7 @@ static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
 static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
 {
     if (c->nbnd == c->cap_bnd &&
-        grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 1, sizeof *c->bnd))
+        pdr_grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 1, sizeof *c->bnd))
         return PDR_ENOMEM;
     dt_bface *b = &c->bnd[c->nbnd++];
     b->tet = t;
@@ -248,9 +233,9 @@ static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link
 static inline int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *sp)
 {
     if ((c->ntets == c->cap_tets &&
-         grow((void **)&c->tets, &c->cap_tets, c->ntets + 1, sizeof *c->tets)) ||
+         pdr_grow((void **)&c->tets, &c->cap_tets, c->ntets + 1, sizeof *c->tets)) ||
         (*sp == c->cap_stack &&
-         grow((void **)&c->stack, &c->cap_stack, *sp + 1, sizeof *c->stack)))
+         pdr_grow((void **)&c->stack, &c->cap_stack, *sp + 1, sizeof *c->stack)))
         return PDR_ENOMEM;
     m->flags[t] |= TM_F_CAVITY;
     c->tets[c->ntets++] = t;
@@ -319,11 +304,11 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
         /* Room for the four faces of t, so that the appends below need no
          * checks. */
         if ((c->ntets + 4 > c->cap_tets &&
-             grow((void **)&c->tets, &c->cap_tets, c->ntets + 4, sizeof *c->tets)) ||
+             pdr_grow((void **)&c->tets, &c->cap_tets, c->ntets + 4, sizeof *c->tets)) ||
             (sp + 4 > c->cap_stack &&
-             grow((void **)&c->stack, &c->cap_stack, sp + 4, sizeof *c->stack)) ||
+             pdr_grow((void **)&c->stack, &c->cap_stack, sp + 4, sizeof *c->stack)) ||
             (c->nbnd + 4 > c->cap_bnd &&
-             grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 4, sizeof *c->bnd))) {
+             pdr_grow((void **)&c->bnd, &c->cap_bnd, c->nbnd + 4, sizeof *c->bnd))) {
             rc = PDR_ENOMEM;
             break;
         }
@@ -569,7 +554,7 @@ static int table_ready(dt_cavity *c, size_t nb)
         for (size_t i = 0; i < DT_LOCAL_MAX * DT_LOCAL_MAX; i++)
             c->edge_table[i] = TM_LINK_UNSET;
     }
-    return !grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1);
+    return !pdr_grow((void **)&c->loc_ids, &c->cap_loc_ids, 3 * nb, 1);
 }
 
 /* The usual commit: everything needed from the cavity (face vertices,
@@ -580,7 +565,7 @@ static int table_ready(dt_cavity *c, size_t nb)
 static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
 {
     size_t nb = c->nbnd;
-    if (!table_ready(c, nb) || grow((void **)&c->tri, &c->cap_tri, 4 * nb, sizeof *c->tri))
+    if (!table_ready(c, nb) || pdr_grow((void **)&c->tri, &c->cap_tri, 4 * nb, sizeof *c->tri))
         return 0;
     tm_tet *tets = m->tets;
     uint16_t *fl = m->flags;
@@ -666,7 +651,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
     size_t nb = c->nbnd;
     int rc = tm_room(m, nb);
     if (!rc)
-        rc = grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
+        rc = pdr_grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
     if (rc)
         return rc;
     if (commit_reusing_cavity(m, v, c)) {
@@ -822,24 +807,9 @@ static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
 {
     if (__builtin_expect(bk->npool > 0, 1))
         return bk->pool[--bk->npool];
-    uint32_t t;
-    if (m->free_head != TM_NONE) {
-        t = m->free_head;
-        m->free_head = m->tets[t].n[0];
-        m->nfree--;
-    } else {
-        t = m->nslots++;
-    }
     /* Tetrahedra made by dt_build carry no markers and no locks, so pool
      * slots have zeros there already; these slots may not. */
-    m->flags[t] = 0;
-    if (m->marker) {
-        int32_t *mk = m->marker + 4 * (size_t)t;
-        mk[0] = mk[1] = mk[2] = mk[3] = 0;
-    }
-    if (m->lock)
-        m->lock[t] = 0;
-    return t;
+    return tm__take_slot(m);
 }
 
 /* Undoes a bulk insertion that failed half-way: the cavity is unmarked,
@@ -912,7 +882,7 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     int ghosts = tm_is_ghost(m, t0) ? -1 : 0; /* new minus deleted */
     c->tets[0] = tm_mklink(t0, 0);
     tets[t0].v[0] |= DT_MARK;
-    if (bk->cap_fq < 4 && grow((void **)&bk->fq, &bk->cap_fq, 4, sizeof *bk->fq)) {
+    if (bk->cap_fq < 4 && pdr_grow((void **)&bk->fq, &bk->cap_fq, 4, sizeof *bk->fq)) {
         tets[t0].v[0] &= ~DT_MARK;
         return PDR_ENOMEM;
     }
@@ -933,9 +903,9 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     size_t lim_q = 0, lim_t = 0, lim_b = 0;
     for (size_t q = 0; q < nq; q++) {
         if (__builtin_expect(nq + 3 > lim_q || nt + 1 > lim_t || nb + 1 > lim_b, 0)) {
-            if (grow((void **)&bk->fq, &bk->cap_fq, nq + 3, sizeof *bk->fq) ||
-                grow((void **)&c->tets, &c->cap_tets, nt + 1, sizeof *c->tets) ||
-                grow((void **)&bk->bf, &bk->cap_bf, nb + 1, sizeof *bk->bf)) {
+            if (pdr_grow((void **)&bk->fq, &bk->cap_fq, nq + 3, sizeof *bk->fq) ||
+                pdr_grow((void **)&c->tets, &c->cap_tets, nt + 1, sizeof *c->tets) ||
+                pdr_grow((void **)&bk->bf, &bk->cap_bf, nb + 1, sizeof *bk->bf)) {
                 rc = PDR_ENOMEM;
                 break;
             }
@@ -996,8 +966,8 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     /* 2. Room for the new tets (arrays and slots). */
     if (!rc) {
         size_t slots = bk->npool + m->nfree + (m->tcap - m->nslots);
-        if (grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets) ||
-            grow((void **)&bk->ids, &bk->cap_ids, 3 * nb, 1) ||
+        if (pdr_grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets) ||
+            pdr_grow((void **)&bk->ids, &bk->cap_ids, 3 * nb, 1) ||
             (slots < nb && tm_room(m, m->nfree + nb + (m->tcap >> 3))))
             rc = PDR_ENOMEM;
         tets = m->tets;
@@ -1045,7 +1015,7 @@ static int bulk_insert(tm_mesh *m, uint32_t v, uint32_t start, dt_cavity *c,
     /* Everything that can fail comes before the first change to the mesh
      * outside the new slots. */
     if (!rc && (bk->npool + nt > bk->cap_pool &&
-                grow((void **)&bk->pool, &bk->cap_pool, bk->npool + nt, sizeof *bk->pool)))
+                pdr_grow((void **)&bk->pool, &bk->cap_pool, bk->npool + nt, sizeof *bk->pool)))
         rc = PDR_ENOMEM;
     if (!rc && overflow) {
         c->nbnd = nn;
@@ -1257,8 +1227,8 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
     int fused = bk.half && m->nv <= DT_MARK &&
                 m->xyz[0] != m->xyz[0] && /* NaN: ghosts fail the filter */
-                !grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
-                !grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
+                !pdr_grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
+                !pdr_grow((void **)&c.newtets, &c.cap_new, 256, sizeof *c.newtets);
     uint32_t last = m->vhint[order[0]];
     for (i = 1; i < n && !rc; i++) {
         if (i == pick[1] || i == pick[2] || i == pick[3])

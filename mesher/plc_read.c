@@ -46,6 +46,7 @@
 #include <strings.h>
 #include <sys/stat.h>
 
+#include "pdr_util.h"
 #include "plc.h"
 #include "plc_internal.h"
 #include "textin.h"
@@ -148,15 +149,7 @@ static int read_vertex_list(plc *p, textin *t, long count)
 /* Replaces the extension of path (after the last '.') by ext. */
 static char *sibling_path(const char *path, const char *ext)
 {
-    const char *slash = strrchr(path, '/');
-    const char *dot = strrchr(path, '.');
-    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : strlen(path);
-    char *s = malloc(stem + strlen(ext) + 1);
-    if (s) {
-        memcpy(s, path, stem);
-        strcpy(s + stem, ext);
-    }
-    return s;
+    return pdr_path_ext(path, pdr_path_stem(path), ext);
 }
 
 /* Part 1 of .poly/.smesh: inline vertices, or a separate .node file. */

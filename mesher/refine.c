@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pdr_util.h"
 #include "pred.h"
 #include "refine.h"
 
@@ -638,21 +639,6 @@ static int queue_new_tets(ref_mesher *r)
 
 /* ---------------------------------------------------------- commit */
 
-static int grow_arr(void **p, size_t *cap, size_t need, size_t size)
-{
-    if (need <= *cap)
-        return 0;
-    size_t c = *cap ? *cap : 64;
-    while (c < need)
-        c *= 2;
-    void *q = realloc(*p, c * size);
-    if (!q)
-        return PDR_ENOMEM;
-    *p = q;
-    *cap = c;
-    return 0;
-}
-
 static uint16_t cavity_flags(const ref_mesher *r)
 {
     uint16_t any = 0;
@@ -676,10 +662,10 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
         return PDR_ENOMEM;
     if (keep_ext || keep_reg) {
         size_t cap = r->cap_b;
-        if (grow_arr((void **)&r->bflag, &cap, nb, sizeof *r->bflag))
+        if (pdr_grow((void **)&r->bflag, &cap, nb, sizeof *r->bflag))
             return PDR_ENOMEM;
         cap = r->cap_b;
-        if (grow_arr((void **)&r->breg, &cap, nb, sizeof *r->breg))
+        if (pdr_grow((void **)&r->breg, &cap, nb, sizeof *r->breg))
             return PDR_ENOMEM;
         r->cap_b = cap;
         for (size_t i = 0; i < nb; i++) {
@@ -1002,7 +988,7 @@ static int in_cavity2d(const ref_mesher *r, uint32_t u, const double *p)
 
 static int list_add(ref_mesher *r, uint32_t s)
 {
-    if (grow_arr((void **)&r->list, &r->cap_list, r->nlist + 1, sizeof *r->list))
+    if (pdr_grow((void **)&r->list, &r->cap_list, r->nlist + 1, sizeof *r->list))
         return PDR_ENOMEM;
     r->list[r->nlist++] = s;
     r->bd.facs[s].flags |= BD_F_VISIT;
@@ -1077,7 +1063,7 @@ static int grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t s
                     grew = 1;
                     continue;
                 }
-                if (grow_arr((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
+                if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
                     return PDR_ENOMEM;
                 uint32_t *e = r->bedge[r->nbedge++];
                 e[0] = x;
@@ -1383,7 +1369,7 @@ static int update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
             rc = check_subfac(r, id, t, k);
         } else {
             bd->facs[id].flags |= BD_F_MISSING;
-            rc = grow_arr((void **)&r->miss, &r->cap_miss, r->nmiss + 1, sizeof *r->miss);
+            rc = pdr_grow((void **)&r->miss, &r->cap_miss, r->nmiss + 1, sizeof *r->miss);
             if (!rc)
                 r->miss[r->nmiss++] = id;
         }
@@ -2071,7 +2057,7 @@ int ref_queue_boundary(ref_mesher *r)
         if (rc < 0)
             return rc;
         if (rc == 0) {
-            if (grow_arr((void **)&r->miss, &r->cap_miss, r->nmiss + 1, sizeof *r->miss))
+            if (pdr_grow((void **)&r->miss, &r->cap_miss, r->nmiss + 1, sizeof *r->miss))
                 return PDR_ENOMEM;
             r->miss[r->nmiss++] = i;
         }

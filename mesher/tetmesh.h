@@ -205,10 +205,10 @@ int tm_add_vertex(tm_mesh *m, const double p[3], uint32_t *out);
 
 /* Ensures that 'count' more tetrahedra can be allocated without failure. */
 int tm_room(tm_mesh *m, size_t count);
-/* Takes a slot from the free list or the end (the caller ensured room):
- * vertices and links are unset, flags 0, markers 0, lock 0. Inline: it
- * runs once per new tetrahedron. */
-static inline uint32_t tm_alloc_tet(tm_mesh *m)
+/* Takes a slot from the free list or the end (the caller ensured room)
+ * and clears its flags, markers and lock, without counting it live: for
+ * callers that count new tetrahedra in bulk (dt_build). */
+static inline uint32_t tm__take_slot(tm_mesh *m)
 {
     uint32_t t;
     if (m->free_head != TM_NONE) {
@@ -225,6 +225,14 @@ static inline uint32_t tm_alloc_tet(tm_mesh *m)
     }
     if (m->lock)
         m->lock[t] = 0;
+    return t;
+}
+/* Takes a slot as tm__take_slot and counts it live: vertices and links are
+ * unset, flags 0, markers 0, lock 0. Inline: it runs once per new
+ * tetrahedron. */
+static inline uint32_t tm_alloc_tet(tm_mesh *m)
+{
+    uint32_t t = tm__take_slot(m);
     m->nlive++;
     return t;
 }
