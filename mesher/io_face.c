@@ -43,13 +43,7 @@ int face_read(const char *path, size_t nnodes, long first, uint32_t **tri, int *
     long n = 0, nm = 0;
     uint32_t *out = NULL;
     int *mk = NULL;
-    rc = textin_next(&t);
-    if (rc == 0) {
-        pdr_diag_add(diag, path, 0, "empty file: expected '<#faces> <markers 0|1>'");
-        rc = PDR_EPARSE;
-        goto done;
-    }
-    if (rc < 0)
+    if ((rc = textin_header(&t, "<#faces> <markers 0|1>")))
         goto done;
     if ((rc = textin_long(&t, "face count", 0, 1L << 40, &n)) ||
         (rc = textin_opt_long(&t, "marker flag", 0, 1, &nm)) < 0)

@@ -36,14 +36,7 @@ int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag)
     if (rc)
         return rc;
     long n = 0, dim = 0, nattr = 0, markers = 0;
-    rc = textin_next(&t);
-    if (rc == 0) {
-        pdr_diag_add(diag, path, 0,
-                     "empty file: expected '<#points> 3 <#attributes> <markers 0|1>'");
-        rc = PDR_EPARSE;
-        goto done;
-    }
-    if (rc < 0)
+    if ((rc = textin_header(&t, "<#points> 3 <#attributes> <markers 0|1>")))
         goto done;
     if ((rc = textin_long(&t, "point count", 0, (long)TM_MAX_VERTS - 2, &n)) ||
         (rc = textin_long(&t, "dimension", 0, 100, &dim)))
@@ -125,14 +118,7 @@ int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, si
         return rc;
     long n = 0, per = 0, nattr = 0;
     uint32_t *out = NULL;
-    rc = textin_next(&t);
-    if (rc == 0) {
-        pdr_diag_add(diag, path, 0,
-                     "empty file: expected '<#tetrahedra> <nodes per tet 4|10> <#attributes>'");
-        rc = PDR_EPARSE;
-        goto done;
-    }
-    if (rc < 0)
+    if ((rc = textin_header(&t, "<#tetrahedra> <nodes per tet 4|10> <#attributes>")))
         goto done;
     if ((rc = textin_long(&t, "tetrahedron count", 0, (long)TM_MAX_TETS - 1, &n)) ||
         (rc = textin_long(&t, "nodes per tetrahedron", 0, 100, &per)))

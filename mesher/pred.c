@@ -695,21 +695,8 @@ int pred_orient3d(const double *a, const double *b, const double *c, const doubl
 static double insphere_det(const double *a, const double *b, const double *c, const double *d,
                            const double *e)
 {
-    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
-    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
-    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
-    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
-    double la = (ax * ax + ay * ay) + az * az;
-    double lb = (bx * bx + by * by) + bz * bz;
-    double lc = (cx * cx + cy * cy) + cz * cz;
-    double ld = (dx * dx + dy * dy) + dz * dz;
-    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
-    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
-    double dbcd = (bz * cd - cz * bd) + dz * bc;
-    double dacd = (az * cd - cz * ad) + dz * ac;
-    double dabd = (az * bd - bz * ad) + dz * ab;
-    double dabc = (az * bc - bz * ac) + cz * ab;
-    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+    double L;
+    return pred_insphere_det_scalar_(a, b, c, d, e, &L);
 }
 
 int pred__insphere_exact(const double *a, const double *b, const double *c, const double *d,

@@ -138,11 +138,37 @@ static inline int pred_orient3d_fast(const double *a, const double *b, const dou
  * plain scalar code elsewhere) every operation of that sequence is done in
  * one lane of a vector operation, two at a time; a lane operation is the
  * same IEEE double operation as the scalar one (no contraction: the build
- * has -ffp-contract=off), so the result is bit for bit that of the scalar
- * code below, which tests/test_pred.c checks. The pairing: lifts (la,lb),
- * (lc,ld); minors (ab,ac), (ad,bc), (bd,cd); cofactors (D(b,c,d),D(a,c,d)),
+ * has -ffp-contract=off), so the result is bit for bit that of
+ * pred_insphere_det_scalar_, which tests/test_pred.c checks. The pairing:
+ * lifts (la,lb), (lc,ld); minors (ab,ac), (ad,bc), (bd,cd); cofactors (D(b,c,d),D(a,c,d)),
  * (D(a,b,d),D(a,b,c)). It halves the arithmetic instructions of the test
- * that runs about fifty times per inserted point. */
+ * that runs about fifty times per inserted point.
+ *
+ * The scalar evaluation: the operation order pred.c derives the bound for
+ * (also used by its exact stage). */
+static inline double pred_insphere_det_scalar_(const double *a, const double *b,
+                                               const double *c, const double *d,
+                                               const double *e, double *L)
+{
+    double ex = e[0], ey = e[1], ez = e[2];
+    double ax = a[0] - ex, ay = a[1] - ey, az = a[2] - ez;
+    double bx = b[0] - ex, by = b[1] - ey, bz = b[2] - ez;
+    double cx = c[0] - ex, cy = c[1] - ey, cz = c[2] - ez;
+    double dx = d[0] - ex, dy = d[1] - ey, dz = d[2] - ez;
+    double la = (ax * ax + ay * ay) + az * az;
+    double lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz;
+    double ld = (dx * dx + dy * dy) + dz * dz;
+    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
+    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
+    double dbcd = (bz * cd - cz * bd) + dz * bc;
+    double dacd = (az * cd - cz * ad) + dz * ac;
+    double dabd = (az * bd - bz * ad) + dz * ab;
+    double dabc = (az * bc - bz * ac) + cz * ab;
+    *L = pred_max_(pred_max_(la, lb), pred_max_(lc, ld));
+    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+}
+
 #if defined(__GNUC__) && !defined(__clang__) && !defined(PRED_SCALAR_FILTER)
 typedef double pred_v2_ __attribute__((vector_size(16)));
 typedef long long pred_v2i_ __attribute__((vector_size(16)));
@@ -181,23 +207,7 @@ static inline double pred_insphere_det_(const double *a, const double *b, const 
 static inline double pred_insphere_det_(const double *a, const double *b, const double *c,
                                         const double *d, const double *e, double *L)
 {
-    double ex = e[0], ey = e[1], ez = e[2];
-    double ax = a[0] - ex, ay = a[1] - ey, az = a[2] - ez;
-    double bx = b[0] - ex, by = b[1] - ey, bz = b[2] - ez;
-    double cx = c[0] - ex, cy = c[1] - ey, cz = c[2] - ez;
-    double dx = d[0] - ex, dy = d[1] - ey, dz = d[2] - ez;
-    double la = (ax * ax + ay * ay) + az * az;
-    double lb = (bx * bx + by * by) + bz * bz;
-    double lc = (cx * cx + cy * cy) + cz * cz;
-    double ld = (dx * dx + dy * dy) + dz * dz;
-    double ab = ax * by - bx * ay, ac = ax * cy - cx * ay, ad = ax * dy - dx * ay;
-    double bc = bx * cy - cx * by, bd = bx * dy - dx * by, cd = cx * dy - dx * cy;
-    double dbcd = (bz * cd - cz * bd) + dz * bc;
-    double dacd = (az * cd - cz * ad) + dz * ac;
-    double dabd = (az * bd - bz * ad) + dz * ab;
-    double dabc = (az * bc - bz * ac) + cz * ab;
-    *L = pred_max_(pred_max_(la, lb), pred_max_(lc, ld));
-    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+    return pred_insphere_det_scalar_(a, b, c, d, e, L);
 }
 #endif
 

@@ -235,8 +235,9 @@ static void sort_keyed(keyed *k, size_t n)
 }
 
 /* Links runs of equal keys: pairs become neighbours, singles get
- * TM_LINK_NONE, longer runs are counted and left unlinked. */
-static size_t link_runs(tm_mesh *m, keyed *k, size_t n)
+ * TM_LINK_NONE, longer runs are left unlinked. Returns the number of runs
+ * longer than two, plus the singles when singles_bad. */
+static size_t link_runs(tm_mesh *m, keyed *k, size_t n, int singles_bad)
 {
     size_t bad = 0;
     for (size_t i = 0; i < n;) {
@@ -248,7 +249,7 @@ static size_t link_runs(tm_mesh *m, keyed *k, size_t n)
             m->tets[tm_ltet(a)].n[tm_lface(a)] = b;
             m->tets[tm_ltet(b)].n[tm_lface(b)] = a;
         } else {
-            if (j - i > 2)
+            if (j - i > 2 || singles_bad)
                 bad++;
             for (size_t q = i; q < j; q++)
                 m->tets[tm_ltet(k[q].link)].n[tm_lface(k[q].link)] = TM_LINK_NONE;
@@ -332,7 +333,7 @@ int tm_link_faces(tm_mesh *m, size_t *nonmanifold)
             k[q].link = l;
         }
         sort_keyed(k, n);
-        bad += link_runs(m, k, n);
+        bad += link_runs(m, k, n, 0);
     }
     free(k);
     free(bucket);
@@ -390,22 +391,7 @@ int tm_add_ghosts(tm_mesh *m, size_t *open_edges)
         }
     }
     qsort(k, nk, sizeof *k, keyed_cmp);
-    size_t bad = 0;
-    for (size_t i = 0; i < nk;) {
-        size_t j = i + 1;
-        while (j < nk && k[j].key == k[i].key)
-            j++;
-        if (j - i == 2) {
-            tm_link a = k[i].link, b = k[i + 1].link;
-            m->tets[tm_ltet(a)].n[tm_lface(a)] = b;
-            m->tets[tm_ltet(b)].n[tm_lface(b)] = a;
-        } else {
-            bad++;
-            for (size_t q = i; q < j; q++)
-                m->tets[tm_ltet(k[q].link)].n[tm_lface(k[q].link)] = TM_LINK_NONE;
-        }
-        i = j;
-    }
+    size_t bad = link_runs(m, k, nk, 1);
     free(k);
     if (open_edges)
         *open_edges = bad;

@@ -67,7 +67,7 @@
  * test before reading the optional marker array), TM_F_SUBSEG(e) (edge e is
  * a subsegment; set in every tetrahedron around that edge), TM_F_QUEUED
  * (on a work queue), and three spare bits for the layers above (the
- * quality mesher uses TM_F_SPARE0 and TM_F_SPARE1). Ghosts are recognised
+ * quality mesher uses TM_F_SPARE0..2, see refine.h). Ghosts are recognised
  * by their vertices (tm_is_ghost), not by a flag.
  *
  * Optional arrays, allocated by tm_enable() only when a layer needs them,

@@ -75,6 +75,16 @@ int textin_next_raw(textin *t, int keep_comments)
     }
 }
 
+int textin_header(textin *t, const char *expected)
+{
+    int rc = textin_next(t);
+    if (rc == 0) {
+        pdr_diag_add(t->diag, t->path, 0, "empty file: expected '%s'", expected);
+        return PDR_EPARSE;
+    }
+    return rc < 0 ? rc : 0;
+}
+
 int textin_next(textin *t)
 {
     return textin_next_raw(t, 0);

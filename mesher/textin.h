@@ -37,6 +37,10 @@ void textin_close(textin *t);
  * keep_comments: do not strip '#' (for formats where '#' is data). */
 int textin_next(textin *t);
 int textin_next_raw(textin *t, int keep_comments);
+/* Advances to the header line of a file. Returns 0 on a line; at end of
+ * file records "path: empty file: expected '<expected>'" and returns
+ * PDR_EPARSE; PDR_EIO on a read error. */
+int textin_header(textin *t, const char *expected);
 
 /* Parse the next token of the current line. Each returns 0, or records a
  * diagnostic naming 'what' ("vertex count", "x coordinate") and returns

@@ -183,75 +183,56 @@ void pr_put_i32(pr_buf *b, int32_t v)
 
 /* ------------------------------------------------------------ bulk arrays */
 
-/* Appends n elements of 4 or 8 bytes. The element size is a parameter of
- * one helper rather than four copies of the loop; n * size cannot overflow
- * because pr_buf_reserve refuses anything near SIZE_MAX / 2. */
-static void put_array32(pr_buf *b, const uint32_t *v, size_t n)
-{
-    if (n > SIZE_MAX / 8) {
-        pr__buf_fail(b, PR_ENOMEM);
-        return;
-    }
-    uint8_t *p = n ? pr__buf_claim(b, 4 * n) : NULL;
-    if (!p)
-        return;
-#if PR__HOST_LE
-    memcpy(p, v, 4 * n);
-#else
-    for (size_t i = 0; i < n; i++)
-        pr__st32(p + 4 * i, v[i]);
-#endif
-}
+/* Kinds of bulk array element: the low bits are the width in bytes. */
+enum { ELEM_U32 = 4, ELEM_U64 = 8, ELEM_F64 = 8 | 16 };
+#define ELEM_WIDTH(kind) ((size_t)(kind)&15u)
 
-static void put_array64(pr_buf *b, const uint64_t *v, size_t n)
+/* Appends n elements of one kind: a copy on a little-endian host, an
+ * element-wise store elsewhere. n * width cannot overflow: n is checked
+ * here and pr_buf_reserve refuses anything near SIZE_MAX / 2. */
+static void put_array(pr_buf *b, const void *v, size_t n, int kind)
 {
-    if (n > SIZE_MAX / 16) {
+    size_t w = ELEM_WIDTH(kind);
+    if (n > SIZE_MAX / (2 * w)) {
         pr__buf_fail(b, PR_ENOMEM);
         return;
     }
-    uint8_t *p = n ? pr__buf_claim(b, 8 * n) : NULL;
+    uint8_t *p = n ? pr__buf_claim(b, w * n) : NULL;
     if (!p)
         return;
 #if PR__HOST_LE
-    memcpy(p, v, 8 * n);
+    (void)kind;
+    memcpy(p, v, w * n);
 #else
-    for (size_t i = 0; i < n; i++)
-        pr__st64(p + 8 * i, v[i]);
+    for (size_t i = 0; i < n; i++) {
+        if (kind == ELEM_U32)
+            pr__st32(p + 4 * i, ((const uint32_t *)v)[i]);
+        else if (kind == ELEM_U64)
+            pr__st64(p + 8 * i, ((const uint64_t *)v)[i]);
+        else
+            pr__st64(p + 8 * i, pr__f64_bits(((const double *)v)[i]));
+    }
 #endif
 }
 
 void pr_put_u32_array(pr_buf *b, const uint32_t *v, size_t n)
 {
-    put_array32(b, v, n);
+    put_array(b, v, n, ELEM_U32);
 }
 
 void pr_put_i32_array(pr_buf *b, const int32_t *v, size_t n)
 {
-    /* int32_t and uint32_t may alias each other (C11 6.5p7). */
-    put_array32(b, (const uint32_t *)v, n);
+    put_array(b, v, n, ELEM_U32);
 }
 
 void pr_put_u64_array(pr_buf *b, const uint64_t *v, size_t n)
 {
-    put_array64(b, v, n);
+    put_array(b, v, n, ELEM_U64);
 }
 
 void pr_put_f64_array(pr_buf *b, const double *v, size_t n)
 {
-#if PR__HOST_LE
-    /* The bytes of a double are its bit pattern in host order. */
-    if (n > SIZE_MAX / 16) {
-        pr__buf_fail(b, PR_ENOMEM);
-        return;
-    }
-    pr_put_bytes(b, v, 8 * n);
-#else
-    uint8_t *p = n ? pr__buf_claim(b, 8 * n) : NULL;
-    if (!p)
-        return;
-    for (size_t i = 0; i < n; i++)
-        pr__st64(p + 8 * i, pr__f64_bits(v[i]));
-#endif
+    put_array(b, v, n, ELEM_F64);
 }
 
 /* ---------------------------------------------------------------- strings */
@@ -414,73 +395,51 @@ int pr_get_i32(pr_reader *r, int32_t *out)
     return rc;
 }
 
-static int get_array32(pr_reader *r, uint32_t *out, size_t n)
+/* Reads n elements of one kind into out; the mirror of put_array. */
+static int get_array(pr_reader *r, void *out, size_t n, int kind)
 {
-    const uint8_t *p = n <= SIZE_MAX / 4 ? reader_claim(r, 4 * n) : NULL;
+    size_t w = ELEM_WIDTH(kind);
+    const uint8_t *p = n <= SIZE_MAX / w ? reader_claim(r, w * n) : NULL;
     if (!p) {
-        if (n > SIZE_MAX / 4)
+        if (n > SIZE_MAX / w)
             pr_reader_fail(r, PR_ETRUNC);
         return r->err;
     }
 #if PR__HOST_LE
+    (void)kind;
     if (n)
-        memcpy(out, p, 4 * n);
+        memcpy(out, p, w * n);
 #else
-    for (size_t i = 0; i < n; i++)
-        out[i] = pr__ld32(p + 4 * i);
-#endif
-    return 0;
-}
-
-static int get_array64(pr_reader *r, uint64_t *out, size_t n)
-{
-    const uint8_t *p = n <= SIZE_MAX / 8 ? reader_claim(r, 8 * n) : NULL;
-    if (!p) {
-        if (n > SIZE_MAX / 8)
-            pr_reader_fail(r, PR_ETRUNC);
-        return r->err;
+    for (size_t i = 0; i < n; i++) {
+        if (kind == ELEM_U32)
+            ((uint32_t *)out)[i] = pr__ld32(p + 4 * i);
+        else if (kind == ELEM_U64)
+            ((uint64_t *)out)[i] = pr__ld64(p + 8 * i);
+        else
+            ((double *)out)[i] = pr__bits_f64(pr__ld64(p + 8 * i));
     }
-#if PR__HOST_LE
-    if (n)
-        memcpy(out, p, 8 * n);
-#else
-    for (size_t i = 0; i < n; i++)
-        out[i] = pr__ld64(p + 8 * i);
 #endif
     return 0;
 }
 
 int pr_get_u32_array(pr_reader *r, uint32_t *out, size_t n)
 {
-    return get_array32(r, out, n);
+    return get_array(r, out, n, ELEM_U32);
 }
 
 int pr_get_i32_array(pr_reader *r, int32_t *out, size_t n)
 {
-    return get_array32(r, (uint32_t *)out, n);
+    return get_array(r, out, n, ELEM_U32);
 }
 
 int pr_get_u64_array(pr_reader *r, uint64_t *out, size_t n)
 {
-    return get_array64(r, out, n);
+    return get_array(r, out, n, ELEM_U64);
 }
 
 int pr_get_f64_array(pr_reader *r, double *out, size_t n)
 {
-    const uint8_t *p = n <= SIZE_MAX / 8 ? reader_claim(r, 8 * n) : NULL;
-    if (!p) {
-        if (n > SIZE_MAX / 8)
-            pr_reader_fail(r, PR_ETRUNC);
-        return r->err;
-    }
-#if PR__HOST_LE
-    if (n)
-        memcpy(out, p, 8 * n);
-#else
-    for (size_t i = 0; i < n; i++)
-        out[i] = pr__bits_f64(pr__ld64(p + 8 * i));
-#endif
-    return 0;
+    return get_array(r, out, n, ELEM_F64);
 }
 
 int pr_get_str(pr_reader *r, size_t max, char *out, size_t *len)
