@@ -8,20 +8,12 @@
 #include "delaunay.h"
 #include "initmesh.h"
 #include "pdr_util.h"
+#include "vec3.h"
 
 #define X(m, v) ((m)->xyz + 3 * (size_t)(v))
 
 /* ------------------------------------------------- distances (for d) */
 
-static void sub(const double *a, const double *b, double *o)
-{
-    for (int k = 0; k < 3; k++)
-        o[k] = a[k] - b[k];
-}
-static double dot(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 static double clamp01(double t)
 {
     return t < 0 ? 0 : t > 1 ? 1 : t;
@@ -30,12 +22,12 @@ static double clamp01(double t)
 static double pt_seg2(const double *p, const double *a, const double *b)
 {
     double ab[3], ap[3];
-    sub(b, a, ab);
-    sub(p, a, ap);
-    double l = dot(ab, ab), t = l > 0 ? clamp01(dot(ap, ab) / l) : 0.0, d[3];
+    v3_sub(b, a, ab);
+    v3_sub(p, a, ap);
+    double l = v3_dot(ab, ab), t = l > 0 ? clamp01(v3_dot(ap, ab) / l) : 0.0, d[3];
     for (int k = 0; k < 3; k++)
         d[k] = ap[k] - t * ab[k];
-    return dot(d, d);
+    return v3_dot(d, d);
 }
 
 /* Closest points of segments p1q1 and p2q2 (the classic clamped
@@ -43,22 +35,22 @@ static double pt_seg2(const double *p, const double *a, const double *b)
 static double seg_seg2(const double *p1, const double *q1, const double *p2, const double *q2)
 {
     double d1[3], d2[3], r[3];
-    sub(q1, p1, d1);
-    sub(q2, p2, d2);
-    sub(p1, p2, r);
-    double a = dot(d1, d1), e = dot(d2, d2), f = dot(d2, r), s, t;
+    v3_sub(q1, p1, d1);
+    v3_sub(q2, p2, d2);
+    v3_sub(p1, p2, r);
+    double a = v3_dot(d1, d1), e = v3_dot(d2, d2), f = v3_dot(d2, r), s, t;
     if (a <= 0 && e <= 0) {
         s = t = 0;
     } else if (a <= 0) {
         s = 0;
         t = clamp01(f / e);
     } else {
-        double c = dot(d1, r);
+        double c = v3_dot(d1, r);
         if (e <= 0) {
             t = 0;
             s = clamp01(-c / a);
         } else {
-            double b = dot(d1, d2), den = a * e - b * b;
+            double b = v3_dot(d1, d2), den = a * e - b * b;
             s = den > 0 ? clamp01((b * f - c * e) / den) : 0.0;
             t = (b * s + f) / e;
             if (t < 0) {
@@ -73,7 +65,7 @@ static double seg_seg2(const double *p1, const double *q1, const double *p2, con
     double x[3];
     for (int k = 0; k < 3; k++)
         x[k] = (p1[k] + s * d1[k]) - (p2[k] + t * d2[k]);
-    return dot(x, x);
+    return v3_dot(x, x);
 }
 
 /* Distance from p to triangle abc: to the plane when p projects inside,
@@ -81,15 +73,15 @@ static double seg_seg2(const double *p1, const double *q1, const double *p2, con
 static double pt_tri2(const double *p, const double *a, const double *b, const double *c)
 {
     double ab[3], ac[3], ap[3], n[3];
-    sub(b, a, ab);
-    sub(c, a, ac);
-    sub(p, a, ap);
+    v3_sub(b, a, ab);
+    v3_sub(c, a, ac);
+    v3_sub(p, a, ap);
     n[0] = ab[1] * ac[2] - ab[2] * ac[1];
     n[1] = ab[2] * ac[0] - ab[0] * ac[2];
     n[2] = ab[0] * ac[1] - ab[1] * ac[0];
-    double nn = dot(n, n);
+    double nn = v3_dot(n, n);
     if (nn > 0) {
-        double h = dot(ap, n) / nn, q[3];
+        double h = v3_dot(ap, n) / nn, q[3];
         for (int k = 0; k < 3; k++)
             q[k] = p[k] - h * n[k];
         /* inside test by signed areas about n */
@@ -97,12 +89,12 @@ static double pt_tri2(const double *p, const double *a, const double *b, const d
         int inside = 1;
         for (int i = 0; i < 3 && inside; i++) {
             double e[3], w[3], x[3];
-            sub(v[(i + 1) % 3], v[i], e);
-            sub(q, v[i], w);
+            v3_sub(v[(i + 1) % 3], v[i], e);
+            v3_sub(q, v[i], w);
             x[0] = e[1] * w[2] - e[2] * w[1];
             x[1] = e[2] * w[0] - e[0] * w[2];
             x[2] = e[0] * w[1] - e[1] * w[0];
-            inside = dot(x, n) >= 0;
+            inside = v3_dot(x, n) >= 0;
         }
         if (inside)
             return h * h * nn;
@@ -172,8 +164,8 @@ double im_paper_d(const plc *p)
     for (size_t i = 0; i < p->nv; i++)
         for (size_t j = i + 1; j < p->nv; j++) {
             double d[3];
-            sub(p->xyz[i], p->xyz[j], d);
-            best = fmin(best, dot(d, d));
+            v3_sub(p->xyz[i], p->xyz[j], d);
+            best = fmin(best, v3_dot(d, d));
         }
     /* vertex - segment */
     for (size_t v = 0; v < p->nv; v++)
@@ -277,9 +269,9 @@ static int find_acute(ref_mesher *r)
                 const uint32_t *a = p->segs[p->v_segs[i]].v, *b = p->segs[p->v_segs[j]].v;
                 uint32_t oa = a[0] == v ? a[1] : a[0], ob = b[0] == v ? b[1] : b[0];
                 double u[3], w[3];
-                sub(p->xyz[oa], p->xyz[v], u);
-                sub(p->xyz[ob], p->xyz[v], w);
-                if (dot(u, w) > 0)
+                v3_sub(p->xyz[oa], p->xyz[v], u);
+                v3_sub(p->xyz[ob], p->xyz[v], w);
+                if (v3_dot(u, w) > 0)
                     r->seg_acute[v] = 1;
             }
     return 0;
@@ -355,8 +347,8 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         for (int e = 0; e < 6; e++) {
             uint32_t a = q[tm_edge_vtx[e][0]], b = q[tm_edge_vtx[e][1]];
             double d[3];
-            sub(X(m, a), X(m, b), d);
-            float l = (float)sqrt(dot(d, d));
+            v3_sub(X(m, a), X(m, b), d);
+            float l = (float)sqrt(v3_dot(d, d));
             if (l < r->bd.vrins[a])
                 r->bd.vrins[a] = l;
             if (l < r->bd.vrins[b])

@@ -5,6 +5,7 @@ noinst_HEADERS += \
 	mesher/pdr_error.h \
 	mesher/pdr_cli.h \
 	mesher/pdr_util.h \
+	mesher/vec3.h \
 	mesher/textin.h \
 	mesher/outfile.h
 # PLC input, validation and output formats (issue 4, meshio branch).

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "meshcheck.h"
+#include "vec3.h"
 
 #define REL_TOL 1e-9
 
@@ -24,39 +25,14 @@ static int fkey_cmp(const void *pa, const void *pb)
     return 0;
 }
 
-static void sort3(uint32_t a, uint32_t b, uint32_t c, uint32_t o[3])
-{
-    uint32_t x;
-    if (a > b) { x = a; a = b; b = x; }
-    if (b > c) { x = b; b = c; c = x; }
-    if (a > b) { x = a; a = b; b = x; }
-    o[0] = a;
-    o[1] = b;
-    o[2] = c;
-}
 
-static void sub(const double *a, const double *b, double *o)
-{
-    for (int k = 0; k < 3; k++)
-        o[k] = a[k] - b[k];
-}
-static double dot(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static void cross(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
 static double tri_area(const double *a, const double *b, const double *c)
 {
     double u[3], v[3], n[3];
-    sub(b, a, u);
-    sub(c, a, v);
-    cross(u, v, n);
-    return 0.5 * sqrt(dot(n, n));
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_cross(u, v, n);
+    return 0.5 * sqrt(v3_dot(n, n));
 }
 
 /* x inside triangle abc of facet f's plane, up to a relative tolerance,
@@ -89,8 +65,8 @@ double mc_plc_volume(const plc *p, int (*side)(void *arg, size_t facet, const do
             if (!s)
                 continue;
             double bc[3];
-            cross(b, c, bc);
-            vol += s * dot(a, bc) / 6.0;
+            v3_cross(b, c, bc);
+            vol += s * v3_dot(a, bc) / 6.0;
         }
     return vol;
 }
@@ -129,8 +105,8 @@ static int side_of(void *arg, size_t f, const double x[3])
             if (w == q[0] || w == q[1] || w == q[2])
                 continue;
             double d[3];
-            sub(P(c, w), P(c, q[0]), d);
-            return dot(d, F->normal) < 0 ? 1 : -1;
+            v3_sub(P(c, w), P(c, q[0]), d);
+            return v3_dot(d, F->normal) < 0 ? 1 : -1;
         }
         return 0;
     }
@@ -153,7 +129,7 @@ static int32_t locate(const struct ctx *c, const uint32_t q[3], double (*box)[2]
             continue;
         const plc_facet *F = &p->facets[f];
         for (int s = 0; s < 3 && in; s++)
-            in = fabs(dot(F->normal, P(c, q[s])) - F->offset) <= tol;
+            in = fabs(v3_dot(F->normal, P(c, q[s])) - F->offset) <= tol;
         if (!in)
             continue;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
@@ -260,7 +236,7 @@ int mc_check(const tm_mesh *m, const uint32_t (*tri)[3], size_t ntri, const plc 
         goto done;
     }
     for (size_t i = 0; i < ntri; i++) {
-        sort3(tri[i][0], tri[i][1], tri[i][2], keys[i].v);
+        v3_sort3u(tri[i][0], tri[i][1], tri[i][2], keys[i].v);
         keys[i].idx = (uint32_t)i;
     }
     qsort(keys, ntri, sizeof *keys, fkey_cmp);
@@ -271,14 +247,14 @@ int mc_check(const tm_mesh *m, const uint32_t (*tri)[3], size_t ntri, const plc 
         const double *a = m->xyz + 3 * (size_t)T->v[0], *b = m->xyz + 3 * (size_t)T->v[1],
                      *cc = m->xyz + 3 * (size_t)T->v[2], *d = m->xyz + 3 * (size_t)T->v[3];
         double u[3], v[3], w[3], vw[3];
-        sub(b, a, u);
-        sub(cc, a, v);
-        sub(d, a, w);
-        cross(v, w, vw);
-        r->volume_mesh += dot(u, vw) / 6.0;
+        v3_sub(b, a, u);
+        v3_sub(cc, a, v);
+        v3_sub(d, a, w);
+        v3_cross(v, w, vw);
+        r->volume_mesh += v3_dot(u, vw) / 6.0;
         for (int k = 0; k < 4; k++) {
             fkey key;
-            sort3(T->v[tm_face_vtx[k][0]] - 1, T->v[tm_face_vtx[k][1]] - 1,
+            v3_sort3u(T->v[tm_face_vtx[k][0]] - 1, T->v[tm_face_vtx[k][1]] - 1,
                   T->v[tm_face_vtx[k][2]] - 1, key.v);
             const fkey *hit = ntri ? bsearch(&key, keys, ntri, sizeof *keys, fkey_cmp) : NULL;
             int boundary = T->n[k] == TM_LINK_NONE;

@@ -12,32 +12,13 @@
 #include <unistd.h>
 
 #include "quality.h"
+#include "vec3.h"
 
 extern char **environ;
 
-static void sub(const double *a, const double *b, double *r)
-{
-    r[0] = a[0] - b[0];
-    r[1] = a[1] - b[1];
-    r[2] = a[2] - b[2];
-}
 
-static void cross(const double *a, const double *b, double *r)
-{
-    r[0] = a[1] * b[2] - a[2] * b[1];
-    r[1] = a[2] * b[0] - a[0] * b[2];
-    r[2] = a[0] * b[1] - a[1] * b[0];
-}
 
-static double dot(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
-static double norm(const double *a)
-{
-    return sqrt(dot(a, a));
-}
 
 /* The tetrahedron's edges, in the order of ql_tet.dihedral, and for each
  * the two vertices not on it. */
@@ -49,19 +30,19 @@ void ql_tet_measure(const double a[3], const double b[3], const double c[3],
 {
     const double *p[4] = {a, b, c, d};
     double u[3], v[3], w[3], vw[3], wu[3], uv[3];
-    sub(b, a, u);
-    sub(c, a, v);
-    sub(d, a, w);
-    cross(v, w, vw);
-    cross(w, u, wu);
-    cross(u, v, uv);
-    double det = dot(u, vw);
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_sub(d, a, w);
+    v3_cross(v, w, vw);
+    v3_cross(w, u, wu);
+    v3_cross(u, v, uv);
+    double det = v3_dot(u, vw);
     m->volume = det / 6.0;
     if (det != 0.0) {
-        double uu = dot(u, u), vv = dot(v, v), ww = dot(w, w), o[3];
+        double uu = v3_dot(u, u), vv = v3_dot(v, v), ww = v3_dot(w, w), o[3];
         for (int k = 0; k < 3; k++)
             o[k] = (uu * vw[k] + vv * wu[k] + ww * uv[k]) / (2.0 * det);
-        m->circumradius = norm(o);
+        m->circumradius = v3_norm(o);
     } else {
         m->circumradius = INFINITY;
     }
@@ -73,20 +54,20 @@ void ql_tet_measure(const double a[3], const double b[3], const double c[3],
         const double *pi = p[edge_v[e][0]], *pj = p[edge_v[e][1]];
         const double *pk = p[edge_v[e][2]], *pl = p[edge_v[e][3]];
         double ev[3], ek[3], el[3], n1[3], n2[3], n12[3];
-        sub(pj, pi, ev);
-        double len = norm(ev);
+        v3_sub(pj, pi, ev);
+        double len = v3_norm(ev);
         if (len < m->shortest)
             m->shortest = len;
         if (len > m->longest)
             m->longest = len;
         /* The normals of the two faces at the edge, both perpendicular to
          * it: the angle between them is the dihedral angle. */
-        sub(pk, pi, ek);
-        sub(pl, pi, el);
-        cross(ev, ek, n1);
-        cross(ev, el, n2);
-        cross(n1, n2, n12);
-        double ang = atan2(norm(n12), dot(n1, n2)) * (180.0 / 3.14159265358979323846);
+        v3_sub(pk, pi, ek);
+        v3_sub(pl, pi, el);
+        v3_cross(ev, ek, n1);
+        v3_cross(ev, el, n2);
+        v3_cross(n1, n2, n12);
+        double ang = atan2(v3_norm(n12), v3_dot(n1, n2)) * (180.0 / 3.14159265358979323846);
         m->dihedral[e] = ang;
         if (ang < m->min_dihedral)
             m->min_dihedral = ang;
@@ -104,16 +85,6 @@ struct faceset {
     size_t cap; /* power of two; key[i][0] == UINT32_MAX marks empty */
 };
 
-static void sort3(const uint32_t *in, uint32_t *o)
-{
-    uint32_t a = in[0], b = in[1], c = in[2], t;
-    if (a > b) { t = a; a = b; b = t; }
-    if (b > c) { t = b; b = c; c = t; }
-    if (a > b) { t = a; a = b; b = t; }
-    o[0] = a;
-    o[1] = b;
-    o[2] = c;
-}
 
 static size_t face_hash(const uint32_t *k, size_t mask)
 {
@@ -139,7 +110,7 @@ static int faceset_init(struct faceset *fs, size_t n)
 static void faceset_add(struct faceset *fs, const uint32_t *f)
 {
     uint32_t k[3];
-    sort3(f, k);
+    v3_sort3u(f[0], f[1], f[2], k);
     size_t i = face_hash(k, fs->cap - 1);
     while (fs->key[i][0] != UINT32_MAX) {
         if (!memcmp(fs->key[i], k, sizeof k))
@@ -191,7 +162,7 @@ static int mark_boundary(const mesh_export *m, unsigned char *flag)
                 uint32_t f[3] = {m->tet[t][tet_face[i][0]], m->tet[t][tet_face[i][1]],
                                  m->tet[t][tet_face[i][2]]},
                          k[3];
-                sort3(f, k);
+                v3_sort3u(f[0], f[1], f[2], k);
                 flag[t] = (unsigned char)faceset_has(&fs, k);
             }
         free(fs.key);
@@ -204,7 +175,7 @@ static int mark_boundary(const mesh_export *m, unsigned char *flag)
         for (int i = 0; i < 4; i++) {
             uint32_t f[3] = {m->tet[t][tet_face[i][0]], m->tet[t][tet_face[i][1]],
                              m->tet[t][tet_face[i][2]]};
-            sort3(f, r[4 * t + i].k);
+            v3_sort3u(f[0], f[1], f[2], r[4 * t + i].k);
             r[4 * t + i].tet = (uint32_t)t;
         }
     qsort(r, 4 * m->nt, sizeof *r, cmp_facerec);

@@ -10,27 +10,12 @@
 #include "pdr_util.h"
 #include "pred.h"
 #include "refine.h"
+#include "vec3.h"
 
 #define X(m, v) ((m)->xyz + 3 * (size_t)(v))
 
 /* ------------------------------------------------------------ geometry */
 
-static inline void sub3(const double *a, const double *b, double *o)
-{
-    o[0] = a[0] - b[0];
-    o[1] = a[1] - b[1];
-    o[2] = a[2] - b[2];
-}
-static inline double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static inline void cross3(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
 /* fmin/fmax are library calls (their NaN rules); these are not. */
 static inline double dmin(double a, double b)
 {
@@ -40,26 +25,20 @@ static inline double dmax(double a, double b)
 {
     return b > a ? b : a;
 }
-static inline double dist2(const double *a, const double *b)
-{
-    double d[3];
-    sub3(a, b, d);
-    return dot3(d, d);
-}
 
 double ref_tet_ratio2(const double *a, const double *b, const double *c, const double *d,
                       double *vol, double *lmax2, double cc[3])
 {
     double u[3], v[3], w[3], vw[3], wu[3], uv[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
-    sub3(d, a, w);
-    cross3(v, w, vw);
-    cross3(w, u, wu);
-    cross3(u, v, uv);
-    double det = dot3(u, vw);
-    double uu = dot3(u, u), vv = dot3(v, v), ww = dot3(w, w);
-    double e3 = dist2(b, c), e4 = dist2(b, d), e5 = dist2(c, d);
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_sub(d, a, w);
+    v3_cross(v, w, vw);
+    v3_cross(w, u, wu);
+    v3_cross(u, v, uv);
+    double det = v3_dot(u, vw);
+    double uu = v3_dot(u, u), vv = v3_dot(v, v), ww = v3_dot(w, w);
+    double e3 = v3_dist2(b, c), e4 = v3_dist2(b, d), e5 = v3_dist2(c, d);
     double lo = uu, hi = uu;
     double e[5] = {vv, ww, e3, e4, e5};
     for (int k = 0; k < 5; k++) {
@@ -95,22 +74,22 @@ static int tri_circumcentre(const double *a, const double *b, const double *c, d
                             double *r2)
 {
     double u[3], v[3], n[3], vn[3], nu[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
-    cross3(u, v, n);
-    double nn = dot3(n, n);
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_cross(u, v, n);
+    double nn = v3_dot(n, n);
     if (!(nn > 0.0))
         return -1;
-    cross3(v, n, vn);
-    cross3(n, u, nu);
-    double uu = dot3(u, u), vv = dot3(v, v), inv = 0.5 / nn;
+    v3_cross(v, n, vn);
+    v3_cross(n, u, nu);
+    double uu = v3_dot(u, u), vv = v3_dot(v, v), inv = 0.5 / nn;
     double x[3];
     for (int k = 0; k < 3; k++)
         x[k] = (uu * vn[k] + vv * nu[k]) * inv;
     for (int k = 0; k < 3; k++)
         cc[k] = a[k] + x[k];
     if (r2)
-        *r2 = dot3(x, x);
+        *r2 = v3_dot(x, x);
     return isfinite(cc[0]) && isfinite(cc[1]) && isfinite(cc[2]) ? 0 : -1;
 }
 
@@ -118,9 +97,9 @@ static int tri_circumcentre(const double *a, const double *b, const double *c, d
 static int in_diametral(const double *a, const double *b, const double *p)
 {
     double pa[3], pb[3];
-    sub3(a, p, pa);
-    sub3(b, p, pb);
-    return dot3(pa, pb) < 0.0;
+    v3_sub(a, p, pa);
+    v3_sub(b, p, pb);
+    return v3_dot(pa, pb) < 0.0;
 }
 
 /* p strictly inside the equatorial ball of abc and off its plane. "Off"
@@ -135,15 +114,15 @@ static int in_equatorial(const double *a, const double *b, const double *c, cons
     double cc[3], r2;
     if (tri_circumcentre(a, b, c, cc, &r2))
         return 0;
-    if (!(dist2(p, cc) < r2))
+    if (!(v3_dist2(p, cc) < r2))
         return 0;
     double u[3], v[3], n[3], w[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
-    cross3(u, v, n);
-    sub3(p, a, w);
-    double h = dot3(n, w);
-    return h * h > 1e-18 * dot3(n, n) * r2;
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_cross(u, v, n);
+    v3_sub(p, a, w);
+    double h = v3_dot(n, w);
+    return h * h > 1e-18 * v3_dot(n, n) * r2;
 }
 
 /* Orientation of abc projected on facet f's plane, positive when abc is
@@ -407,7 +386,7 @@ void ref_decide(const plc *pl, const double p[3], int kind, ref_marks *cm, ref_d
     if (f < 0 || (size_t)f >= pl->nfacet)
         return;
     const plc_facet *F = &pl->facets[f];
-    double h = dot3(F->normal, p) - F->offset, q[3];
+    double h = v3_dot(F->normal, p) - F->offset, q[3];
     for (int i = 0; i < 3; i++)
         q[i] = p[i] - h * F->normal[i];
     for (size_t k = 0; k < cm->n; k++) {
@@ -562,20 +541,20 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
     const uint32_t *tv = m->tets[t].v;
     const double *a = X(m, tv[0]), *b = X(m, tv[1]), *c = X(m, tv[2]), *d = X(m, tv[3]);
     double u[3], v[3], w[3], n1[3], n2[3], n3[3];
-    sub3(b, a, u);
-    sub3(c, a, v);
-    sub3(d, a, w);
-    cross3(v, w, n1);
-    cross3(w, u, n2);
-    cross3(u, v, n3);
-    double det = dot3(u, n1);
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_sub(d, a, w);
+    v3_cross(v, w, n1);
+    v3_cross(w, u, n2);
+    v3_cross(u, v, n3);
+    double det = v3_dot(u, n1);
     double l2[6];
-    l2[0] = dot3(u, u);
-    l2[1] = dot3(v, v);
-    l2[2] = dot3(w, w);
-    l2[3] = dist2(b, c);
-    l2[4] = dist2(b, d);
-    l2[5] = dist2(c, d);
+    l2[0] = v3_dot(u, u);
+    l2[1] = v3_dot(v, v);
+    l2[2] = v3_dot(w, w);
+    l2[3] = v3_dist2(b, c);
+    l2[4] = v3_dist2(b, d);
+    l2[5] = v3_dist2(c, d);
     double lo = l2[0], hi = l2[0];
     for (int k = 1; k < 6; k++) {
         lo = dmin(lo, l2[k]);
@@ -588,7 +567,7 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
             x[k] = (l2[0] * n1[k] + l2[1] * n2[k] + l2[2] * n3[k]) * inv;
             cc[k] = a[k] + x[k];
         }
-        q = dot3(x, x) / lo;
+        q = v3_dot(x, x) / lo;
     } else {
         cc[0] = cc[1] = cc[2] = NAN;
     }
@@ -605,7 +584,7 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
         return 1;
     if (r->sin_min > 0) {
         double n0[3] = {n1[0] + n2[0] + n3[0], n1[1] + n2[1] + n3[1], n1[2] + n2[2] + n3[2]};
-        double f0 = dot3(n0, n0), f1 = dot3(n1, n1), f2 = dot3(n2, n2), f3 = dot3(n3, n3);
+        double f0 = v3_dot(n0, n0), f1 = v3_dot(n1, n1), f2 = v3_dot(n2, n2), f3 = v3_dot(n3, n3);
         double s2 = r->sin_min * r->sin_min, d2 = det * det;
         /* edges 01 02 03 12 13 23 lie on faces (2,3) (1,3) (1,2) (0,3)
          * (0,2) (0,1) */
@@ -858,13 +837,13 @@ static int projects_inside(const ref_mesher *r, const double *w, uint32_t seg, u
     if (f == BD_NONE) {
         const double *a = p->xyz[p->segs[seg].v[0]], *b = p->xyz[p->segs[seg].v[1]];
         double ab[3], aw[3];
-        sub3(b, a, ab);
-        sub3(w, a, aw);
-        double t = dot3(aw, ab) / dot3(ab, ab);
+        v3_sub(b, a, ab);
+        v3_sub(w, a, aw);
+        double t = v3_dot(aw, ab) / v3_dot(ab, ab);
         return t > 1e-9 && t < 1 - 1e-9;
     }
     const plc_facet *F = &p->facets[f];
-    double h = dot3(F->normal, w) - F->offset, q[3];
+    double h = v3_dot(F->normal, w) - F->offset, q[3];
     for (int k = 0; k < 3; k++)
         q[k] = w[k] - h * F->normal[k];
     int i = (F->axis + 1) % 3, j = (F->axis + 2) % 3;
@@ -923,7 +902,7 @@ static uint32_t subfac_encroacher(const ref_mesher *r, uint32_t t, int k, uint32
 static double subseg_len2(const ref_mesher *r, uint32_t id)
 {
     const bd_subseg *s = &r->bd.segs[id];
-    return dist2(X(&r->m, s->v[0]), X(&r->m, s->v[1]));
+    return v3_dist2(X(&r->m, s->v[0]), X(&r->m, s->v[1]));
 }
 
 static double subfac_rad2(const ref_mesher *r, uint32_t id)
@@ -1435,7 +1414,7 @@ void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3])
     int ib = r->bd.vkind[b] == BD_V_INPUT && r->seg_acute && r->seg_acute[r->bd.vfeat[b]];
     if (ia != ib) {
         const double *o = ia ? pa : pb, *e = ia ? pb : pa;
-        double len = sqrt(dist2(pa, pb));
+        double len = sqrt(v3_dist2(pa, pb));
         int ex;
         double f = frexp(len / 2.0, &ex); /* len/2 = f 2^ex, f in [0.5, 1) */
         double d = f < M_SQRT1_2 ? ldexp(1.0, ex - 1) : ldexp(1.0, ex);
@@ -1465,7 +1444,7 @@ static double insertion_radius(const ref_mesher *r)
         for (int k = 0; k < 3; k++) {
             uint32_t v = T->v[f[k]];
             if (v != TM_VINF)
-                best = fmin(best, dist2(c->p, X(m, v)));
+                best = fmin(best, v3_dist2(c->p, X(m, v)));
         }
     }
     return sqrt(best);
@@ -1722,7 +1701,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
     }
     uint16_t any = cavity_flags(r);
     const uint32_t *tv = m->tets[t].v;
-    double rp = sqrt(dist2(cc, X(m, tv[0])));
+    double rp = sqrt(v3_dist2(cc, X(m, tv[0])));
     if (any & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
         rc = ref_gather_marks(m, &r->cav, &r->marks);
         if (rc) {
@@ -1736,7 +1715,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
             r->st.rejected++;
             double lmin = INFINITY;
             for (int e = 0; e < 6; e++)
-                lmin = fmin(lmin, dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+                lmin = fmin(lmin, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
             /* For a tetrahedron that is bad by its size alone the floor is
              * half its circumradius instead (the clean bound is
              * r/sqrt(2)): its splits are then never smaller than a
@@ -2233,16 +2212,16 @@ void ref_quality_range(const mesh_export *e, ref_quality *q)
         for (int i = 0; i < 4; i++) {
             const uint8_t *f = tm_face_vtx[i];
             double u[3], v[3];
-            sub3(p[f[1]], p[f[0]], u);
-            sub3(p[f[2]], p[f[0]], v);
-            cross3(u, v, n[i]);
-            len[i] = sqrt(dot3(n[i], n[i]));
+            v3_sub(p[f[1]], p[f[0]], u);
+            v3_sub(p[f[2]], p[f[0]], v);
+            v3_cross(u, v, n[i]);
+            len[i] = sqrt(v3_dot(n[i], n[i]));
         }
         for (int i = 0; i < 4; i++)
             for (int j = i + 1; j < 4; j++) {
                 /* the dihedral angle at the edge shared by faces i and j:
                  * cos = -(n_i . n_j) / (|n_i| |n_j|) */
-                double c = -dot3(n[i], n[j]) / (len[i] * len[j]);
+                double c = -v3_dot(n[i], n[j]) / (len[i] * len[j]);
                 if (c < c_lo)
                     c_lo = c;
                 if (c > c_hi)

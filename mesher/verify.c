@@ -6,23 +6,14 @@
 
 #include "pred.h"
 #include "verify.h"
+#include "vec3.h"
 
 #define X(m, v) ((m)->xyz + 3 * (size_t)(v))
 
-static void sorted3(uint32_t a, uint32_t b, uint32_t c, uint32_t f[3])
-{
-    uint32_t x;
-    if (a > b) { x = a; a = b; b = x; }
-    if (b > c) { x = b; b = c; c = x; }
-    if (a > b) { x = a; a = b; b = x; }
-    f[0] = a;
-    f[1] = b;
-    f[2] = c;
-}
 
 static void face_of(const tm_tet *T, int i, uint32_t f[3])
 {
-    sorted3(T->v[tm_face_vtx[i][0]], T->v[tm_face_vtx[i][1]], T->v[tm_face_vtx[i][2]], f);
+    v3_sort3u(T->v[tm_face_vtx[i][0]], T->v[tm_face_vtx[i][1]], T->v[tm_face_vtx[i][2]], f);
 }
 
 /* A link is usable if it leads to a live tet that links back. */
