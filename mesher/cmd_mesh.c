@@ -457,7 +457,9 @@ int pdr_cmd_mesh(int argc, char **argv)
     double t_ref = pdr_now();
     pdr_progress_end(&pg);
     ref_count_bad(&r);
-    if ((rc = ref_export(&r, &o)))
+    ref_release_work(&r);
+    size_t v_added = (size_t)(r.m.nv - v0);
+    if ((rc = ref_export_take(&r, &o)))
         goto fail;
     have_o = 1;
     double t_exp = pdr_now();
@@ -466,7 +468,7 @@ int pdr_cmd_mesh(int argc, char **argv)
         double tref = t_ref - t_mo;
         printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu subsegment "
                "points), %zu circumcentres rejected (%.3f s, %.0f tetrahedra/s)\n",
-               (size_t)(r.m.nv - v0), r.st.tet_points, r.st.fac_points, r.st.seg_points,
+               v_added, r.st.tet_points, r.st.fac_points, r.st.seg_points,
                r.st.rejected, tref, tref > 0 ? (double)nt / tref : 0.0);
         printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", o.view.nv, nt,
                o.view.nf);

@@ -461,6 +461,15 @@ void ref_free(ref_mesher *r)
     memset(r, 0, sizeof *r);
 }
 
+void ref_release_work(ref_mesher *r)
+{
+    dt_cavity_free(&r->cav);
+    ref_marks_free(&r->marks);
+    q_free(&r->segq);
+    q_free(&r->facq);
+    q_free(&r->tetq);
+}
+
 int ref_region_room(ref_mesher *r)
 {
     if (!r->p->nregion || r->region_cap >= r->m.tcap)
@@ -2249,15 +2258,23 @@ void ref_output_free(ref_output *out)
     memset(out, 0, sizeof *out);
 }
 
-int ref_export(const ref_mesher *r, ref_output *out)
+static int is_interior(const tm_mesh *m, uint32_t t)
+{
+    return !tm_is_dead(m, t) && !tm_is_ghost(m, t) && !(m->flags[t] & REF_F_EXTERIOR);
+}
+
+/* The export of ref_export; with_tets 0 leaves out->tet (and the view's
+ * tet) NULL for ref_export_take to fill. */
+static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
 {
     memset(out, 0, sizeof *out);
     const tm_mesh *m = &r->m;
     const bd_set *bd = &r->bd;
     size_t nt = ref_interior_tets(r);
     out->vmap = malloc((size_t)m->nv * sizeof *out->vmap);
-    out->tet = malloc((nt ? nt : 1) * sizeof *out->tet);
-    if (!out->vmap || !out->tet)
+    if (with_tets)
+        out->tet = malloc((nt ? nt : 1) * sizeof *out->tet);
+    if (!out->vmap || (with_tets && !out->tet))
         goto nomem;
     memset(out->vmap, 0xff, (size_t)m->nv * sizeof *out->vmap);
     if (r->region) {
@@ -2270,13 +2287,14 @@ int ref_export(const ref_mesher *r, ref_output *out)
      * keeps the output's memory order close to the mesh's. */
     size_t nv = 0, k = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+        if (!is_interior(m, t))
             continue;
         for (int s = 0; s < 4; s++) {
             uint32_t v = m->tets[t].v[s];
             if (out->vmap[v] == UINT32_MAX)
                 out->vmap[v] = (uint32_t)nv++;
-            out->tet[k][s] = out->vmap[v];
+            if (with_tets)
+                out->tet[k][s] = out->vmap[v];
         }
         if (r->region) {
             int g = r->region[t];
@@ -2352,4 +2370,39 @@ int ref_export(const ref_mesher *r, ref_output *out)
 nomem:
     ref_output_free(out);
     return PDR_ENOMEM;
+}
+
+int ref_export(const ref_mesher *r, ref_output *out)
+{
+    return export_mesh(r, out, 1);
+}
+
+int ref_export_take(ref_mesher *r, ref_output *out)
+{
+    int rc = export_mesh(r, out, 0);
+    if (rc)
+        return rc;
+    /* Output tetrahedron k (16 bytes) goes to bytes [16k, 16k + 16) of the
+     * slot array (32-byte slots): inside slot k / 2, and k <= t, so no
+     * slot is overwritten before it has been read (slot 0 is read whole
+     * first). */
+    tm_mesh *m = &r->m;
+    uint32_t(*dst)[4] = (uint32_t(*)[4])(void *)m->tets;
+    size_t k = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!is_interior(m, t))
+            continue;
+        uint32_t v[4];
+        for (int s = 0; s < 4; s++)
+            v[s] = out->vmap[m->tets[t].v[s]];
+        memcpy(dst[k], v, sizeof v);
+        k++;
+    }
+    size_t bytes = (k ? k : 1) * sizeof *dst;
+    uint32_t(*shrunk)[4] = realloc(dst, bytes);
+    out->tet = shrunk ? shrunk : dst;
+    m->tets = NULL;
+    tm_free(m);
+    out->view.tet = (const uint32_t(*)[4])out->tet;
+    return 0;
 }

@@ -351,9 +351,29 @@ static size_t mesh_and_check(const plc *p, const ref_opts *o, const im_opts *io,
     if (vf_defects(&vr))
         vf_print(&vr, stderr);
     ck_assert_uint_eq(vf_defects(&vr), 0);
-    /* the interior mesh on its own, against the input */
-    ref_output out;
-    ck_assert_int_eq(ref_export(&r, &out), 0);
+    /* the interior mesh on its own, against the input, exported as
+     * 'pdr mesh' does: after the work memory is gone */
+    ref_release_work(&r);
+    ck_assert_uint_eq(ref_consistency(&r, stderr, 1), 0);
+    ref_output copy, out;
+    ck_assert_int_eq(ref_export(&r, &copy), 0);
+    ck_assert_int_eq(ref_export_take(&r, &out), 0);
+    ck_assert_uint_eq(r.m.nslots, 0);
+    ck_assert_ptr_null(r.m.tets);
+    /* the in-place export writes what the copying one writes */
+    ck_assert_uint_eq(out.view.nt, copy.view.nt);
+    ck_assert_uint_eq(out.view.nv, copy.view.nv);
+    ck_assert_uint_eq(out.view.nf, copy.view.nf);
+    ck_assert_int_eq(memcmp(out.tet, copy.tet, copy.view.nt * sizeof *copy.tet), 0);
+    ck_assert_int_eq(memcmp(out.xyz, copy.xyz, copy.view.nv * sizeof *copy.xyz), 0);
+    ck_assert_int_eq(memcmp(out.tri, copy.tri, copy.view.nf * sizeof *copy.tri), 0);
+    ck_assert_int_eq(memcmp(out.tri_marker, copy.tri_marker,
+                            copy.view.nf * sizeof *copy.tri_marker), 0);
+    ck_assert_int_eq(!out.tet_region, !copy.tet_region);
+    if (copy.tet_region)
+        ck_assert_int_eq(memcmp(out.tet_region, copy.tet_region,
+                                copy.view.nt * sizeof *copy.tet_region), 0);
+    ref_output_free(&copy);
     const mesh_export *e = &out.view;
     ref_quality q;
     ref_quality_range(e, &q);
