@@ -1,5 +1,5 @@
-/* cmd_domain.c -- 'pdr domain': write the paper's model problems as
- * TetGen .poly files. */
+/* cmd_domain.c -- 'pdr domain': write the paper's model problems (and a
+ * tessellated sphere) as TetGen .poly files. */
 #include "config.h"
 
 #include <errno.h>
@@ -19,10 +19,12 @@ static void usage(FILE *out)
             "Usage: pdr domain cube-in-cube [--outer L] [--inner L] [-o OUT.poly]\n"
             "       pdr domain tee [--length L] [--width W] [--height H] [--flange T]\n"
             "                      [--web W] [--angle DEG] [-o OUT.poly]\n"
+            "       pdr domain sphere [--radius R] [--level N] [-o OUT.poly]\n"
             "\n"
-            "Writes one of the two model problems of Nave, Chrisochoides and Chew\n"
-            "as a TetGen .poly file (default NAME.poly), after checking it with the\n"
-            "same validation the mesher applies to its input.\n"
+            "Writes one of the two model problems of Nave, Chrisochoides and Chew,\n"
+            "or a tessellated sphere, as a TetGen .poly file (default NAME.poly),\n"
+            "after checking it with the same validation the mesher applies to its\n"
+            "input.\n"
             "\n"
             "cube-in-cube  the cube [0,L]^3 with a suspended cubical void centred in\n"
             "              it; the void is a hole (its facets plus a hole point).\n"
@@ -45,14 +47,21 @@ static void usage(FILE *out)
             "              4 bevel, 5 flange top, 6 web side, 7 web top, 8 symmetry\n"
             "              plane.\n"
             "\n"
+            "sphere        a ball whose surface is an icosahedron subdivided N times\n"
+            "              (20 * 4^N triangles, each a facet): many small facets at\n"
+            "              nearly flat angles, as in tessellated CAD surfaces.\n"
+            "  --radius R    radius (default 1)\n"
+            "  --level N     subdivisions, 0 to 7 (default 4: 5120 triangles)\n"
+            "              Facet marker: 1.\n"
+            "\n"
             "Options:\n"
-            "  -o, --output FILE   where to write (default cube-in-cube.poly or\n"
-            "                      tee.poly in the current directory)\n"
+            "  -o, --output FILE   where to write (default NAME.poly in the current\n"
+            "                      directory)\n"
             "  -h, --help          this text\n");
 }
 
 enum { OPT_OUTER = 256, OPT_INNER, OPT_LENGTH, OPT_WIDTH, OPT_HEIGHT, OPT_FLANGE,
-       OPT_WEB, OPT_ANGLE };
+       OPT_WEB, OPT_ANGLE, OPT_RADIUS, OPT_LEVEL };
 
 static int parse_num(const char *opt, const char *arg, double *out)
 {
@@ -79,13 +88,19 @@ int pdr_cmd_domain(int argc, char **argv)
         {"flange", required_argument, NULL, OPT_FLANGE},
         {"web", required_argument, NULL, OPT_WEB},
         {"angle", required_argument, NULL, OPT_ANGLE},
+        {"radius", required_argument, NULL, OPT_RADIUS},
+        {"level", required_argument, NULL, OPT_LEVEL},
         {NULL, 0, NULL, 0}};
     dom_cube_opts cube;
     dom_tee_opts tee;
+    dom_sphere_opts sphere;
     dom_cube_defaults(&cube);
     dom_tee_defaults(&tee);
+    dom_sphere_defaults(&sphere);
     const char *out = NULL;
-    int cube_opts = 0, tee_opts = 0, c, idx;
+    double level = sphere.level;
+    /* how many options of each domain were given */
+    int given[3] = {0, 0, 0}, c, idx;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:h", opts, &idx)) != -1) {
         double *dst = NULL;
@@ -96,14 +111,16 @@ int pdr_cmd_domain(int argc, char **argv)
         case 'h':
             usage(stdout);
             return PDR_EXIT_OK;
-        case OPT_OUTER: dst = &cube.outer; cube_opts++; break;
-        case OPT_INNER: dst = &cube.inner; cube_opts++; break;
-        case OPT_LENGTH: dst = &tee.length; tee_opts++; break;
-        case OPT_WIDTH: dst = &tee.width; tee_opts++; break;
-        case OPT_HEIGHT: dst = &tee.height; tee_opts++; break;
-        case OPT_FLANGE: dst = &tee.flange; tee_opts++; break;
-        case OPT_WEB: dst = &tee.web; tee_opts++; break;
-        case OPT_ANGLE: dst = &tee.angle; tee_opts++; break;
+        case OPT_OUTER: dst = &cube.outer; given[0]++; break;
+        case OPT_INNER: dst = &cube.inner; given[0]++; break;
+        case OPT_LENGTH: dst = &tee.length; given[1]++; break;
+        case OPT_WIDTH: dst = &tee.width; given[1]++; break;
+        case OPT_HEIGHT: dst = &tee.height; given[1]++; break;
+        case OPT_FLANGE: dst = &tee.flange; given[1]++; break;
+        case OPT_WEB: dst = &tee.web; given[1]++; break;
+        case OPT_ANGLE: dst = &tee.angle; given[1]++; break;
+        case OPT_RADIUS: dst = &sphere.radius; given[2]++; break;
+        case OPT_LEVEL: dst = &level; given[2]++; break;
         default:
             usage(stderr);
             return PDR_EXIT_USAGE;
@@ -111,23 +128,31 @@ int pdr_cmd_domain(int argc, char **argv)
         if (parse_num(opts[idx].name, optarg, dst))
             return PDR_EXIT_USAGE;
     }
+    static const char *const names[3] = {"cube-in-cube", "tee", "sphere"};
     if (optind != argc - 1) {
-        pdr_cli_error("domain", optind == argc ? "which domain? cube-in-cube or tee"
+        pdr_cli_error("domain", optind == argc ? "which domain? cube-in-cube, tee or sphere"
                                                : "unexpected argument '%s'",
                       argv[argc - 1]);
         return PDR_EXIT_USAGE;
     }
     const char *name = argv[optind];
-    int is_tee = !strcmp(name, "tee");
-    if (!is_tee && strcmp(name, "cube-in-cube") != 0) {
-        pdr_cli_error("domain", "unknown domain '%s' (cube-in-cube or tee)", name);
+    int which = 0;
+    while (which < 3 && strcmp(name, names[which]) != 0)
+        which++;
+    if (which == 3) {
+        pdr_cli_error("domain", "unknown domain '%s' (cube-in-cube, tee or sphere)", name);
         return PDR_EXIT_USAGE;
     }
-    if ((is_tee && cube_opts) || (!is_tee && tee_opts)) {
-        pdr_cli_error("domain", "%s options given for %s",
-                      is_tee ? "cube-in-cube" : "tee", name);
+    for (int k = 0; k < 3; k++)
+        if (k != which && given[k]) {
+            pdr_cli_error("domain", "%s options given for %s", names[k], name);
+            return PDR_EXIT_USAGE;
+        }
+    if (level != floor(level) || level < 0 || level > 7) {
+        pdr_cli_error("domain", "--level: %g is not a whole number from 0 to 7", level);
         return PDR_EXIT_USAGE;
     }
+    sphere.level = (int)level;
     char defname[32];
     if (!out) {
         snprintf(defname, sizeof defname, "%s.poly", name);
@@ -138,7 +163,9 @@ int pdr_cmd_domain(int argc, char **argv)
     pdr_diag d = {0};
     int rc = plc_init(&p, out);
     if (!rc)
-        rc = is_tee ? dom_tee(&p, &tee, &d) : dom_cube_in_cube(&p, &cube, &d);
+        rc = which == 1   ? dom_tee(&p, &tee, &d)
+             : which == 2 ? dom_sphere(&p, &sphere, &d)
+                          : dom_cube_in_cube(&p, &cube, &d);
     int status = PDR_EXIT_OK;
     if (rc == PDR_EINVAL) {
         for (size_t i = 0; i < d.nkept; i++)

@@ -30,7 +30,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "Usage: pdr mesh [OPTIONS] [IN.poly | IN.smesh | IN.off | IN.stl]\n"
-            "       pdr mesh [OPTIONS] --domain cube-in-cube|tee\n\n"
+            "       pdr mesh [OPTIONS] --domain cube-in-cube|tee|sphere\n\n"
             "Builds a conforming Delaunay tetrahedral mesh of a piecewise linear complex\n"
             "whose tetrahedra have a circumradius to shortest edge ratio below B\n"
             "(Shewchuk's Delaunay refinement). Without an input it meshes the built-in\n"
@@ -51,8 +51,8 @@ static void usage(FILE *f)
             "                         vtu   VTK BASE.vtu (ParaView, meshio)\n"
             "                         msh   Gmsh BASE.msh (version 4.1)\n"
             "                         none  write nothing\n"
-            "      --domain NAME    mesh a model problem (cube-in-cube or tee, with the\n"
-            "                       defaults of 'pdr domain') instead of a file\n"
+            "      --domain NAME    mesh a built-in domain (cube-in-cube, tee or sphere,\n"
+            "                       with the defaults of 'pdr domain') instead of a file\n"
             "      --mo KIND        initial mesh: 'conform' (default: Shewchuk's recovery,\n"
             "                       any valid input) or 'paper' (Nave et al. section 2.1:\n"
             "                       segments below 2d, facets below d*sqrt(2))\n"
@@ -365,8 +365,9 @@ int pdr_cmd_mesh(int argc, char **argv)
         if (!have_a)
             ro.maxvol = DEFAULT_DOMAIN_MAXVOL;
     }
-    if (domain && strcmp(domain, "cube-in-cube") && strcmp(domain, "tee")) {
-        pdr_cli_error("mesh", "unknown domain '%s' (cube-in-cube, tee)", domain);
+    if (domain && strcmp(domain, "cube-in-cube") && strcmp(domain, "tee") &&
+        strcmp(domain, "sphere")) {
+        pdr_cli_error("mesh", "unknown domain '%s' (cube-in-cube, tee, sphere)", domain);
         return PDR_EXIT_USAGE;
     }
     if (ro.ratio < 2.0)
@@ -398,6 +399,10 @@ int pdr_cmd_mesh(int argc, char **argv)
         dom_tee_opts d;
         dom_tee_defaults(&d);
         rc = dom_tee(&p, &d, &diag);
+    } else if (!strcmp(domain, "sphere")) {
+        dom_sphere_opts d;
+        dom_sphere_defaults(&d);
+        rc = dom_sphere(&p, &d, &diag);
     } else {
         dom_cube_opts d;
         dom_cube_defaults(&d);

@@ -1,7 +1,9 @@
-/* domain.c -- cube-in-cube and tee model problems (see domain.h). */
+/* domain.c -- cube-in-cube, tee and sphere domains (see domain.h). */
 #include "config.h"
 
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "domain.h"
 
@@ -19,6 +21,12 @@ void dom_tee_defaults(dom_tee_opts *o)
     o->flange = 0.25;
     o->web = 0.125;
     o->angle = 60.0;
+}
+
+void dom_sphere_defaults(dom_sphere_opts *o)
+{
+    o->radius = 1.0;
+    o->level = 4;
 }
 
 static int bad(pdr_diag *diag, const char *msg)
@@ -113,4 +121,110 @@ int dom_tee(plc *p, const dom_tee_opts *o, pdr_diag *diag)
     double inside[3] = {0.5 * o->length - 0.5 * o->height * c, 0.5 * o->web,
                         0.5 * (o->flange + o->height)};
     return plc_add_region(p, inside, 1.0, -1.0, 0);
+}
+
+/* ------------------------------------------------------------- sphere */
+
+/* The icosphere under construction: unit-length vertices and triangles
+ * (counterclockwise from outside), plus the midpoint table of one level
+ * (edge key -> vertex, open addressing, key 0 = empty). */
+struct ico {
+    double (*x)[3];
+    size_t nv;
+    uint32_t (*tri)[3];
+    size_t ntri;
+    uint64_t *key;
+    uint32_t *mid;
+    size_t mask;
+};
+
+static uint32_t ico_vertex(struct ico *s, double x, double y, double z)
+{
+    double n = sqrt(x * x + y * y + z * z);
+    s->x[s->nv][0] = x / n;
+    s->x[s->nv][1] = y / n;
+    s->x[s->nv][2] = z / n;
+    return (uint32_t)s->nv++;
+}
+
+static uint32_t ico_midpoint(struct ico *s, uint32_t a, uint32_t b)
+{
+    uint64_t k = a < b ? ((uint64_t)a << 32 | b) + 1 : ((uint64_t)b << 32 | a) + 1;
+    size_t h = (size_t)((k * 0x9e3779b97f4a7c15u) >> 32) & s->mask;
+    while (s->key[h] && s->key[h] != k)
+        h = (h + 1) & s->mask;
+    if (!s->key[h]) {
+        s->key[h] = k;
+        const double *p = s->x[a], *q = s->x[b];
+        s->mid[h] = ico_vertex(s, p[0] + q[0], p[1] + q[1], p[2] + q[2]);
+    }
+    return s->mid[h];
+}
+
+int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
+{
+    if (!(o->radius > 0) || !isfinite(o->radius))
+        return bad(diag, "the sphere's radius must be positive");
+    if (o->level < 0 || o->level > 7)
+        return bad(diag, "the sphere's level must be 0 to 7");
+    /* V - E + F = 2 with E = 3F/2, F = 20 * 4^level */
+    size_t nf = (size_t)20 << (2 * o->level), ne = 3 * nf / 2, nv = ne - nf + 2;
+    size_t cap = 64;
+    while (cap < 2 * ne)
+        cap *= 2;
+    struct ico s = {0};
+    s.x = malloc(nv * sizeof *s.x);
+    s.tri = malloc(nf * sizeof *s.tri);
+    uint32_t(*next)[3] = malloc(nf * sizeof *next);
+    s.key = malloc(cap * sizeof *s.key);
+    s.mid = malloc(cap * sizeof *s.mid);
+    int rc = PDR_ENOMEM;
+    if (!s.x || !s.tri || !next || !s.key || !s.mid)
+        goto done;
+    const double t = (1.0 + sqrt(5.0)) / 2.0;
+    const double ico_x[12][3] = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0},
+                                 {0, -1, t}, {0, 1, t},  {0, -1, -t}, {0, 1, -t},
+                                 {t, 0, -1}, {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+    static const uint32_t ico_f[20][3] = {
+        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+        {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+        {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+    for (int i = 0; i < 12; i++)
+        ico_vertex(&s, ico_x[i][0], ico_x[i][1], ico_x[i][2]);
+    memcpy(s.tri, ico_f, sizeof ico_f);
+    s.ntri = 20;
+    for (int l = 0; l < o->level; l++) {
+        s.mask = cap - 1;
+        memset(s.key, 0, cap * sizeof *s.key);
+        size_t n = 0;
+        for (size_t f = 0; f < s.ntri; f++) {
+            uint32_t a = s.tri[f][0], b = s.tri[f][1], c = s.tri[f][2];
+            uint32_t ab = ico_midpoint(&s, a, b), bc = ico_midpoint(&s, b, c),
+                     ca = ico_midpoint(&s, c, a);
+            const uint32_t four[4][3] = {{a, ab, ca}, {b, bc, ab}, {c, ca, bc}, {ab, bc, ca}};
+            memcpy(next[n], four, sizeof four);
+            n += 4;
+        }
+        memcpy(s.tri, next, n * sizeof *next);
+        s.ntri = n;
+    }
+    rc = 0;
+    for (size_t v = 0; v < s.nv && !rc; v++) {
+        double x[3] = {o->radius * s.x[v][0], o->radius * s.x[v][1], o->radius * s.x[v][2]};
+        rc = plc_add_vertex(p, x, 0, NULL);
+    }
+    for (size_t f = 0; f < s.ntri && !rc; f++)
+        if (!(rc = plc_begin_facet(p, 1, 0)))
+            rc = plc_add_polygon(p, s.tri[f], 3, 0);
+    if (!rc) {
+        double centre[3] = {0, 0, 0};
+        rc = plc_add_region(p, centre, 1.0, -1.0, 0);
+    }
+done:
+    free(s.x);
+    free(s.tri);
+    free(next);
+    free(s.key);
+    free(s.mid);
+    return rc;
 }

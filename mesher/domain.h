@@ -1,5 +1,6 @@
 /*
- * domain.h -- the paper's two model problems as PLCs (prefix dom_).
+ * domain.h -- the paper's two model problems, and a tessellated sphere, as
+ * PLCs (prefix dom_).
  *
  * cube-in-cube: the cube [0, outer]^3 with a cubical void of side inner
  *   centred in it (Nave et al., fig. 8a). The void's six facets are part of
@@ -22,6 +23,14 @@
  *   recovery. Facet markers: 1 start, 2 mitred end, 3 underside, 4 bevel,
  *   5 flange top, 6 web side, 7 web top, 8 symmetry plane. One region
  *   point (attribute 1) lies in the web.
+ *
+ * sphere: a ball of radius 'radius' centred at the origin, its surface an
+ *   icosahedron whose triangles are split in four 'level' times with the
+ *   new vertices pushed out to the sphere: 20 * 4^level triangles, each
+ *   its own facet (marker 1), every edge a segment. Not a model problem of
+ *   the paper: a stand-in for the tessellated curved surfaces of real
+ *   inputs (many small facets meeting at nearly flat angles). One region
+ *   point (attribute 1) at the centre.
  */
 #ifndef PDR_DOMAIN_H
 #define PDR_DOMAIN_H
@@ -43,12 +52,19 @@ typedef struct dom_tee_opts {
     double angle;  /* bevel and mitre angle in degrees, (0, 90] (default 60) */
 } dom_tee_opts;
 
+typedef struct dom_sphere_opts {
+    double radius; /* default 1 */
+    int level;     /* subdivisions of the icosahedron, 0..7 (default 4) */
+} dom_sphere_opts;
+
 void dom_cube_defaults(dom_cube_opts *o);
 void dom_tee_defaults(dom_tee_opts *o);
+void dom_sphere_defaults(dom_sphere_opts *o);
 
 /* Build the domain into p, which must be freshly initialised. Invalid
  * dimensions give PDR_EINVAL with the reason in diag. */
 int dom_cube_in_cube(plc *p, const dom_cube_opts *o, pdr_diag *diag);
 int dom_tee(plc *p, const dom_tee_opts *o, pdr_diag *diag);
+int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag);
 
 #endif /* PDR_DOMAIN_H */

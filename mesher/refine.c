@@ -236,7 +236,63 @@ static int marks_add(ref_marks *cm, ref_mark **out)
 void ref_marks_free(ref_marks *cm)
 {
     free(cm->m);
+    free(cm->seg);
     memset(cm, 0, sizeof *cm);
+}
+
+static size_t seg_hash(uint32_t a, uint32_t b, size_t mask)
+{
+    uint64_t h = ((uint64_t)a << 32 | b) * 0x9e3779b97f4a7c15u;
+    return (size_t)(h >> 32) & mask;
+}
+
+/* The slot of subsegment a < b in cm's set: the one holding it, or the
+ * empty one where it would go. */
+static ref_seg_slot *seg_slot(ref_marks *cm, uint32_t a, uint32_t b)
+{
+    size_t mask = cm->seg_cap - 1;
+    for (size_t h = seg_hash(a, b, mask);; h = (h + 1) & mask) {
+        ref_seg_slot *s = &cm->seg[h];
+        if (s->stamp != cm->stamp)
+            return s;
+        const ref_mark *mk = &cm->m[s->mark];
+        if (mk->v[0] == a && mk->v[1] == b)
+            return s;
+    }
+}
+
+/* Makes room for one more subsegment (load at most one half). */
+static int seg_room(ref_marks *cm)
+{
+    if (2 * (cm->nseg + 1) <= cm->seg_cap)
+        return 0;
+    size_t cap = cm->seg_cap ? 2 * cm->seg_cap : 16;
+    ref_seg_slot *t = calloc(cap, sizeof *t);
+    if (!t)
+        return PDR_ENOMEM;
+    free(cm->seg);
+    cm->seg = t;
+    cm->seg_cap = cap;
+    cm->stamp = 1;
+    for (size_t k = 0; k < cm->n; k++)
+        if (cm->m[k].nv == 2) {
+            ref_seg_slot *s = seg_slot(cm, cm->m[k].v[0], cm->m[k].v[1]);
+            s->stamp = cm->stamp;
+            s->mark = (uint32_t)k;
+        }
+    return 0;
+}
+
+/* Starts a new gather: no marks, an empty subsegment set. */
+static void marks_reset(ref_marks *cm)
+{
+    cm->n = 0;
+    cm->nseg = 0;
+    if (++cm->stamp == 0) {
+        if (cm->seg)
+            memset(cm->seg, 0, cm->seg_cap * sizeof *cm->seg);
+        cm->stamp = 1;
+    }
 }
 
 static int slot_in(const tm_tet *T, uint32_t v)
@@ -288,7 +344,7 @@ static int not_in_cavity(const tm_mesh *m, uint32_t t, void *arg)
 
 int ref_gather_marks(const tm_mesh *m, const dt_cavity *c, ref_marks *out)
 {
-    out->n = 0;
+    marks_reset(out);
     for (size_t i = 0; i < c->ntets; i++) {
         uint32_t t = c->tets[i];
         uint16_t f = m->flags[t];
@@ -325,14 +381,17 @@ int ref_gather_marks(const tm_mesh *m, const dt_cavity *c, ref_marks *out)
                 a = b;
                 b = x;
             }
-            int seen = 0;
-            for (size_t j = 0; j < out->n && !seen; j++)
-                seen = out->m[j].nv == 2 && out->m[j].v[0] == a && out->m[j].v[1] == b;
-            if (seen)
-                continue;
+            if (seg_room(out))
+                return PDR_ENOMEM;
+            ref_seg_slot *slot = seg_slot(out, a, b);
+            if (slot->stamp == out->stamp)
+                continue; /* listed from another tetrahedron around it */
             ref_mark *mk;
             if (marks_add(out, &mk))
                 return PDR_ENOMEM;
+            slot->stamp = out->stamp;
+            slot->mark = (uint32_t)(out->n - 1);
+            out->nseg++;
             mk->nv = 2;
             mk->v[0] = a;
             mk->v[1] = b;

@@ -121,9 +121,22 @@ typedef struct ref_mark {
     uint8_t spare;
 } ref_mark;
 
+/* A slot of ref_marks' subsegment set: valid when its stamp is the
+ * current gather's. */
+typedef struct ref_seg_slot {
+    uint32_t stamp;
+    uint32_t mark; /* index into ref_marks.m */
+} ref_seg_slot;
+
 typedef struct ref_marks {
     ref_mark *m;
     size_t n, cap;
+    /* The subsegments listed by the current ref_gather_marks (each shows
+     * in every cavity tetrahedron around it): open addressing on the
+     * edge, emptied in O(1) by a new stamp. Scratch, owned. */
+    ref_seg_slot *seg;
+    size_t seg_cap, nseg; /* seg_cap a power of two, or 0 */
+    uint32_t stamp;
 } ref_marks;
 
 enum ref_action {

@@ -1,6 +1,6 @@
 #!/bin/sh
-# pdr domain: both model problems are written, pass the validator, and
-# read back; bad usage exits 2 and writes nothing.
+# pdr domain: both model problems and the sphere are written, pass the
+# validator, and read back; bad usage exits 2 and writes nothing.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 tool=$top_builddir/tests/plc_tool
@@ -24,6 +24,21 @@ grep -q '^vertices 16 facets 12 polygons 12 segments 24 .* holes 1 regions 1 tri
 grep -q '^vertices 12 facets 8 polygons 8 segments 18 ' "$tmp/sum" ||
     fail "tee reads back as $(cat "$tmp/sum")"
 
+# The sphere: 20 * 4^N triangles, V = F/2 + 2, E = 3F/2; meshed, every
+# facet covered, the volume that of the polyhedron (pdr check --plc) and a
+# bit under the ball's 4pi/3 r^3.
+"$PDR" domain sphere --level 2 --radius 2 -o "$tmp/sph.poly" >"$tmp/out" || fail "sphere exited $?"
+grep -q 'wrote .*sph.poly (sphere: 162 vertices, 320 facets, 0 holes)' "$tmp/out" ||
+    fail "sphere summary: $(cat "$tmp/out")"
+"$tool" "$tmp/sph.poly" >"$tmp/sum" || fail "sphere output refused"
+grep -q '^vertices 162 facets 320 polygons 320 segments 480 .* regions 1 triangles 320 ' \
+    "$tmp/sum" || fail "sphere reads back as $(cat "$tmp/sum")"
+"$PDR" mesh -Q -o "$tmp/sphm" "$tmp/sph.poly" || fail "meshing the sphere exited $?"
+"$PDR" check --max-ratio 2 --plc "$tmp/sph.poly" "$tmp/sphm" >"$tmp/chk" ||
+    fail "the sphere's mesh fails pdr check: $(grep -i 'defect\|not\|above' "$tmp/chk")"
+awk '/^tetrahedra .* volume/ { v = $NF } END { exit !(v > 30 && v < 4 * 3.14159266 * 8 / 3) }' \
+    "$tmp/chk" || fail "sphere volume: $(grep '^tetrahedra' "$tmp/chk")"
+
 # Default output name in the current directory.
 (cd "$tmp" && "$PDR" domain tee >/dev/null) || fail "tee with default name"
 [ -s "$tmp/tee.poly" ] || fail "no tee.poly written by default"
@@ -38,7 +53,11 @@ check_usage() {
     grep -Fq -- "$want" "$tmp/out" || fail "pdr domain $*: no '$want' in: $(cat "$tmp/out")"
     [ ! -e "$tmp/bad.poly" ] || fail "pdr domain $*: wrote a file"
 }
-check_usage "pdr domain: unknown domain 'sphere'" sphere
+check_usage "pdr domain: unknown domain 'ball'" ball
+check_usage "pdr domain: tee options given for sphere" sphere --web 0.1
+check_usage "pdr domain: --level: 8 is not a whole number from 0 to 7" sphere --level 8
+check_usage "pdr domain: --level: 2.5 is not a whole number from 0 to 7" sphere --level 2.5
+check_usage "pdr domain: the sphere's radius must be positive" sphere --radius 0
 check_usage "pdr domain: which domain?"
 check_usage "pdr domain: cube-in-cube options given for tee" tee --inner 0.3
 check_usage "pdr domain: --angle: 'abc' is not a number" tee --angle abc

@@ -7,9 +7,11 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "bnd.h"
+#include "delaunay.h"
 #include "domain.h"
 #include "initmesh.h"
 #include "meshcheck.h"
@@ -412,6 +414,103 @@ static size_t mesh_and_check(const plc *p, const ref_opts *o, const im_opts *io,
     return nt;
 }
 
+/* xorshift64: the tests' reproducible random numbers. */
+static uint64_t rng = 88172645463325252ULL;
+static uint64_t next_rand(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return rng;
+}
+
+static int edge_cmp(const void *pa, const void *pb)
+{
+    const uint32_t *a = pa, *b = pb;
+    return a[0] != b[0] ? (a[0] < b[0] ? -1 : 1) : a[1] != b[1] ? (a[1] < b[1] ? -1 : 1) : 0;
+}
+
+/* Sorts n edges and drops repeats; returns how many are left. */
+static size_t unique_edges(uint32_t (*e)[2], size_t n)
+{
+    qsort(e, n, sizeof *e, edge_cmp);
+    size_t u = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!u || edge_cmp(e[i], e[u - 1]))
+            memcpy(e[u++], e[i], sizeof e[0]);
+    return u;
+}
+
+/* ref_gather_marks lists every subsegment of a cavity once, however many
+ * cavity tetrahedra share it: checked against a brute-force list on the
+ * cavities of random points in the initial mesh, large ones included (the
+ * set of listed subsegments grows past its first table). */
+START_TEST(gather_lists_each_subsegment_once)
+{
+    plc p;
+    cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    ref_mesher r;
+    pdr_diag diag = {0};
+    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
+    im_opts io = {0, 0};
+    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    tm_mesh *m = &r.m;
+    uint32_t start = 0;
+    while (tm_is_dead(m, start) || tm_is_ghost(m, start))
+        start++;
+    size_t most = 0, cavities = 0;
+    for (int trial = 0; trial < 400; trial++) {
+        double x[3];
+        for (int k = 0; k < 3; k++)
+            x[k] = (double)(next_rand() >> 11) * 0x1p-53 * 1.2 - 0.1;
+        ck_assert_int_eq(dt_cavity_search(m, x, start, DT_LOCATE, &r.cav), 0);
+        if (r.cav.status != DT_OK) {
+            dt_cavity_abandon(m, &r.cav);
+            continue;
+        }
+        cavities++;
+        ck_assert_int_eq(ref_gather_marks(m, &r.cav, &r.marks), 0);
+        uint32_t(*want)[2] = malloc((6 * r.cav.ntets + 1) * sizeof *want);
+        uint32_t(*got)[2] = malloc((r.marks.n + 1) * sizeof *got);
+        ck_assert(want && got);
+        size_t nw = 0, ng = 0;
+        for (size_t i = 0; i < r.cav.ntets; i++) {
+            uint32_t t = r.cav.tets[i];
+            for (int e = 0; e < 6; e++)
+                if (m->flags[t] & TM_F_SUBSEG(e)) {
+                    uint32_t a = m->tets[t].v[tm_edge_vtx[e][0]];
+                    uint32_t b = m->tets[t].v[tm_edge_vtx[e][1]];
+                    want[nw][0] = a < b ? a : b;
+                    want[nw][1] = a < b ? b : a;
+                    nw++;
+                }
+        }
+        nw = unique_edges(want, nw);
+        for (size_t k = 0; k < r.marks.n; k++)
+            if (r.marks.m[k].nv == 2) {
+                ck_assert_uint_lt(r.marks.m[k].v[0], r.marks.m[k].v[1]);
+                memcpy(got[ng++], r.marks.m[k].v, sizeof got[0]);
+            }
+        ck_assert_uint_eq(unique_edges(got, ng), ng); /* no repeats */
+        ck_assert_uint_eq(ng, nw);
+        for (size_t k = 0; k < ng; k++)
+            ck_assert_int_eq(edge_cmp(got[k], want[k]), 0);
+        if (ng > most)
+            most = ng;
+        free(want);
+        free(got);
+        dt_cavity_abandon(m, &r.cav);
+    }
+    ck_assert_uint_gt(cavities, 100);
+    ck_assert_uint_gt(most, 16); /* the set (16 slots, half full at most) grew twice */
+    ref_free(&r);
+    plc_free(&p);
+    pdr_diag_free(&diag);
+}
+END_TEST
+
 START_TEST(mesh_cube_in_cube)
 {
     plc p;
@@ -524,15 +623,6 @@ END_TEST
 
 /* ---------------------------------------------------- number format */
 
-static uint64_t rng = 88172645463325252ULL;
-static uint64_t next_rand(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return rng;
-}
-
 static void same_as_printf(double x)
 {
     char want[64], got[NF_DOUBLE17_MAX];
@@ -589,6 +679,7 @@ static Suite *suite(void)
     suite_add_tcase(s, t);
     t = tcase_create("mesh");
     tcase_set_timeout(t, 120);
+    tcase_add_test(t, gather_lists_each_subsegment_once);
     tcase_add_test(t, mesh_cube_in_cube);
     tcase_add_test(t, mesh_cube_in_cube_paper_mo);
     tcase_add_test(t, mesh_tee);
