@@ -471,10 +471,12 @@ int pdr_cmd_mesh(int argc, char **argv)
     size_t nt = o.view.nt;
     if (!quiet) {
         double tref = t_ref - t_mo;
-        printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu subsegment "
-               "points), %zu circumcentres rejected (%.3f s, %.0f tetrahedra/s)\n",
-               v_added, r.st.tet_points, r.st.fac_points, r.st.seg_points,
-               r.st.rejected, tref, tref > 0 ? (double)nt / tref : 0.0);
+        if (!mo_only)
+            printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu "
+                   "subsegment points), %zu circumcentres rejected (%.3f s, %.0f "
+                   "tetrahedra/s)\n",
+                   v_added, r.st.tet_points, r.st.fac_points, r.st.seg_points, r.st.rejected,
+                   tref, tref > 0 ? (double)nt / tref : 0.0);
         printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", o.view.nv, nt,
                o.view.nf);
     }
