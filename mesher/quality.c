@@ -30,13 +30,7 @@ void ql_tet_measure(const double a[3], const double b[3], const double c[3],
 {
     const double *p[4] = {a, b, c, d};
     double u[3], v[3], w[3], vw[3], wu[3], uv[3];
-    v3_sub(b, a, u);
-    v3_sub(c, a, v);
-    v3_sub(d, a, w);
-    v3_cross(v, w, vw);
-    v3_cross(w, u, wu);
-    v3_cross(u, v, uv);
-    double det = v3_dot(u, vw);
+    double det = v3_tet_frame(a, b, c, d, u, v, w, vw, wu, uv);
     m->volume = det / 6.0;
     if (det != 0.0) {
         double uu = v3_dot(u, u), vv = v3_dot(v, v), ww = v3_dot(w, w), o[3];

@@ -30,13 +30,7 @@ double ref_tet_ratio2(const double *a, const double *b, const double *c, const d
                       double *vol, double *lmax2, double cc[3])
 {
     double u[3], v[3], w[3], vw[3], wu[3], uv[3];
-    v3_sub(b, a, u);
-    v3_sub(c, a, v);
-    v3_sub(d, a, w);
-    v3_cross(v, w, vw);
-    v3_cross(w, u, wu);
-    v3_cross(u, v, uv);
-    double det = v3_dot(u, vw);
+    double det = v3_tet_frame(a, b, c, d, u, v, w, vw, wu, uv);
     double uu = v3_dot(u, u), vv = v3_dot(v, v), ww = v3_dot(w, w);
     double e3 = v3_dist2(b, c), e4 = v3_dist2(b, d), e5 = v3_dist2(c, d);
     double lo = uu, hi = uu;
@@ -609,13 +603,7 @@ static int tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2
     const uint32_t *tv = m->tets[t].v;
     const double *a = X(m, tv[0]), *b = X(m, tv[1]), *c = X(m, tv[2]), *d = X(m, tv[3]);
     double u[3], v[3], w[3], n1[3], n2[3], n3[3];
-    v3_sub(b, a, u);
-    v3_sub(c, a, v);
-    v3_sub(d, a, w);
-    v3_cross(v, w, n1);
-    v3_cross(w, u, n2);
-    v3_cross(u, v, n3);
-    double det = v3_dot(u, n1);
+    double det = v3_tet_frame(a, b, c, d, u, v, w, n1, n2, n3);
     double l2[6];
     l2[0] = v3_dot(u, u);
     l2[1] = v3_dot(v, v);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "tetmesh.h"
+#include "vec3.h"
 
 /* Growth of the arrays. Untouched capacity costs no resident memory, so
  * growing by half keeps the number of reallocations small without raising
@@ -261,14 +262,7 @@ static size_t link_runs(tm_mesh *m, keyed *k, size_t n, int singles_bad)
 
 static void face_sorted(const tm_tet *T, int i, uint32_t f[3])
 {
-    uint32_t a = T->v[tm_face_vtx[i][0]], b = T->v[tm_face_vtx[i][1]],
-             c = T->v[tm_face_vtx[i][2]], x;
-    if (a > b) { x = a; a = b; b = x; }
-    if (b > c) { x = b; b = c; c = x; }
-    if (a > b) { x = a; a = b; b = x; }
-    f[0] = a;
-    f[1] = b;
-    f[2] = c;
+    v3_sort3u(T->v[tm_face_vtx[i][0]], T->v[tm_face_vtx[i][1]], T->v[tm_face_vtx[i][2]], f);
 }
 
 int tm_link_faces(tm_mesh *m, size_t *nonmanifold)

@@ -43,6 +43,23 @@ static inline double v3_dist2(const double *a, const double *b)
     return v3_dot(d, d);
 }
 
+/* The frame of tetrahedron abcd: edge vectors u = b - a, v = c - a,
+ * w = d - a, and n1 = v x w, n2 = w x u, n3 = u x v, the normals of the
+ * faces opposite b, c and d, each as long as twice its face's area.
+ * Returns u . n1, six times the signed volume. */
+static inline double v3_tet_frame(const double *a, const double *b, const double *c,
+                                  const double *d, double u[3], double v[3], double w[3],
+                                  double n1[3], double n2[3], double n3[3])
+{
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_sub(d, a, w);
+    v3_cross(v, w, n1);
+    v3_cross(w, u, n2);
+    v3_cross(u, v, n3);
+    return v3_dot(u, n1);
+}
+
 /* o = {a, b, c} in increasing order (a face key). */
 static inline void v3_sort3u(uint32_t a, uint32_t b, uint32_t c, uint32_t o[3])
 {
