@@ -54,11 +54,6 @@ static void show_progress(void *arg, size_t done, size_t total)
                       100.0 * (double)done / (double)total);
 }
 
-static char *join(const char *base, const char *ext)
-{
-    return pdr_path_ext(base, strlen(base), ext);
-}
-
 int pdr_cmd_delaunay(int argc, char **argv)
 {
     static const struct option opts[] = {{"output", required_argument, NULL, 'o'},
@@ -163,7 +158,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
     }
     double t_read = pdr_now();
     if (points_only) {
-        pnode = join(out, ".node");
+        pnode = pdr_path_join(out, ".node");
         if (!pnode || tg_write_node(pnode, &nodes, &diag)) {
             pdr_diag_print(&diag, stderr);
             goto done;
@@ -240,9 +235,9 @@ int pdr_cmd_delaunay(int argc, char **argv)
 
     /* 4. Output. */
     if (out) {
-        pnode = join(out, ".node");
-        pele = join(out, ".ele");
-        pface = join(out, ".face");
+        pnode = pdr_path_join(out, ".node");
+        pele = pdr_path_join(out, ".ele");
+        pface = pdr_path_join(out, ".face");
         if (!pnode || !pele || !pface) {
             pdr_cli_error("delaunay", "out of memory");
             goto done;

@@ -100,7 +100,7 @@ int pdr_cmd_domain(int argc, char **argv)
     const char *out = NULL;
     double level = sphere.level;
     /* how many options of each domain were given */
-    int given[3] = {0, 0, 0}, c, idx;
+    int given[DOM_COUNT] = {0}, c, idx;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:h", opts, &idx)) != -1) {
         double *dst = NULL;
@@ -111,16 +111,16 @@ int pdr_cmd_domain(int argc, char **argv)
         case 'h':
             usage(stdout);
             return PDR_EXIT_OK;
-        case OPT_OUTER: dst = &cube.outer; given[0]++; break;
-        case OPT_INNER: dst = &cube.inner; given[0]++; break;
-        case OPT_LENGTH: dst = &tee.length; given[1]++; break;
-        case OPT_WIDTH: dst = &tee.width; given[1]++; break;
-        case OPT_HEIGHT: dst = &tee.height; given[1]++; break;
-        case OPT_FLANGE: dst = &tee.flange; given[1]++; break;
-        case OPT_WEB: dst = &tee.web; given[1]++; break;
-        case OPT_ANGLE: dst = &tee.angle; given[1]++; break;
-        case OPT_RADIUS: dst = &sphere.radius; given[2]++; break;
-        case OPT_LEVEL: dst = &level; given[2]++; break;
+        case OPT_OUTER: dst = &cube.outer; given[DOM_CUBE_IN_CUBE]++; break;
+        case OPT_INNER: dst = &cube.inner; given[DOM_CUBE_IN_CUBE]++; break;
+        case OPT_LENGTH: dst = &tee.length; given[DOM_TEE]++; break;
+        case OPT_WIDTH: dst = &tee.width; given[DOM_TEE]++; break;
+        case OPT_HEIGHT: dst = &tee.height; given[DOM_TEE]++; break;
+        case OPT_FLANGE: dst = &tee.flange; given[DOM_TEE]++; break;
+        case OPT_WEB: dst = &tee.web; given[DOM_TEE]++; break;
+        case OPT_ANGLE: dst = &tee.angle; given[DOM_TEE]++; break;
+        case OPT_RADIUS: dst = &sphere.radius; given[DOM_SPHERE]++; break;
+        case OPT_LEVEL: dst = &level; given[DOM_SPHERE]++; break;
         default:
             usage(stderr);
             return PDR_EXIT_USAGE;
@@ -128,7 +128,6 @@ int pdr_cmd_domain(int argc, char **argv)
         if (parse_num(opts[idx].name, optarg, dst))
             return PDR_EXIT_USAGE;
     }
-    static const char *const names[3] = {"cube-in-cube", "tee", "sphere"};
     if (optind != argc - 1) {
         pdr_cli_error("domain", optind == argc ? "which domain? cube-in-cube, tee or sphere"
                                                : "unexpected argument '%s'",
@@ -136,16 +135,14 @@ int pdr_cmd_domain(int argc, char **argv)
         return PDR_EXIT_USAGE;
     }
     const char *name = argv[optind];
-    int which = 0;
-    while (which < 3 && strcmp(name, names[which]) != 0)
-        which++;
-    if (which == 3) {
+    int which = dom_lookup(name);
+    if (which < 0) {
         pdr_cli_error("domain", "unknown domain '%s' (cube-in-cube, tee or sphere)", name);
         return PDR_EXIT_USAGE;
     }
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < DOM_COUNT; k++)
         if (k != which && given[k]) {
-            pdr_cli_error("domain", "%s options given for %s", names[k], name);
+            pdr_cli_error("domain", "%s options given for %s", dom_name(k), name);
             return PDR_EXIT_USAGE;
         }
     if (level != floor(level) || level < 0 || level > 7) {
@@ -163,9 +160,9 @@ int pdr_cmd_domain(int argc, char **argv)
     pdr_diag d = {0};
     int rc = plc_init(&p, out);
     if (!rc)
-        rc = which == 1   ? dom_tee(&p, &tee, &d)
-             : which == 2 ? dom_sphere(&p, &sphere, &d)
-                          : dom_cube_in_cube(&p, &cube, &d);
+        rc = which == DOM_TEE      ? dom_tee(&p, &tee, &d)
+             : which == DOM_SPHERE ? dom_sphere(&p, &sphere, &d)
+                                   : dom_cube_in_cube(&p, &cube, &d);
     int status = PDR_EXIT_OK;
     if (rc == PDR_EINVAL) {
         for (size_t i = 0; i < d.nkept; i++)

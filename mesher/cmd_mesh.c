@@ -83,11 +83,6 @@ static void show_progress(void *arg, const ref_mesher *r)
                       r->m.nlive - r->m.nghost);
 }
 
-static char *join(const char *base, const char *ext)
-{
-    return pdr_path_ext(base, strlen(base), ext);
-}
-
 /* IN.poly -> IN.1 (TetGen's naming, which never overwrites an input). */
 static char *default_base(const char *in)
 {
@@ -138,7 +133,8 @@ static int write_outputs(const ref_output *o, const char *base, unsigned fmt, in
     const mesh_export *v = &o->view;
     if (fmt & FMT_NODE) {
         tg_nodes nodes = {.n = v->nv, .first = 1, .xyz = (double *)o->xyz};
-        char *pn = join(base, ".node"), *pe = join(base, ".ele"), *pf = join(base, ".face");
+        char *pn = pdr_path_join(base, ".node"), *pe = pdr_path_join(base, ".ele"),
+             *pf = pdr_path_join(base, ".face");
         if (!pn || !pe || !pf)
             rc = PDR_ENOMEM;
         if (!rc)
@@ -154,7 +150,7 @@ static int write_outputs(const ref_output *o, const char *base, unsigned fmt, in
         free(pf);
     }
     if (!rc && (fmt & FMT_VTU)) {
-        char *p = join(base, ".vtu");
+        char *p = pdr_path_join(base, ".vtu");
         vtu_opts vo = {0, 0};
         rc = p ? vtu_write(v, p, &vo, diag) : PDR_ENOMEM;
         if (!rc && !quiet)
@@ -162,7 +158,7 @@ static int write_outputs(const ref_output *o, const char *base, unsigned fmt, in
         free(p);
     }
     if (!rc && (fmt & FMT_MSH)) {
-        char *p = join(base, ".msh");
+        char *p = pdr_path_join(base, ".msh");
         rc = p ? msh_write(v, p, diag) : PDR_ENOMEM;
         if (!rc && !quiet)
             printf("wrote %s\n", p);
@@ -365,8 +361,8 @@ int pdr_cmd_mesh(int argc, char **argv)
         if (!have_a)
             ro.maxvol = DEFAULT_DOMAIN_MAXVOL;
     }
-    if (domain && strcmp(domain, "cube-in-cube") && strcmp(domain, "tee") &&
-        strcmp(domain, "sphere")) {
+    int dom = domain ? dom_lookup(domain) : -1;
+    if (domain && dom < 0) {
         pdr_cli_error("mesh", "unknown domain '%s' (cube-in-cube, tee, sphere)", domain);
         return PDR_EXIT_USAGE;
     }
@@ -395,18 +391,8 @@ int pdr_cmd_mesh(int argc, char **argv)
         rc = plc_read(&p, in, &diag);
         if (!rc)
             rc = plc_validate(&p, &diag);
-    } else if (!strcmp(domain, "tee")) {
-        dom_tee_opts d;
-        dom_tee_defaults(&d);
-        rc = dom_tee(&p, &d, &diag);
-    } else if (!strcmp(domain, "sphere")) {
-        dom_sphere_opts d;
-        dom_sphere_defaults(&d);
-        rc = dom_sphere(&p, &d, &diag);
     } else {
-        dom_cube_opts d;
-        dom_cube_defaults(&d);
-        rc = dom_cube_in_cube(&p, &d, &diag);
+        rc = dom_build_default(&p, dom, &diag);
     }
     if (!rc && !in)
         rc = plc_validate(&p, &diag);

@@ -791,13 +791,8 @@ struct dt_bulk {
 
 static void bulk_flush(tm_mesh *m, struct dt_bulk *bk)
 {
-    for (size_t i = 0; i < bk->npool; i++) {
-        uint32_t t = bk->pool[i];
-        m->flags[t] = TM_F_DEAD;
-        m->tets[t].n[0] = m->free_head;
-        m->free_head = t;
-        m->nfree++;
-    }
+    for (size_t i = 0; i < bk->npool; i++)
+        tm__release_slot(m, bk->pool[i]);
     bk->npool = 0;
 }
 
@@ -819,13 +814,8 @@ static inline uint32_t bulk_slot(tm_mesh *m, struct dt_bulk *bk)
  * bulk_insert). */
 static void bulk_undo(tm_mesh *m, dt_cavity *c, size_t nt, size_t nn)
 {
-    for (size_t i = 0; i < nn; i++) {
-        uint32_t t = c->newtets[i];
-        m->flags[t] = TM_F_DEAD;
-        m->tets[t].n[0] = m->free_head;
-        m->free_head = t;
-        m->nfree++;
-    }
+    for (size_t i = 0; i < nn; i++)
+        tm__release_slot(m, c->newtets[i]);
     for (size_t i = 0; i < nt; i++) {
         uint32_t t = tm_ltet(c->tets[i]);
         tm_tet *T = &m->tets[t];

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bnd.h"
 #include "domain.h"
 
 void dom_cube_defaults(dom_cube_opts *o)
@@ -27,6 +28,43 @@ void dom_sphere_defaults(dom_sphere_opts *o)
 {
     o->radius = 1.0;
     o->level = 4;
+}
+
+const char *dom_name(int kind)
+{
+    static const char *const names[DOM_COUNT] = {"cube-in-cube", "tee", "sphere"};
+    return kind >= 0 && kind < DOM_COUNT ? names[kind] : NULL;
+}
+
+int dom_lookup(const char *name)
+{
+    for (int k = 0; k < DOM_COUNT; k++)
+        if (!strcmp(name, dom_name(k)))
+            return k;
+    return -1;
+}
+
+int dom_build_default(plc *p, int kind, pdr_diag *diag)
+{
+    switch (kind) {
+    case DOM_TEE: {
+        dom_tee_opts o;
+        dom_tee_defaults(&o);
+        return dom_tee(p, &o, diag);
+    }
+    case DOM_SPHERE: {
+        dom_sphere_opts o;
+        dom_sphere_defaults(&o);
+        return dom_sphere(p, &o, diag);
+    }
+    case DOM_CUBE_IN_CUBE: {
+        dom_cube_opts o;
+        dom_cube_defaults(&o);
+        return dom_cube_in_cube(p, &o, diag);
+    }
+    default:
+        return PDR_EINVAL;
+    }
 }
 
 static int bad(pdr_diag *diag, const char *msg)
@@ -126,16 +164,14 @@ int dom_tee(plc *p, const dom_tee_opts *o, pdr_diag *diag)
 /* ------------------------------------------------------------- sphere */
 
 /* The icosphere under construction: unit-length vertices and triangles
- * (counterclockwise from outside), plus the midpoint table of one level
- * (edge key -> vertex, open addressing, key 0 = empty). */
+ * (counterclockwise from outside), plus the midpoints of one level's
+ * edges (edge key -> vertex). */
 struct ico {
     double (*x)[3];
     size_t nv;
     uint32_t (*tri)[3];
     size_t ntri;
-    uint64_t *key;
-    uint32_t *mid;
-    size_t mask;
+    bd_map mid;
 };
 
 static uint32_t ico_vertex(struct ico *s, double x, double y, double z)
@@ -147,18 +183,19 @@ static uint32_t ico_vertex(struct ico *s, double x, double y, double z)
     return (uint32_t)s->nv++;
 }
 
+/* The vertex halfway along edge ab (made on first use), or BD_NONE when
+ * out of memory. */
 static uint32_t ico_midpoint(struct ico *s, uint32_t a, uint32_t b)
 {
     uint64_t k = a < b ? ((uint64_t)a << 32 | b) + 1 : ((uint64_t)b << 32 | a) + 1;
-    size_t h = (size_t)((k * 0x9e3779b97f4a7c15u) >> 32) & s->mask;
-    while (s->key[h] && s->key[h] != k)
-        h = (h + 1) & s->mask;
-    if (!s->key[h]) {
-        s->key[h] = k;
+    uint32_t v = bd_map_get(&s->mid, k);
+    if (v == BD_NONE) {
         const double *p = s->x[a], *q = s->x[b];
-        s->mid[h] = ico_vertex(s, p[0] + q[0], p[1] + q[1], p[2] + q[2]);
+        v = ico_vertex(s, p[0] + q[0], p[1] + q[1], p[2] + q[2]);
+        if (bd_map_put(&s->mid, k, v))
+            return BD_NONE;
     }
-    return s->mid[h];
+    return v;
 }
 
 int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
@@ -168,18 +205,13 @@ int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
     if (o->level < 0 || o->level > 7)
         return bad(diag, "the sphere's level must be 0 to 7");
     /* V - E + F = 2 with E = 3F/2, F = 20 * 4^level */
-    size_t nf = (size_t)20 << (2 * o->level), ne = 3 * nf / 2, nv = ne - nf + 2;
-    size_t cap = 64;
-    while (cap < 2 * ne)
-        cap *= 2;
+    size_t nf = (size_t)20 << (2 * o->level), nv = nf / 2 + 2;
     struct ico s = {0};
     s.x = malloc(nv * sizeof *s.x);
     s.tri = malloc(nf * sizeof *s.tri);
     uint32_t(*next)[3] = malloc(nf * sizeof *next);
-    s.key = malloc(cap * sizeof *s.key);
-    s.mid = malloc(cap * sizeof *s.mid);
     int rc = PDR_ENOMEM;
-    if (!s.x || !s.tri || !next || !s.key || !s.mid)
+    if (!s.x || !s.tri || !next)
         goto done;
     const double t = (1.0 + sqrt(5.0)) / 2.0;
     const double ico_x[12][3] = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0},
@@ -194,13 +226,14 @@ int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
     memcpy(s.tri, ico_f, sizeof ico_f);
     s.ntri = 20;
     for (int l = 0; l < o->level; l++) {
-        s.mask = cap - 1;
-        memset(s.key, 0, cap * sizeof *s.key);
+        bd_map_free(&s.mid); /* each level's edges are new */
         size_t n = 0;
         for (size_t f = 0; f < s.ntri; f++) {
             uint32_t a = s.tri[f][0], b = s.tri[f][1], c = s.tri[f][2];
             uint32_t ab = ico_midpoint(&s, a, b), bc = ico_midpoint(&s, b, c),
                      ca = ico_midpoint(&s, c, a);
+            if (ab == BD_NONE || bc == BD_NONE || ca == BD_NONE)
+                goto done;
             const uint32_t four[4][3] = {{a, ab, ca}, {b, bc, ab}, {c, ca, bc}, {ab, bc, ca}};
             memcpy(next[n], four, sizeof four);
             n += 4;
@@ -224,7 +257,6 @@ done:
     free(s.x);
     free(s.tri);
     free(next);
-    free(s.key);
-    free(s.mid);
+    bd_map_free(&s.mid);
     return rc;
 }

@@ -57,6 +57,15 @@ typedef struct dom_sphere_opts {
     int level;     /* subdivisions of the icosahedron, 0..7 (default 4) */
 } dom_sphere_opts;
 
+/* The domains by name, for the commands that take one. */
+enum dom_kind { DOM_CUBE_IN_CUBE = 0, DOM_TEE = 1, DOM_SPHERE = 2, DOM_COUNT = 3 };
+/* "cube-in-cube", "tee", "sphere"; NULL outside 0..DOM_COUNT-1. */
+const char *dom_name(int kind);
+/* The dom_kind named 'name', or -1. */
+int dom_lookup(const char *name);
+/* Builds domain 'kind' with its defaults (as the dom_* functions). */
+int dom_build_default(plc *p, int kind, pdr_diag *diag);
+
 void dom_cube_defaults(dom_cube_opts *o);
 void dom_tee_defaults(dom_tee_opts *o);
 void dom_sphere_defaults(dom_sphere_opts *o);

@@ -245,7 +245,7 @@ double im_interior_volume(const ref_mesher *r)
     const tm_mesh *m = &r->m;
     double v = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+        if (!ref_is_interior(m, t))
             continue;
         const uint32_t *q = m->tets[t].v;
         double vol;

@@ -63,6 +63,11 @@ char *pdr_path_ext(const char *base, size_t n, const char *ext)
     return s;
 }
 
+char *pdr_path_join(const char *base, const char *ext)
+{
+    return pdr_path_ext(base, strlen(base), ext);
+}
+
 void pdr_progress_start(pdr_progress *p, double t0, int quiet)
 {
     p->t0 = t0;

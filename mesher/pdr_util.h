@@ -29,6 +29,8 @@ size_t pdr_path_stem(const char *path);
 /* The first n bytes of base followed by ext, in a new string the caller
  * frees; NULL if out of memory. */
 char *pdr_path_ext(const char *base, size_t n, const char *ext);
+/* base followed by ext (pdr_path_ext of all of base). */
+char *pdr_path_join(const char *base, const char *ext);
 
 /* A progress line on stderr for long runs: nothing during the first two
  * seconds; then, on a terminal, one line rewritten in place at most every

@@ -497,13 +497,9 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
 
 void ref_free(ref_mesher *r)
 {
+    ref_release_work(r);
     tm_free(&r->m);
     bd_free(&r->bd);
-    dt_cavity_free(&r->cav);
-    ref_marks_free(&r->marks);
-    q_free(&r->segq);
-    q_free(&r->facq);
-    q_free(&r->tetq);
     free(r->region);
     free(r->seg_acute);
     free(r->bflag);
@@ -1771,7 +1767,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
             r->st.rejected++;
             double lmin = INFINITY;
             for (int e = 0; e < 6; e++)
-                lmin = fmin(lmin, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+                lmin = fmin(lmin,
+                            v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
             /* For a tetrahedron that is bad by its size alone the floor is
              * half its circumradius instead (the clean bound is
              * r/sqrt(2)): its splits are then never smaller than a
@@ -2060,7 +2057,7 @@ int ref_queue_all_tets(ref_mesher *r)
 {
     tm_mesh *m = &r->m;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+        if (!ref_is_interior(m, t))
             continue;
         double cc[3];
         if (tet_bad(r, t, cc, NULL)) {
@@ -2216,7 +2213,7 @@ size_t ref_interior_tets(const ref_mesher *r)
     const tm_mesh *m = &r->m;
     size_t n = 0;
     for (uint32_t t = 0; t < m->nslots; t++)
-        n += !tm_is_dead(m, t) && !tm_is_ghost(m, t) && !(m->flags[t] & REF_F_EXTERIOR);
+        n += ref_is_interior(m, t);
     return n;
 }
 
@@ -2226,7 +2223,7 @@ void ref_count_bad(ref_mesher *r)
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
     r->st.left_size = r->st.left_sliver = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+        if (!ref_is_interior(m, t))
             continue;
         double cc[3], q;
         int why = tet_bad(r, t, cc, &q);
@@ -2305,11 +2302,6 @@ void ref_output_free(ref_output *out)
     memset(out, 0, sizeof *out);
 }
 
-static int is_interior(const tm_mesh *m, uint32_t t)
-{
-    return !tm_is_dead(m, t) && !tm_is_ghost(m, t) && !(m->flags[t] & REF_F_EXTERIOR);
-}
-
 /* The export of ref_export; with_tets 0 leaves out->tet (and the view's
  * tet) NULL for ref_export_take to fill. */
 static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
@@ -2334,7 +2326,7 @@ static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
      * keeps the output's memory order close to the mesh's. */
     size_t nv = 0, k = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (!is_interior(m, t))
+        if (!ref_is_interior(m, t))
             continue;
         for (int s = 0; s < 4; s++) {
             uint32_t v = m->tets[t].v[s];
@@ -2437,7 +2429,7 @@ int ref_export_take(ref_mesher *r, ref_output *out)
     uint32_t(*dst)[4] = (uint32_t(*)[4])(void *)m->tets;
     size_t k = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (!is_interior(m, t))
+        if (!ref_is_interior(m, t))
             continue;
         uint32_t v[4];
         for (int s = 0; s < 4; s++)

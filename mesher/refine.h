@@ -105,6 +105,13 @@ struct ref_mesher;
 #define REF_F_GIVEUP TM_F_SPARE1   /* bad, but left (reason counted) */
 #define REF_F_DEGENERATE TM_F_SPARE2 /* ... because its circumcentre is unusable */
 
+/* t is a live tetrahedron of the domain: not dead, not a ghost, not
+ * exterior (outside or in a hole). */
+static inline int ref_is_interior(const tm_mesh *m, uint32_t t)
+{
+    return !tm_is_dead(m, t) && !tm_is_ghost(m, t) && !(m->flags[t] & REF_F_EXTERIOR);
+}
+
 /* ---------------------------------------------------- cavity decision */
 
 /* What an insertion point splits. */

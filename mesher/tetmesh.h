@@ -236,15 +236,21 @@ static inline uint32_t tm_alloc_tet(tm_mesh *m)
     m->nlive++;
     return t;
 }
+/* Marks slot t dead and puts it on the free list, without counting it
+ * out of the live ones: the inverse of tm__take_slot. */
+static inline void tm__release_slot(tm_mesh *m, uint32_t t)
+{
+    m->flags[t] = TM_F_DEAD;
+    m->tets[t].n[0] = m->free_head;
+    m->free_head = t;
+    m->nfree++;
+}
 /* Puts t on the free list. Links of neighbours are not touched. */
 static inline void tm_free_tet(tm_mesh *m, uint32_t t)
 {
     m->nghost -= (uint32_t)tm_is_ghost(m, t);
     m->nlive--;
-    m->flags[t] = TM_F_DEAD;
-    m->tets[t].n[0] = m->free_head;
-    m->free_head = t;
-    m->nfree++;
+    tm__release_slot(m, t);
 }
 /* Frees t and sets the links of its neighbours towards t to
  * TM_LINK_NONE (they become domain-boundary faces). */
