@@ -7,6 +7,10 @@ UNIT_LIBS = $(CHECK_LIBS)
 TESTS += tests/pdr-cli.sh
 dist_check_SCRIPTS += tests/pdr-cli.sh
 
+# The include layering of mesher/ (tools/check-layers).
+TESTS += tests/layering.sh
+dist_check_SCRIPTS += tests/layering.sh
+
 # 'make installcheck' (run by distcheck) compiles and runs a program against
 # the installed libam using nothing but pkg-config.
 EXTRA_DIST += tests/installcheck.c

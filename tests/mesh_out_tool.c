@@ -21,11 +21,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io_face.h"
-#include "io_msh.h"
-#include "io_vtu.h"
-#include "mesh_export.h"
-#include "quality.h"
+#include "io/face.h"
+#include "io/msh.h"
+#include "io/vtu.h"
+#include "mesh/mesh_export.h"
+#include "check/ql.h"
 
 /* The 6 tetrahedra of a cube around its diagonal 0-7 (corners x + 2y + 4z). */
 static const int kuhn[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},

@@ -15,7 +15,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "plc.h"
+#include "plc/plc.h"
 
 int main(int argc, char **argv)
 {

@@ -7,12 +7,12 @@
 #include <math.h>
 #include <stdint.h>
 
-#include "delaunay.h"
-#include "pred.h"
-#include "spatial_sort.h"
-#include "tetmesh.h"
+#include "mesh/dt.h"
+#include "geom/pred.h"
+#include "geom/ss.h"
+#include "mesh/tm.h"
 #include "unit.h"
-#include "verify.h"
+#include "mesh/vf.h"
 
 static uint64_t rng_state;
 static uint64_t rnd(void)

@@ -3,7 +3,7 @@
 
 #include <stdio.h>
 
-#include "pdr_error.h"
+#include "base/pdr_error.h"
 #include "unit.h"
 
 START_TEST(messages_carry_file_and_line)

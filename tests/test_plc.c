@@ -8,8 +8,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "domain.h"
-#include "plc.h"
+#include "plc/dom.h"
+#include "plc/plc.h"
 #include "unit.h"
 
 /* ------------------------------------------------------------- helpers */

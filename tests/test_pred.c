@@ -1,7 +1,7 @@
 /* Unit tests of the exact predicates against exact rational arithmetic (GMP).
  *
  * The reference evaluates the textbook determinants (rows [x y z |p|^2 1])
- * with mpq by Gaussian elimination, independently of the way pred.c
+ * with mpq by Gaussian elimination, independently of the way geom/pred.c
  * translates, expands and filters. Inputs are exactly degenerate
  * configurations (integer points on a sphere, a circle or a plane, scaled
  * and translated without rounding) and the same configurations moved by a
@@ -15,7 +15,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "pred.h"
+#include "geom/pred.h"
 #include "unit.h"
 
 /* ------------------------------------------------------------ helpers */
@@ -203,7 +203,7 @@ static void apply(const affine *t, const int *ip, double *p)
 /* --------------------------------------------------------------- tests */
 
 /* The insphere filter's determinant, written out in scalar operations in
- * the order pred.c derives the bound for. */
+ * the order geom/pred.c derives the bound for. */
 static double scalar_insphere_det(const double *a, const double *b, const double *c,
                                   const double *d, const double *e, double *L)
 {
@@ -225,7 +225,7 @@ static double scalar_insphere_det(const double *a, const double *b, const double
     return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
 }
 
-/* pred.h evaluates the insphere filter two operations at a time (vector
+/* geom/pred.h evaluates the insphere filter two operations at a time (vector
  * extensions); its certified bound holds only if every rounded operation is
  * the scalar one. Bit-for-bit equality of the determinant and of the
  * largest lift on random inputs of many magnitudes and signs, and on

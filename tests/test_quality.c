@@ -1,10 +1,10 @@
-/* Unit tests of the quality measures and statistics (mesher/quality.c). */
+/* Unit tests of the quality measures and statistics (check/ql.c). */
 #include "config.h"
 
 #include <math.h>
 #include <stdio.h>
 
-#include "quality.h"
+#include "check/ql.h"
 #include "unit.h"
 
 #define PI 3.14159265358979323846

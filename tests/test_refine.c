@@ -10,35 +10,35 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bnd.h"
-#include "delaunay.h"
-#include "domain.h"
-#include "initmesh.h"
-#include "meshcheck.h"
-#include "numfmt.h"
-#include "plc.h"
-#include "refine.h"
+#include "refine/bd.h"
+#include "mesh/dt.h"
+#include "plc/dom.h"
+#include "refine/im.h"
+#include "check/mc.h"
+#include "base/nf.h"
+#include "plc/plc.h"
+#include "refine/refine.h"
 #include "unit.h"
-#include "verify.h"
+#include "mesh/vf.h"
 
 /* ------------------------------------------------------------- tables */
 
 START_TEST(map_put_get_delete)
 {
-    bd_map m;
+    hmap m;
     memset(&m, 0, sizeof m);
     /* many keys, some stored twice (a multimap), then half deleted */
     for (uint32_t i = 1; i <= 5000; i++) {
-        ck_assert_int_eq(bd_map_put(&m, (uint64_t)i * 7919u, i), 0);
+        ck_assert_int_eq(hmap_put(&m, (uint64_t)i * 7919u, i), 0);
         if (i % 10 == 0)
-            ck_assert_int_eq(bd_map_put(&m, (uint64_t)i * 7919u, i + 1000000u), 0);
+            ck_assert_int_eq(hmap_put(&m, (uint64_t)i * 7919u, i + 1000000u), 0);
     }
     ck_assert_uint_eq(m.n, 5500);
     for (uint32_t i = 1; i <= 5000; i += 2)
-        ck_assert_int_eq(bd_map_del(&m, (uint64_t)i * 7919u, i), 1);
-    ck_assert_int_eq(bd_map_del(&m, 12345u, 1), 0);
+        ck_assert_int_eq(hmap_del(&m, (uint64_t)i * 7919u, i), 1);
+    ck_assert_int_eq(hmap_del(&m, 12345u, 1), 0);
     for (uint32_t i = 1; i <= 5000; i++) {
-        uint32_t v = bd_map_get(&m, (uint64_t)i * 7919u);
+        uint32_t v = hmap_get(&m, (uint64_t)i * 7919u);
         if (i % 2 == 0)
             ck_assert(v == i || v == i + 1000000u);
         else if (i % 10 == 0)
@@ -46,7 +46,7 @@ START_TEST(map_put_get_delete)
         else
             ck_assert_uint_eq(v, BD_NONE);
     }
-    bd_map_free(&m);
+    hmap_free(&m);
 }
 END_TEST
 

@@ -5,9 +5,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "outfile.h"
-#include "pdr_util.h"
-#include "textin.h"
+#include "base/outfile.h"
+#include "base/pdr_util.h"
+#include "base/textin.h"
 #include "unit.h"
 
 static textin open_text(const char *text, pdr_diag *d)

@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "pdr_util.h"
+#include "base/pdr_util.h"
 #include "pr.h"
 #include "../tests/pr_sample.h"
 

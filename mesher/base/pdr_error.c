@@ -1,0 +1,79 @@
+/* base/pdr_error.c -- mesher error codes and file:line diagnostics. */
+#include "config.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "base/pdr_error.h"
+
+const char *pdr_strerror(int code)
+{
+    switch (code) {
+#define PDR_ERRNO_CASE(name, value, msg)                                     \
+    case PDR_E##name:                                                        \
+        return msg;
+        PDR_ERRNO_MAP(PDR_ERRNO_CASE)
+#undef PDR_ERRNO_CASE
+    }
+    return "unknown pdr error";
+}
+
+int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
+{
+    d->ntotal++;
+    if (d->nkept >= PDR_DIAG_KEEP)
+        return (int)(d->ntotal > (size_t)1 << 30 ? 1 << 30 : d->ntotal);
+
+    char prefix[512] = "";
+    if (file && line > 0)
+        snprintf(prefix, sizeof prefix, "%s:%ld: ", file, line);
+    else if (file)
+        snprintf(prefix, sizeof prefix, "%s: ", file);
+
+    va_list ap;
+    va_start(ap, fmt);
+    va_list ap2;
+    va_copy(ap2, ap);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        va_end(ap2);
+        return PDR_EINVAL;
+    }
+    size_t plen = 0;
+    while (prefix[plen])
+        plen++;
+    char *msg = malloc(plen + (size_t)n + 1);
+    char **msgs = msg ? realloc(d->msgs, (d->nkept + 1) * sizeof *msgs) : NULL;
+    if (!msgs) {
+        free(msg);
+        va_end(ap2);
+        return PDR_ENOMEM;
+    }
+    d->msgs = msgs;
+    for (size_t i = 0; i < plen; i++)
+        msg[i] = prefix[i];
+    vsnprintf(msg + plen, (size_t)n + 1, fmt, ap2);
+    va_end(ap2);
+    d->msgs[d->nkept++] = msg;
+    return (int)(d->ntotal > (size_t)1 << 30 ? 1 << 30 : d->ntotal);
+}
+
+void pdr_diag_print(const pdr_diag *d, void *f)
+{
+    FILE *out = f;
+    for (size_t i = 0; i < d->nkept; i++)
+        fprintf(out, "%s\n", d->msgs[i]);
+    if (d->ntotal > d->nkept)
+        fprintf(out, "(%zu more messages not shown)\n", d->ntotal - d->nkept);
+}
+
+void pdr_diag_free(pdr_diag *d)
+{
+    for (size_t i = 0; i < d->nkept; i++)
+        free(d->msgs[i]);
+    free(d->msgs);
+    d->msgs = NULL;
+    d->nkept = d->ntotal = 0;
+}

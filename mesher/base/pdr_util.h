@@ -1,0 +1,52 @@
+/* base/pdr_util.h -- small helpers shared by the mesher's modules and commands:
+ * clocks and resource usage, growable arrays, output paths, progress
+ * lines. */
+#ifndef PDR_UTIL_H
+#define PDR_UTIL_H
+
+#include <stddef.h>
+
+#include "base/pdr_error.h"
+
+/* Seconds on the monotonic clock (arbitrary origin). */
+double pdr_now(void);
+/* Peak resident set size of this process in bytes, or 0 if unknown. */
+size_t pdr_peak_rss(void);
+
+/* Makes the array *p of *cap elements of 'size' bytes hold at least 'need'
+ * elements, doubling its capacity (from 64) so that n appends cost O(n).
+ * Returns 0, or PDR_ENOMEM with *p and *cap unchanged. The check that
+ * usually succeeds is inline; the reallocation is not. */
+int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size);
+static inline int pdr_grow(void **p, size_t *cap, size_t need, size_t size)
+{
+    return need <= *cap ? 0 : pdr__grow_slow(p, cap, need, size);
+}
+
+/* Length of path without its extension: up to the last '.' of its last
+ * component, or all of it if that component has no '.'. */
+size_t pdr_path_stem(const char *path);
+/* The first n bytes of base followed by ext, in a new string the caller
+ * frees; NULL if out of memory. */
+char *pdr_path_ext(const char *base, size_t n, const char *ext);
+/* base followed by ext (pdr_path_ext of all of base). */
+char *pdr_path_join(const char *base, const char *ext);
+
+/* A progress line on stderr for long runs: nothing during the first two
+ * seconds; then, on a terminal, one line rewritten in place at most every
+ * half second, otherwise one line every ten seconds (logs stay short). */
+typedef struct pdr_progress {
+    double t0, last; /* start, time of the last line */
+    int quiet;       /* print nothing */
+    int tty;         /* stderr is a terminal */
+    int shown;       /* a line was printed */
+} pdr_progress;
+
+void pdr_progress_start(pdr_progress *p, double t0, int quiet);
+/* Prints the formatted line (no newline needed) if one is due. */
+void pdr_progress_line(pdr_progress *p, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+/* Ends a line left open on a terminal. */
+void pdr_progress_end(pdr_progress *p);
+
+#endif /* PDR_UTIL_H */

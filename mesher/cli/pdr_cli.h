@@ -1,0 +1,32 @@
+/*
+ * cli/pdr_cli.h -- the subcommands of the pdr program.
+ *
+ * Each subcommand NAME lives in mesher/cmd_NAME.c as
+ *     int pdr_cmd_NAME(int argc, char **argv);
+ * which receives argv[0] == "NAME", parses its own options, and returns the
+ * process exit status (0 success, 1 failure of the job, 2 usage error).
+ * Adding a command means adding one line to PDR_COMMANDS.
+ */
+#ifndef PDR_CLI_H
+#define PDR_CLI_H
+
+#define PDR_COMMANDS(X)                                                      \
+    X(info, "print the version, build configuration and libraries")          \
+    X(delaunay, "Delaunay tetrahedralization of a point set (.node)")        \
+    X(check, "verify a tetrahedral mesh (.node/.ele) with exact predicates") \
+    X(domain, "write a model problem (cube-in-cube, tee) as a .poly file")   \
+    X(run, "start a program as a parallel libam job (like am-run)")          \
+    X(mesh, "quality tetrahedral mesh of a PLC (.poly/.smesh/.off/.stl)")
+
+#define PDR_CMD_DECLARE(name, summary) int pdr_cmd_##name(int argc, char **argv);
+PDR_COMMANDS(PDR_CMD_DECLARE)
+#undef PDR_CMD_DECLARE
+
+/* Exit statuses shared by all commands. */
+enum { PDR_EXIT_OK = 0, PDR_EXIT_FAIL = 1, PDR_EXIT_USAGE = 2 };
+
+/* Prints "pdr NAME: " and the formatted message to stderr. */
+void pdr_cli_error(const char *cmd, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+#endif /* PDR_CLI_H */

@@ -1,0 +1,13 @@
+# mesher/plc: PLC input, validation, facet triangulation and the built-in
+# domains. Uses base, geom and mesh.
+noinst_HEADERS += \
+	mesher/plc/dom.h \
+	mesher/plc/plc.h \
+	mesher/plc/plc_int.h \
+	mesher/plc/plc_tri.h
+libpdrmesh_la_SOURCES += \
+	mesher/plc/dom.c \
+	mesher/plc/plc.c \
+	mesher/plc/plc_check.c \
+	mesher/plc/plc_read.c \
+	mesher/plc/plc_tri.c

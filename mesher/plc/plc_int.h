@@ -1,0 +1,25 @@
+/*
+ * plc/plc_int.h -- shared between the plc_*.c files; not for other
+ * modules.
+ */
+#ifndef PDR_PLC_INTERNAL_H
+#define PDR_PLC_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "plc/plc.h"
+
+/* Grows *arr (elements of elsize bytes, capacity *cap) to hold need
+ * elements, doubling. Returns 0 or PDR_ENOMEM (*arr is then unchanged). */
+int plc__grow(void **arr, size_t *cap, size_t need, size_t elsize);
+/* Frees the derived arrays and clears 'derived'. */
+void plc__drop_derived(plc *p);
+/* Allocates nattr zeroed attributes per vertex (once). */
+int plc__enable_vattr(plc *p, size_t nattr);
+/* Newell area vector (twice the area times the unit normal) and corner
+ * centroid of polygon q. */
+void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3]);
+int plc__cmp_u64(const void *x, const void *y);
+
+#endif /* PDR_PLC_INTERNAL_H */

@@ -1,0 +1,10 @@
+# mesher/refine: boundary tables, the initial mesh Mo and the sequential
+# Delaunay refinement. Uses base, geom, mesh and plc.
+noinst_HEADERS += \
+	mesher/refine/bd.h \
+	mesher/refine/im.h \
+	mesher/refine/refine.h
+libpdrmesh_la_SOURCES += \
+	mesher/refine/bd.c \
+	mesher/refine/im.c \
+	mesher/refine/refine.c
