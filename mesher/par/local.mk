@@ -1,6 +1,8 @@
 # mesher/par: the parallel refinement (DESIGN section 5). Uses every layer
 # up to refine, and the runtime (libam) and proto.
 noinst_HEADERS += \
+	mesher/par/par_cav.h \
 	mesher/par/par_sub.h
 libpdrmesh_la_SOURCES += \
+	mesher/par/par_cav.c \
 	mesher/par/par_sub.c

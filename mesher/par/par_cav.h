@@ -1,0 +1,193 @@
+/*
+ * par/par_cav.h -- the distributed cavity: breadth-first parallel search,
+ * locking, migration to the origin, abort (prefix par_cav_). DESIGN
+ * section 5.3-5.4, the paper's section 4.2.
+ *
+ * How a cavity that spans PEs is made local ("migrate, then decide"):
+ *
+ *   1. The origin O (the PE whose thread inserts p) searches the cavity of
+ *      p from a local tetrahedron in conflict, locking the cavity and the
+ *      ring of tetrahedra around it (its closure) with a lock naming this
+ *      cavity (the owner id: O's rank and a counter). Every interface face
+ *      met (TM_LINK_REMOTE) becomes a frontier face: (face key, PE).
+ *   2. Scatter: one GATHER request per PE with p and its frontier faces.
+ *      The PE continues the search from the tetrahedron behind each face:
+ *      in conflict, a local search (locking); not in conflict, it locks
+ *      that tetrahedron as closure. It replies with copies of its new
+ *      cavity tetrahedra (vertices with their refinement data, face
+ *      markers, subsegment bits, flags, region, the subsegments and
+ *      subfacets on them, and for each face the PE holding the tetrahedron
+ *      behind it). Gather; faces of gathered tetrahedra that lead to
+ *      another PE and are not yet inside the cavity are the next frontier
+ *      (faces leading back to O are searched by O itself). Repeat until
+ *      the frontier is empty (the paper's fig. 5).
+ *   3. A tetrahedron locked by another cavity, or a frontier face that no
+ *      longer exists on the PE named (stale: the tetrahedron moved), makes
+ *      the attempt a setback: ABORT to every PE asked releases the locks.
+ *   4. Otherwise O imports the gathered tetrahedra into its own mesh,
+ *      linking them to each other and to the closure (local links, or new
+ *      interface faces to the PE holding the closure tetrahedron), and
+ *      sends MIGRATE to every participant: each deletes its cavity
+ *      tetrahedra, points its closure faces at O, and unlocks.
+ *   5. The cavity is now local to O and still locked by O: the sequential
+ *      mesher (refine/) searches it again, decides (ref_decide: commit, or
+ *      split an encroached subsegment or subfacet instead) and
+ *      retriangulates exactly as it does alone. Encroachment found in the
+ *      cavity therefore turns into a split on O of a piece whose
+ *      tetrahedra O already holds: migration, not forwarding, because the
+ *      decision needs the whole cavity's marks anyway and forwarding would
+ *      need a second protocol with its own races.
+ *
+ * Why no acknowledgement of MIGRATE is awaited: messages between two PEs
+ * arrive in the order sent, every tetrahedron involved stays locked until
+ * its PE has processed the MIGRATE, and O has imported the cavity before
+ * it sends one; so any later request reaching a participant through a
+ * changed face either finds the new link or meets a lock (a setback).
+ * Termination detection counts the MIGRATE like any message in flight.
+ *
+ * Ownership: a par_cav belongs to one cooperative thread of the origin;
+ * the participant-side records live in par_cav_ctx.
+ */
+#ifndef PDR_PAR_CAV_H
+#define PDR_PAR_CAV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "am.h"
+#include "base/hmap.h"
+#include "par/par_sub.h"
+
+/* Outcome of par_cav_gather (besides negative error codes). */
+enum par_cav_status {
+    PAR_CAV_LOCAL = 0,   /* the cavity is local and locked: go on */
+    PAR_CAV_SETBACK = 1, /* locked elsewhere or stale: try again later */
+};
+
+/* A gathered tetrahedron, as a participant sent it. */
+typedef struct par_gtet {
+    uint32_t v[4];      /* indices into the cavity's gathered vertices */
+    int32_t marker[4];  /* face markers (facet + 1, 0 none) */
+    uint32_t nbr[4];    /* PE holding the tetrahedron across face i */
+    uint16_t flags;     /* tm/ref flags that travel (see par_cav.c) */
+    uint16_t region;    /* region index + 1, 0 none */
+    uint32_t src;       /* PE it came from */
+} par_gtet;
+
+typedef struct par_gvert {
+    uint64_t gid;
+    double xyz[3];
+    float rins;
+    uint32_t feat;
+    uint8_t kind;
+} par_gvert;
+
+/* A subsegment (nv 2) or subfacet (nv 3) on gathered tetrahedra. */
+typedef struct par_gpiece {
+    uint32_t v[3];      /* gathered vertex indices (bd orientation) */
+    uint32_t feat;      /* input segment or facet */
+    uint16_t flags;     /* bd flags */
+    uint8_t nv;
+} par_gpiece;
+
+struct par_cav_ctx;
+
+/* A growable list of 32-bit values. */
+typedef struct par_u32list {
+    uint32_t *a;
+    size_t n, cap;
+} par_u32list;
+
+/* What one PE holds of one cavity: its cavity tetrahedra, the tetrahedra
+ * it locked for it (cavity and closure), the closure faces that will face
+ * the origin after migration (links towards cavity tetrahedra), and the
+ * interface entries of closure faces that led to cavity tetrahedra on
+ * other PEs. */
+typedef struct par_part {
+    par_u32list cav, held, repoint, ifcs;
+} par_part;
+
+/* One insertion attempt of one thread of the origin. */
+typedef struct par_cav {
+    struct par_cav_ctx *cc;
+    uint32_t owner;     /* lock owner id of the current attempt, 0 none */
+    double p[3];
+    par_part own;       /* this PE's part; own.held also lists imported
+                           tetrahedra (locked by owner until release) */
+    /* gathered from other PEs */
+    par_gtet *gt;
+    size_t ngt, cap_gt;
+    par_gvert *gv;
+    size_t ngv, cap_gv;
+    hmap gvmap;         /* gid -> gathered vertex index */
+    par_gpiece *gp;
+    size_t ngp, cap_gp;
+    /* faces of the cavity met so far: key hash -> index into face */
+    struct par_cav_face *face;
+    size_t nface, cap_face;
+    hmap facemap;
+    struct par_cav_req *req; /* this round's requests */
+    size_t nreq, cap_req;
+    par_u32list parts;  /* PEs asked in this attempt */
+    /* waiting for replies */
+    am_future_t *fut;
+    int pending;        /* replies still expected this round */
+    int failed;         /* first setback status a reply gave, 0 none */
+    int err;            /* a reply could not be decoded */
+    int distributed;    /* the current attempt involved another PE */
+} par_cav;
+
+/* Statistics of the protocol on one PE. */
+typedef struct par_cav_stats {
+    uint64_t gathers_local;   /* attempts that stayed on this PE */
+    uint64_t gathers_dist;    /* attempts that needed other PEs */
+    uint64_t setbacks_locked, setbacks_stale;
+    uint64_t rounds;          /* scatter-gather rounds */
+    uint64_t tets_in, tets_out; /* tetrahedra imported / migrated away */
+    uint64_t served;          /* GATHER requests served */
+} par_cav_stats;
+
+/* Per-PE protocol state: handlers, the participant-side records. */
+typedef struct par_cav_ctx {
+    am_ctx_t *am;
+    par_sub *s;
+    unsigned h_gather, h_reply, h_migrate, h_abort;
+    uint32_t seq;        /* counter for owner ids */
+    hmap origin;         /* owner -> index into cavs (waiting threads) */
+    par_cav **cavs;
+    size_t ncavs, cap_cavs;
+    hmap served;         /* owner -> index into recs */
+    struct par_rec *recs;
+    size_t nrecs, cap_recs;
+    uint32_t rec_free;
+    dt_cavity scratch;   /* searches run by handlers */
+    int nblocked_dist;   /* threads blocked waiting for replies */
+    int cat_service;     /* am_category of serving remote requests */
+    /* Puts an imported piece of work back on this PE's queues: kind 0 a
+     * tetrahedron, 1 a subsegment, 2 a subfacet (ids of this PE). */
+    int (*requeue)(void *arg, int kind, uint32_t id);
+    void *requeue_arg;
+    par_cav_stats st;
+} par_cav_ctx;
+
+/* Registers the protocol's handlers (ids base .. base+3) on this PE. Call
+ * on every PE after am_init, before any PE starts refining. s must outlive
+ * cc. Returns 0 or a negative code. */
+int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base);
+void par_cav_ctx_free(par_cav_ctx *cc);
+
+void par_cav_init(par_cav *c, par_cav_ctx *cc);
+void par_cav_free(par_cav *c);
+
+/* From a thread: makes the cavity of p local to this PE, starting from
+ * local tetrahedron start, which must be in conflict with p (see the top
+ * of this file). Releases the locks of the thread's previous attempt
+ * first. Returns PAR_CAV_LOCAL (the cavity and its closure are on this
+ * PE, locked by c->owner, until par_cav_release), PAR_CAV_SETBACK, or a
+ * negative code. */
+int par_cav_gather(par_cav *c, const double p[3], uint32_t start);
+
+/* Releases every lock the thread's last attempt holds on this PE. */
+void par_cav_release(par_cav *c);
+
+#endif /* PDR_PAR_CAV_H */
