@@ -329,41 +329,53 @@ static int check_hello(am_ctx_t *ctx, int src, const pr_hello *remote)
     return 0;
 }
 
-void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
+/* Boot messages are only valid while this PE is starting. */
+static int booting(am_ctx_t *ctx, int src)
 {
-    if (ctx->state != AM__BOOTING) {
-        am__reject(ctx, AM__REJ_BODY, src, "boot message after the start");
+    if (ctx->state == AM__BOOTING)
+        return 1;
+    am__reject(ctx, AM__REJ_BODY, src, "boot message after the start");
+    return 0;
+}
+
+static void on_hello(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    if (!booting(ctx, src))
         return;
-    }
     am__peer *p = &ctx->peers[src];
-    if (type == AM__CTL_HELLO) {
-        am__hello h;
-        if (am__hello_get(r, &h) || ctx->rank != 0) {
-            am__reject(ctx, AM__REJ_BODY, src, "bad hello");
-            return;
-        }
-        if (check_hello(ctx, src, &h.id))
-            return;
-        free(p->endpoint);
-        p->endpoint = strndup((const char *)h.endpoint.p, h.endpoint.len);
-        if (!p->endpoint) {
-            am__fail(ctx, AM_ENOMEM, "out of memory at boot");
-            return;
-        }
-        p->hello = 1;
+    am__hello h;
+    if (am__hello_get(body, &h) || ctx->rank != 0) {
+        am__reject(ctx, AM__REJ_BODY, src, "bad hello");
         return;
     }
-    if (type == AM__CTL_PEER_HELLO) {
-        am__peer_hello h;
-        if (am__peer_hello_get(r, &h) || src <= ctx->rank) {
-            am__reject(ctx, AM__REJ_BODY, src, "bad peer hello");
-            return;
-        }
-        if (!check_hello(ctx, src, &h.id))
-            p->hello = 1;
+    if (check_hello(ctx, src, &h.id))
+        return;
+    free(p->endpoint);
+    p->endpoint = strndup((const char *)h.endpoint.p, h.endpoint.len);
+    if (!p->endpoint) {
+        am__fail(ctx, AM_ENOMEM, "out of memory at boot");
         return;
     }
-    /* TABLE */
+    p->hello = 1;
+}
+
+static void on_peer_hello(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    if (!booting(ctx, src))
+        return;
+    am__peer_hello h;
+    if (am__peer_hello_get(body, &h) || src <= ctx->rank) {
+        am__reject(ctx, AM__REJ_BODY, src, "bad peer hello");
+        return;
+    }
+    if (!check_hello(ctx, src, &h.id))
+        ctx->peers[src].hello = 1;
+}
+
+static void on_table(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    if (!booting(ctx, src))
+        return;
     am__str *eps = calloc((size_t)ctx->size, sizeof *eps);
     uint64_t job;
     uint32_t n;
@@ -372,7 +384,7 @@ void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
         return;
     }
     if (src != 0 || ctx->rank == 0 || ctx->boot_table ||
-        am__table_get(r, &job, (uint32_t)ctx->size, &n, eps) ||
+        am__table_get(body, &job, (uint32_t)ctx->size, &n, eps) ||
         n != (uint32_t)ctx->size) {
         free(eps);
         am__reject(ctx, AM__REJ_BODY, src, "bad endpoint table");
@@ -396,3 +408,12 @@ void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
     free(eps);
     ctx->boot_table = 1;
 }
+
+/* These three are handled while the PE boots; frames of other types that
+ * arrive meanwhile wait until the start is over. */
+const am__ctl_entry am__boot_ctls[] = {
+    {AM__CTL_HELLO, "hello", AM__CTLF_BOOT, on_hello},
+    {AM__CTL_TABLE, "table", AM__CTLF_BOOT, on_table},
+    {AM__CTL_PEER_HELLO, "peer_hello", AM__CTLF_BOOT, on_peer_hello},
+    {0, NULL, 0, NULL},
+};

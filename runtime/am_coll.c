@@ -326,47 +326,51 @@ static uint64_t completed_seq(const am_ctx_t *ctx)
     return ctx->coll_busy ? ctx->coll_seq - 1 : ctx->coll_seq;
 }
 
-void am__coll_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
+/* A gather contribution: rank 0 keeps one blob per PE. */
+static void on_gather(am_ctx_t *ctx, int src, pr_reader *body)
 {
-    if (type == AM__CTL_GATHER) {
-        am__gather_msg m;
-        am__coll *c;
-        if (am__gather_get(r, &m) || ctx->rank != 0 ||
-            m.seq <= completed_seq(ctx)) {
-            am__reject(ctx, AM__REJ_BODY, src, "unexpected gather message");
-            return;
-        }
-        if (!(c = coll_find(ctx, m.seq, 1)) ||
-            (!c->blobs && (!(c->blobs = calloc((size_t)ctx->size, sizeof *c->blobs)) ||
-                           !(c->blens = calloc((size_t)ctx->size, sizeof *c->blens))))) {
-            am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
-            return;
-        }
-        if (c->kind < 0)
-            c->kind = AM__COLL_GATHER;
-        if (c->kind != AM__COLL_GATHER || c->blobs[src] || c->blens[src]) {
-            am__reject(ctx, AM__REJ_BODY, src, "duplicate gather contribution");
-            return;
-        }
-        c->blobs[src] = malloc(m.blob.len ? m.blob.len : 1);
-        if (!c->blobs[src]) {
-            am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
-            return;
-        }
-        if (m.blob.len)
-            memcpy(c->blobs[src], m.blob.p, m.blob.len);
-        c->blens[src] = m.blob.len;
-        c->blobs_got++;
-        coll_touch(ctx, c);
+    am__gather_msg m;
+    am__coll *c;
+    if (am__gather_get(body, &m) || ctx->rank != 0 ||
+        m.seq <= completed_seq(ctx)) {
+        am__reject(ctx, AM__REJ_BODY, src, "unexpected gather message");
         return;
     }
+    if (!(c = coll_find(ctx, m.seq, 1)) ||
+        (!c->blobs && (!(c->blobs = calloc((size_t)ctx->size, sizeof *c->blobs)) ||
+                       !(c->blens = calloc((size_t)ctx->size, sizeof *c->blens))))) {
+        am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
+        return;
+    }
+    if (c->kind < 0)
+        c->kind = AM__COLL_GATHER;
+    if (c->kind != AM__COLL_GATHER || c->blobs[src] || c->blens[src]) {
+        am__reject(ctx, AM__REJ_BODY, src, "duplicate gather contribution");
+        return;
+    }
+    c->blobs[src] = malloc(m.blob.len ? m.blob.len : 1);
+    if (!c->blobs[src]) {
+        am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
+        return;
+    }
+    if (m.blob.len)
+        memcpy(c->blobs[src], m.blob.p, m.blob.len);
+    c->blens[src] = m.blob.len;
+    c->blobs_got++;
+    coll_touch(ctx, c);
+}
+
+/* A vector of the reduction tree: up is 1 for a child's contribution
+ * (COLL_UP), 0 for the parent's result (COLL_DOWN). */
+static void on_vector(am_ctx_t *ctx, int src, pr_reader *body, int up)
+{
     am__coll_msg m;
-    if (am__coll_get(r, &m)) {
+    if (am__coll_get(body, &m)) {
         am__reject(ctx, AM__REJ_BODY, src, "malformed collective message");
         return;
     }
     int slot = -1;
-    if (type == AM__CTL_COLL_UP) {
+    if (up) {
         if (src == 2 * ctx->rank + 1)
             slot = 0;
         else if (src == 2 * ctx->rank + 2)
@@ -398,3 +402,20 @@ void am__coll_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
     }
     coll_touch(ctx, c);
 }
+
+static void on_up(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    on_vector(ctx, src, body, 1);
+}
+
+static void on_down(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    on_vector(ctx, src, body, 0);
+}
+
+const am__ctl_entry am__coll_ctls[] = {
+    {AM__CTL_COLL_UP, "coll_up", 0, on_up},
+    {AM__CTL_COLL_DOWN, "coll_down", 0, on_down},
+    {AM__CTL_GATHER, "gather", 0, on_gather},
+    {0, NULL, 0, NULL},
+};

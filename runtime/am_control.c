@@ -8,18 +8,6 @@
 
 #include "am_control.h"
 
-const char *am__ctl_name(unsigned type)
-{
-    switch (type) {
-#define AM__CTL_CASE(name, value, label)                                     \
-    case AM__CTL_##name:                                                     \
-        return label;
-        AM__CTL_MAP(AM__CTL_CASE)
-#undef AM__CTL_CASE
-    }
-    return "?";
-}
-
 static void put_str(pr_buf *b, const char *s, size_t len)
 {
     pr_put_u32(b, (uint32_t)len);

@@ -15,30 +15,26 @@
 
 #include "pr.h"
 
-#define AM__CTL_MAP(X)                                                       \
-    X(HELLO, 1, "hello")             /* rank > 0 -> 0 at boot */             \
-    X(TABLE, 2, "table")             /* 0 -> all: endpoint table */          \
-    X(PEER_HELLO, 3, "peer_hello")   /* higher -> lower rank at boot */      \
-    X(BYE, 4, "bye")                 /* finalize: goodbye */                 \
-    X(PING, 5, "ping")               /* liveness probe */                    \
-    X(TOKEN, 6, "token")             /* termination token */                 \
-    X(TERMINATE, 7, "terminate")     /* 0 -> all: termination declared */    \
-    X(COLL_UP, 8, "coll_up")         /* child -> parent contribution */      \
-    X(COLL_DOWN, 9, "coll_down")     /* parent -> child result */            \
-    X(GATHER, 10, "gather")          /* blob -> rank 0 */                    \
-    X(RPC_REQ, 11, "rpc_request")    /* am_call request */                   \
-    X(RPC_REP, 12, "rpc_reply")      /* am_call reply */                     \
-    X(ABORT, 13, "abort")            /* a PE saw a peer fail; it exits */
-
+/* The control types: the header's handler field of a control frame. The
+ * numbers are the wire format (runtime/CONTROL.md); what a PE does with
+ * each type, and its name in the statistics, is declared by the module
+ * that handles it (the dispatch table, am_int.h). */
 enum am__ctl_type {
-#define AM__CTL_ENUM(name, value, label) AM__CTL_##name = (value),
-    AM__CTL_MAP(AM__CTL_ENUM)
-#undef AM__CTL_ENUM
-    AM__CTL_COUNT
+    AM__CTL_HELLO = 1,      /* rank > 0 -> 0 at boot */
+    AM__CTL_TABLE = 2,      /* 0 -> all: endpoint table */
+    AM__CTL_PEER_HELLO = 3, /* higher -> lower rank at boot */
+    AM__CTL_BYE = 4,        /* finalize: goodbye */
+    AM__CTL_PING = 5,       /* liveness probe */
+    AM__CTL_TOKEN = 6,      /* termination token */
+    AM__CTL_TERMINATE = 7,  /* 0 -> all: termination declared */
+    AM__CTL_COLL_UP = 8,    /* child -> parent contribution */
+    AM__CTL_COLL_DOWN = 9,  /* parent -> child result */
+    AM__CTL_GATHER = 10,    /* blob -> rank 0 */
+    AM__CTL_RPC_REQ = 11,   /* am_call request */
+    AM__CTL_RPC_REP = 12,   /* am_call reply */
+    AM__CTL_ABORT = 13,     /* a PE saw a peer fail; it exits */
+    AM__CTL_COUNT           /* one past the highest type */
 };
-
-/* Name of a control type for statistics ("hello"), "?" if unknown. */
-const char *am__ctl_name(unsigned type);
 
 /* Longest endpoint string accepted in a message. */
 #define AM__EP_MAX 1024

@@ -358,6 +358,43 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
     return am__latency_init(ctx, lat, bw);
 }
 
+/* ------------------------------------------------ control dispatch table */
+
+/* The modules that handle control frames, each with its list of entries.
+ * A new module that handles control types is added here once. */
+static const am__ctl_entry *const ctl_modules[] = {
+    am__boot_ctls, am__ctx_ctls,  am__transport_ctls,
+    am__term_ctls, am__coll_ctls, am__rpc_ctls,
+};
+
+/* Fills the context's dispatch table from the modules' lists. A type
+ * claimed twice or by no module is a defect of the library itself, not a
+ * condition a program could handle, so it stops the process at once (any
+ * test catches it). */
+static void ctl_table_build(am_ctx_t *ctx)
+{
+    size_t n = sizeof ctl_modules / sizeof ctl_modules[0];
+    for (size_t i = 0; i < n; i++) {
+        for (const am__ctl_entry *e = ctl_modules[i]; e->type; e++) {
+            if (e->type >= AM__CTL_COUNT || ctx->ctl[e->type] || !e->fn ||
+                !e->name) {
+                am__warn(ctx, "internal error: control type %u (%s) is "
+                              "declared twice or wrongly",
+                         e->type, e->name ? e->name : "?");
+                abort();
+            }
+            ctx->ctl[e->type] = e;
+        }
+    }
+    for (unsigned t = 1; t < AM__CTL_COUNT; t++) {
+        if (!ctx->ctl[t]) {
+            am__warn(ctx, "internal error: no module handles control type %u",
+                     t);
+            abort();
+        }
+    }
+}
+
 /* ------------------------------------------------------- init / finalize */
 
 static void destroy(am_ctx_t *ctx)
@@ -403,6 +440,7 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
         return AM_ENOMEM;
     ctx->t_init = am__now();
     ctx->state = AM__BOOTING;
+    ctl_table_build(ctx);
     int rc = take_args(ctx, argc, argv);
     if (!rc)
         rc = detect_rank(ctx);
@@ -433,6 +471,21 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
     *out = ctx;
     return 0;
 }
+
+/* A PE sends BYE to every other once it passed the final barrier of
+ * am_finalize: from then on it may go without that being a failure. */
+static void on_bye(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    if (am__empty_get(body))
+        am__reject(ctx, AM__REJ_BODY, src, "bye");
+    else
+        ctx->peers[src].said_bye = 1;
+}
+
+const am__ctl_entry am__ctx_ctls[] = {
+    {AM__CTL_BYE, "bye", 0, on_bye},
+    {0, NULL, 0, NULL},
+};
 
 /* Waits (bounded) until every peer said goodbye. A peer closes only after
  * it has our BYE too, so when this returns everything we sent has arrived

@@ -18,6 +18,10 @@
  *   am_latency.c    latency/bandwidth specs, delayed delivery
  *   am_control.c    bodies of the runtime's control messages
  *   am_launch.c     am-run / pdr run launcher and rendezvous server
+ *
+ * Control frames reach the module that handles them through one dispatch
+ * table (section "control dispatch" below), and every send, of any kind,
+ * is counted in one place: count_send in am_transport.c.
  */
 #ifndef AM_INT_H
 #define AM_INT_H
@@ -318,6 +322,39 @@ typedef struct am__latency {
     char bw_spec[64];
 } am__latency;
 
+/* ------------------------------------------------------- control dispatch */
+
+/* Each module declares the control types it handles as a list of entries
+ * (am__boot_ctls, am__term_ctls, ...); am_init gathers them into the
+ * context's table, indexed by type, and checks that every type of
+ * am_control.h is claimed by exactly one module. The transport decodes a
+ * frame's header, looks its type up, and calls the entry: it knows no
+ * subsystem by name, and a new control type is one enum value in
+ * am_control.h plus one entry in the module that handles it. */
+
+/* Handles a control frame from PE src. body is positioned after the header;
+ * what is decoded from it stays valid during the call. The handler checks
+ * the body itself and rejects one it cannot use (am__reject). */
+typedef void (*am__ctl_fn)(am_ctx_t *ctx, int src, pr_reader *body);
+
+/* What the transport needs to know about a type besides its handler. */
+enum am__ctl_flags {
+    /* Handled during start-up. Frames of other types that arrive then wait
+     * in the boot stash until start-up is over. */
+    AM__CTLF_BOOT = 1u << 0,
+    /* A basic message of the termination detection (am_term.c): counted
+     * when sent (by the transport) and when delivered (by its handler),
+     * and held back once termination was declared. */
+    AM__CTLF_BASIC = 1u << 1
+};
+
+typedef struct am__ctl_entry {
+    unsigned type;    /* enum am__ctl_type; 0 ends a module's list */
+    const char *name; /* its key in the statistics file, e.g. "hello" */
+    unsigned flags;   /* enum am__ctl_flags */
+    am__ctl_fn fn;
+} am__ctl_entry;
+
 /* ------------------------------------------------------------- the context */
 
 enum am__boot_state { AM__BOOTING, AM__RUNNING, AM__CLOSING };
@@ -390,6 +427,9 @@ struct am_ctx_s {
     am__call *calls[AM__CALL_BUCKETS];
 
     am__handler handlers[AM_HANDLER_MAX];
+    /* The dispatch table: type -> the entry its module declared (NULL
+     * for type 0). Filled by am_init, read-only afterwards. */
+    const am__ctl_entry *ctl[AM__CTL_COUNT];
     am__hstat ctl_st[AM__CTL_COUNT];
     am__hstat rpc_reply_st;
     am__category cats[AM__CAT_MAX];
@@ -405,11 +445,13 @@ struct am_ctx_s {
 /* am_ctx.c */
 /* getenv with --am-name=value overrides; NULL if unset or empty. */
 const char *am__env(const am_ctx_t *ctx, const char *name);
+/* BYE. */
+extern const am__ctl_entry am__ctx_ctls[];
 
 /* am_boot.c: connects the PEs; returns 0 or a code (diagnostic printed). */
 int am__boot(am_ctx_t *ctx);
-/* HELLO, TABLE and PEER_HELLO frames. */
-void am__boot_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+/* HELLO, TABLE and PEER_HELLO. */
+extern const am__ctl_entry am__boot_ctls[];
 
 /* am_transport.c */
 int am__transport_open(am_ctx_t *ctx);   /* socket, options, bind */
@@ -417,15 +459,20 @@ void am__transport_close(am_ctx_t *ctx);
 int am__connect_peer(am_ctx_t *ctx, int pe);
 /* Encodes the routing id of rank into out[5]. */
 void am__routing_id(int rank, uint8_t out[5]);
-/* Sends a frame already holding header room: writes the header (flags,
- * handler, sender, length, seq) into the first PR_HEADER_SIZE bytes of msg
- * and hands it to ZeroMQ, the send queue, or the loopback queue. Takes
- * ownership of msg on success only; on failure the caller closes it. */
-int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
-                 zmq_msg_t *msg);
+/* PING and ABORT (failure detection). */
+extern const am__ctl_entry am__transport_ctls[];
 /* Builds a control frame from body (encoded with a PR_HEADER_SIZE gap in
  * front, see am__ctl_begin) and sends it. Resets body. */
 int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body);
+/* What a control frame carries for the user, for the statistics: an RPC
+ * request carries a message for a user handler (its id, below
+ * AM_HANDLER_MAX), an RPC reply carries AM__USER_REPLY. */
+#define AM__USER_REPLY ((unsigned)AM_HANDLER_MAX)
+/* As am__send_ctl, for a control frame that carries a user message of
+ * user_len bytes: it is counted under user (handler or reply counters) as
+ * well as under its control type. */
+int am__send_ctl_carrying(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
+                          unsigned user, size_t user_len);
 /* Starts a control body: leaves room for the header. */
 void am__ctl_begin(pr_buf *body);
 /* Receives up to budget frames; returns how many were taken (>= 0). */
@@ -447,7 +494,8 @@ int am__peer_failed(am_ctx_t *ctx, int pe, const char *why);
 void am__reject(am_ctx_t *ctx, int reason, int src, const char *detail);
 /* Frame passed validation (and latency): delivers or defers it. */
 void am__arrive(am_ctx_t *ctx, am__frame *f);
-/* Runs the handler of a user or control frame. */
+/* Runs the handler of a user frame, or the dispatch table's handler of a
+ * control frame. */
 void am__dispatch(am_ctx_t *ctx, am__frame *f);
 /* Delivers a user message to its handler; call_id 0 for plain AMs. */
 void am__deliver_user(am_ctx_t *ctx, int src, unsigned id, const void *data,
@@ -489,18 +537,20 @@ void am__timer_armed(am_ctx_t *ctx, int user, int delta);
 /* am_term.c */
 void am__term_on_send(am_ctx_t *ctx);    /* a basic message was sent */
 void am__term_on_deliver(am_ctx_t *ctx); /* a basic message was delivered */
-void am__term_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+/* TOKEN and TERMINATE. */
+extern const am__ctl_entry am__term_ctls[];
 /* One detection step: reports passivity, moves the token. Returns 1 when
  * termination was declared for the current epoch. */
 int am__term_step(am_ctx_t *ctx, int passive);
 
 /* am_coll.c */
-void am__coll_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r);
+/* COLL_UP, COLL_DOWN and GATHER. */
+extern const am__ctl_entry am__coll_ctls[];
 void am__coll_free_all(am_ctx_t *ctx);
 
 /* am_rpc.c */
-void am__rpc_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r,
-                 const am__frame *f);
+/* RPC_REQ and RPC_REP. */
+extern const am__ctl_entry am__rpc_ctls[];
 
 /* am_stats.c */
 void am__stats_free(am_ctx_t *ctx);

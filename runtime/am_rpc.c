@@ -47,15 +47,11 @@ int am_call(am_ctx_t *ctx, int pe, unsigned id, const void *req, size_t len,
     pr_buf b = PR_BUF_INIT;
     am__ctl_begin(&b);
     am__rpc_req_put(&b, c.id, (uint16_t)id, req, len);
-    rc = am__send_ctl(ctx, pe, AM__CTL_RPC_REQ, &b);
+    /* Counted by the transport as a message of handler id, len bytes. */
+    rc = am__send_ctl_carrying(ctx, pe, AM__CTL_RPC_REQ, &b, id, len);
     pr_buf_free(&b);
     if (rc)
         return rc;
-    am__hstat *st = &ctx->handlers[id].st;
-    st->sent++;
-    st->sent_bytes += len;
-    ctx->st.msgs_sent++;
-    ctx->st.bytes_sent += len;
     c.next = *bucket(ctx, c.id);
     *bucket(ctx, c.id) = &c;
     while (!c.done) {
@@ -81,12 +77,9 @@ int am_reply_to(am_ctx_t *ctx, int pe, uint64_t call_id, const void *data,
     pr_buf b = PR_BUF_INIT;
     am__ctl_begin(&b);
     am__rpc_rep_put(&b, call_id, data, len);
-    int rc = am__send_ctl(ctx, pe, AM__CTL_RPC_REP, &b);
+    int rc = am__send_ctl_carrying(ctx, pe, AM__CTL_RPC_REP, &b,
+                                   AM__USER_REPLY, len);
     pr_buf_free(&b);
-    if (!rc) {
-        ctx->rpc_reply_st.sent++;
-        ctx->rpc_reply_st.sent_bytes += len;
-    }
     return rc;
 }
 
@@ -97,24 +90,27 @@ int am_reply(am_ctx_t *ctx, const am_msg_t *msg, const void *data, size_t len)
     return am_reply_to(ctx, msg->src, msg->call_id, data, len);
 }
 
-void am__rpc_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r,
-                 const am__frame *f)
+/* An RPC request is delivered to its user handler like an AM, with its
+ * call id for am_reply. */
+static void on_request(am_ctx_t *ctx, int src, pr_reader *body)
 {
-    (void)f;
     am__rpc_msg m;
-    if (type == AM__CTL_RPC_REQ) {
-        if (am__rpc_req_get(r, &m)) {
-            am__term_on_deliver(ctx); /* it was counted when sent */
-            am__reject(ctx, AM__REJ_BODY, src, "malformed call");
-            return;
-        }
-        am__deliver_user(ctx, src, m.handler, m.payload.p, m.payload.len,
-                         m.call_id);
+    if (am__rpc_req_get(body, &m)) {
+        am__term_on_deliver(ctx); /* it was counted when sent */
+        am__reject(ctx, AM__REJ_BODY, src, "malformed call");
         return;
     }
+    am__deliver_user(ctx, src, m.handler, m.payload.p, m.payload.len,
+                     m.call_id);
+}
+
+/* A reply wakes the thread blocked in am_call, which owns the copy. */
+static void on_reply(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    am__rpc_msg m;
     am__term_on_deliver(ctx);
     ctx->delivered++;
-    if (am__rpc_rep_get(r, &m)) {
+    if (am__rpc_rep_get(body, &m)) {
         am__reject(ctx, AM__REJ_BODY, src, "malformed reply");
         return;
     }
@@ -140,3 +136,10 @@ void am__rpc_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r,
     call_unlink(ctx, c);
     am__thread_wake(ctx, c->w.thread);
 }
+
+/* Requests and replies are basic messages (see the top of this file). */
+const am__ctl_entry am__rpc_ctls[] = {
+    {AM__CTL_RPC_REQ, "rpc_request", AM__CTLF_BASIC, on_request},
+    {AM__CTL_RPC_REP, "rpc_reply", AM__CTLF_BASIC, on_reply},
+    {0, NULL, 0, NULL},
+};

@@ -190,7 +190,7 @@ static void write_json(am_ctx_t *ctx, FILE *f)
     json_hstat(f, &ctx->rpc_reply_st);
     fprintf(f, ",\n  \"control\": {");
     for (int t = 1; t < AM__CTL_COUNT; t++) {
-        fprintf(f, "%s\n    \"%s\": ", t > 1 ? "," : "", am__ctl_name((unsigned)t));
+        fprintf(f, "%s\n    \"%s\": ", t > 1 ? "," : "", ctx->ctl[t]->name);
         json_hstat(f, &ctx->ctl_st[t]);
     }
     fprintf(f, "\n  }\n}\n");

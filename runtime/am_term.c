@@ -98,27 +98,37 @@ int am__term_step(am_ctx_t *ctx, int passive)
     return 0;
 }
 
-void am__term_ctl(am_ctx_t *ctx, int src, unsigned type, pr_reader *r)
+/* The token may only come from the previous PE on the ring, and only one
+ * can be travelling (rank 0 starts it only while probing). */
+static void on_token(am_ctx_t *ctx, int src, pr_reader *body)
 {
     am__term *t = &ctx->term;
-    if (type == AM__CTL_TOKEN) {
-        am__token tok;
-        int expected_src = (ctx->rank + ctx->size - 1) % ctx->size;
-        if (am__token_get(r, &tok) || src != expected_src || t->have_token ||
-            (ctx->rank == 0 && !t->probing)) {
-            am__reject(ctx, AM__REJ_BODY, src, "unexpected termination token");
-            return;
-        }
-        t->have_token = 1;
-        t->tok_q = tok.q;
-        t->tok_black = tok.black;
+    am__token tok;
+    int expected_src = (ctx->rank + ctx->size - 1) % ctx->size;
+    if (am__token_get(body, &tok) || src != expected_src || t->have_token ||
+        (ctx->rank == 0 && !t->probing)) {
+        am__reject(ctx, AM__REJ_BODY, src, "unexpected termination token");
         return;
     }
+    t->have_token = 1;
+    t->tok_q = tok.q;
+    t->tok_black = tok.black;
+}
+
+static void on_terminate(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    am__term *t = &ctx->term;
     uint64_t epoch;
-    if (am__terminate_get(r, &epoch) || src != 0 || epoch != t->epoch) {
+    if (am__terminate_get(body, &epoch) || src != 0 || epoch != t->epoch) {
         am__reject(ctx, AM__REJ_BODY, src, "unexpected terminate message");
         return;
     }
     t->declared = 1;
     t->defer = 1;
 }
+
+const am__ctl_entry am__term_ctls[] = {
+    {AM__CTL_TOKEN, "token", 0, on_token},
+    {AM__CTL_TERMINATE, "terminate", 0, on_terminate},
+    {0, NULL, 0, NULL},
+};

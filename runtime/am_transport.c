@@ -31,6 +31,11 @@
  * the event names only our own endpoint, so the peers that connected to us
  * are probed: ROUTER_MANDATORY refuses a frame to a peer whose connection
  * is gone. A peer that said BYE (am_finalize) is allowed to go.
+ *
+ * The transport knows no control message by name: a received control frame
+ * is handed to the entry of its type in the dispatch table (am_int.h,
+ * "control dispatch"), and every send, user or control, is counted by
+ * count_send once the frame was accepted.
  */
 #include "config.h"
 
@@ -389,26 +394,62 @@ static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
     return 0;
 }
 
-int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
-                 zmq_msg_t *msg)
+/* A control frame that carries nothing for the user (count_send). */
+#define USER_NONE (AM__USER_REPLY + 1u)
+
+/* Counts one frame the transport accepted (handed to ZeroMQ, queued, or
+ * looped back to this PE). This is the only place where sends are counted,
+ * so no path can count a frame twice or not at all: a control frame counts
+ * under its type; the user message a frame carries (a user AM's own, or an
+ * RPC request's) counts under its handler and in msgs_sent/bytes_sent with
+ * the user's payload length, and an RPC reply under the reply counters;
+ * a basic message (a user AM, or a control type flagged AM__CTLF_BASIC)
+ * advances the termination count. It runs on every am_send, so it only
+ * adds to counters it indexes directly. */
+static void count_send(am_ctx_t *ctx, unsigned flags, unsigned type,
+                       size_t body_len, unsigned user, size_t user_len)
 {
-    size_t total = zmq_msg_size(msg);
-    pr_header h = {(uint8_t)flags, (uint16_t)handler, (uint32_t)ctx->rank,
-                   (uint32_t)(total - PR_HEADER_SIZE), 0};
+    int basic = 1;
+    if (flags & PR_FLAG_CONTROL) {
+        am__hstat *c = &ctx->ctl_st[type];
+        c->sent++;
+        c->sent_bytes += body_len;
+        ctx->st.ctl_sent++;
+        basic = (ctx->ctl[type]->flags & AM__CTLF_BASIC) != 0;
+    }
+    if (user < AM_HANDLER_MAX) {
+        am__hstat *h = &ctx->handlers[user].st;
+        h->sent++;
+        h->sent_bytes += user_len;
+        ctx->st.msgs_sent++;
+        ctx->st.bytes_sent += user_len;
+    } else if (user == AM__USER_REPLY) {
+        ctx->rpc_reply_st.sent++;
+        ctx->rpc_reply_st.sent_bytes += user_len;
+    }
+    if (basic)
+        am__term_on_send(ctx);
+}
+
+/* Writes h (its seq filled in here) into the header room of msg and hands
+ * msg to ZeroMQ, the peer's send queue, or the loopback queue. Takes
+ * ownership of msg on success only; on failure the caller closes it. */
+static int hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
+{
     am__frame *f;
     if (pe == ctx->rank) {
         if (!(f = am__frame_new()))
             return AM_ENOMEM;
-        pr_header_encode(&h, zmq_msg_data(msg));
+        pr_header_encode(h, zmq_msg_data(msg));
         zmq_msg_move(&f->msg, msg);
-        f->hdr = h;
+        f->hdr = *h;
         f->src = pe;
         am__fifo_push(&ctx->loopback, f);
         return 0;
     }
     am__peer *p = &ctx->peers[pe];
-    h.seq = p->send_seq;
-    pr_header_encode(&h, zmq_msg_data(msg));
+    h->seq = p->send_seq;
+    pr_header_encode(h, zmq_msg_data(msg));
     if (p->sendq.n == 0) {
         int rc = zsend(ctx, pe, msg);
         if (rc == 2) /* dropped while finalizing */
@@ -425,12 +466,29 @@ int am__send_msg(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
         return AM_ENOMEM;
     p->send_seq++;
     zmq_msg_move(&f->msg, msg);
-    f->hdr = h;
+    f->hdr = *h;
     f->src = pe;
     am__fifo_push(&p->sendq, f);
     ctx->sendq_total++;
     ctx->st.queued_sends++;
     return 0;
+}
+
+/* Sends a frame already holding header room (every send path ends here,
+ * the probe in unreachable() excepted) and counts it. user and user_len
+ * say what it carries for the user (count_send): a user AM carries itself,
+ * its handler id and payload length. Takes ownership of msg on success
+ * only. */
+static int send_frame(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
+                      zmq_msg_t *msg, unsigned user, size_t user_len)
+{
+    size_t body_len = zmq_msg_size(msg) - PR_HEADER_SIZE;
+    pr_header h = {(uint8_t)flags, (uint16_t)handler, (uint32_t)ctx->rank,
+                   (uint32_t)body_len, 0};
+    int rc = hand_over(ctx, pe, &h, msg);
+    if (rc == 0)
+        count_send(ctx, flags, handler, body_len, user, user_len);
+    return rc;
 }
 
 int am__flush_sendq(am_ctx_t *ctx)
@@ -464,8 +522,13 @@ static void free_buf(void *data, void *hint)
     free(data);
 }
 
-int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body)
+static int send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
+                    unsigned user, size_t user_len)
 {
+    if (type == 0 || type >= AM__CTL_COUNT) {
+        pr_buf_reset(body);
+        return AM_EINVAL;
+    }
     if (body->err) {
         pr_buf_reset(body);
         return AM_ENOMEM;
@@ -481,17 +544,21 @@ int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body)
         free(data);
         return AM_ENOMEM;
     }
-    int rc = am__send_msg(ctx, pe, PR_FLAG_CONTROL, type, &m);
+    int rc = send_frame(ctx, pe, PR_FLAG_CONTROL, type, &m, user, user_len);
     if (rc)
         zmq_msg_close(&m);
-    if (rc == 0 && type < AM__CTL_COUNT) {
-        ctx->ctl_st[type].sent++;
-        ctx->ctl_st[type].sent_bytes += len - PR_HEADER_SIZE;
-        ctx->st.ctl_sent++;
-        if (type == AM__CTL_RPC_REQ || type == AM__CTL_RPC_REP)
-            am__term_on_send(ctx);
-    }
     return rc;
+}
+
+int am__send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body)
+{
+    return send_ctl(ctx, pe, type, body, USER_NONE, 0);
+}
+
+int am__send_ctl_carrying(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
+                          unsigned user, size_t user_len)
+{
+    return send_ctl(ctx, pe, type, body, user, user_len);
 }
 
 static int check_send_args(am_ctx_t *ctx, int pe, unsigned id, size_t len)
@@ -503,22 +570,6 @@ static int check_send_args(am_ctx_t *ctx, int pe, unsigned id, size_t len)
         return ctx->failed;
     if (ctx->state != AM__RUNNING)
         return AM_ESTATE;
-    return 0;
-}
-
-/* On failure the caller still owns m. */
-static int send_user(am_ctx_t *ctx, int pe, unsigned id, zmq_msg_t *m,
-                     size_t len)
-{
-    int rc = am__send_msg(ctx, pe, 0, id, m);
-    if (rc)
-        return rc;
-    am__hstat *st = &ctx->handlers[id].st;
-    st->sent++;
-    st->sent_bytes += len;
-    ctx->st.msgs_sent++;
-    ctx->st.bytes_sent += len;
-    am__term_on_send(ctx);
     return 0;
 }
 
@@ -534,7 +585,7 @@ int am_send(am_ctx_t *ctx, int pe, unsigned id, const void *data, size_t len)
         return AM_ENOMEM;
     if (len)
         memcpy((uint8_t *)zmq_msg_data(&m) + PR_HEADER_SIZE, data, len);
-    rc = send_user(ctx, pe, id, &m, len);
+    rc = send_frame(ctx, pe, 0, id, &m, id, len);
     if (rc)
         zmq_msg_close(&m);
     return rc;
@@ -574,7 +625,7 @@ int am_send_zc(am_ctx_t *ctx, int pe, unsigned id, void *frame, size_t len,
         free(o);
         return AM_ENOMEM;
     }
-    rc = send_user(ctx, pe, id, &m, len);
+    rc = send_frame(ctx, pe, 0, id, &m, id, len);
     if (rc) {
         o->armed = 0;
         zmq_msg_close(&m);
@@ -670,17 +721,27 @@ void am__reject(am_ctx_t *ctx, int reason, int src, const char *detail)
              from, reject_msg[reason], detail ? ": " : "", detail ? detail : "");
 }
 
-static int is_boot_frame(const am__frame *f)
+/* The dispatch table's entry of a control frame's type; NULL for a user
+ * frame, and for a type no module handles (am__dispatch rejects those). */
+static const am__ctl_entry *ctl_entry(const am_ctx_t *ctx, const pr_header *h)
 {
-    return (f->hdr.flags & PR_FLAG_CONTROL) &&
-           (f->hdr.handler == AM__CTL_HELLO || f->hdr.handler == AM__CTL_TABLE ||
-            f->hdr.handler == AM__CTL_PEER_HELLO);
+    if (!(h->flags & PR_FLAG_CONTROL) || h->handler >= AM__CTL_COUNT)
+        return NULL;
+    return ctx->ctl[h->handler];
 }
 
-static int is_basic(const am__frame *f)
+static int is_boot_frame(const am_ctx_t *ctx, const am__frame *f)
 {
-    return !(f->hdr.flags & PR_FLAG_CONTROL) ||
-           f->hdr.handler == AM__CTL_RPC_REQ || f->hdr.handler == AM__CTL_RPC_REP;
+    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+    return e && (e->flags & AM__CTLF_BOOT);
+}
+
+static int is_basic(const am_ctx_t *ctx, const am__frame *f)
+{
+    if (!(f->hdr.flags & PR_FLAG_CONTROL))
+        return 1;
+    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+    return e && (e->flags & AM__CTLF_BASIC);
 }
 
 /* Moves a frame that lives on the stack into a queue node. */
@@ -705,13 +766,13 @@ static am__frame *keep(am_ctx_t *ctx, am__frame *f)
 static void route_frame(am_ctx_t *ctx, am__frame *f)
 {
     am__frame *k;
-    if (ctx->state == AM__BOOTING && !is_boot_frame(f)) {
+    if (ctx->state == AM__BOOTING && !is_boot_frame(ctx, f)) {
         if ((k = keep(ctx, f)))
             am__fifo_push(&ctx->early, k);
     } else if (ctx->lat.on && ctx->state == AM__RUNNING) {
         if ((k = keep(ctx, f)))
             am__latency_enqueue(ctx, k);
-    } else if (ctx->term.defer && is_basic(f)) {
+    } else if (ctx->term.defer && is_basic(ctx, f)) {
         if ((k = keep(ctx, f)))
             am__fifo_push(&ctx->deferred, k);
     } else {
@@ -808,7 +869,7 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
 
 void am__arrive(am_ctx_t *ctx, am__frame *f)
 {
-    if (ctx->term.defer && is_basic(f)) {
+    if (ctx->term.defer && is_basic(ctx, f)) {
         am__fifo_push(&ctx->deferred, f);
         return;
     }
@@ -852,55 +913,18 @@ void am__dispatch(am_ctx_t *ctx, am__frame *f)
         am__deliver_user(ctx, f->src, f->hdr.handler, payload, len, 0);
         return;
     }
-    unsigned type = f->hdr.handler;
-    if (type == 0 || type >= AM__CTL_COUNT) {
+    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+    if (!e) {
         am__reject(ctx, AM__REJ_BODY, f->src, "unknown control type");
         return;
     }
-    ctx->ctl_st[type].recv++;
-    ctx->ctl_st[type].recv_bytes += len;
+    am__hstat *st = &ctx->ctl_st[f->hdr.handler];
+    st->recv++;
+    st->recv_bytes += len;
     ctx->st.ctl_recv++;
     pr_reader r;
     pr_reader_init(&r, payload, len);
-    switch (type) {
-    case AM__CTL_HELLO:
-    case AM__CTL_TABLE:
-    case AM__CTL_PEER_HELLO:
-        am__boot_ctl(ctx, f->src, type, &r);
-        break;
-    case AM__CTL_BYE:
-        if (am__empty_get(&r))
-            am__reject(ctx, AM__REJ_BODY, f->src, "bye");
-        else
-            ctx->peers[f->src].said_bye = 1;
-        break;
-    case AM__CTL_PING:
-        break;
-    case AM__CTL_ABORT: {
-        am__abort_msg m;
-        if (am__abort_get(&r, &m)) {
-            am__reject(ctx, AM__REJ_BODY, f->src, "abort");
-            break;
-        }
-        /* Passed on as is: the sender already named the PE concerned. */
-        am__fail(ctx, AM_EPEER, "%.*s (noticed by PE %d)", (int)m.reason.len,
-                 (const char *)m.reason.p, f->src);
-        break;
-    }
-    case AM__CTL_TOKEN:
-    case AM__CTL_TERMINATE:
-        am__term_ctl(ctx, f->src, type, &r);
-        break;
-    case AM__CTL_COLL_UP:
-    case AM__CTL_COLL_DOWN:
-    case AM__CTL_GATHER:
-        am__coll_ctl(ctx, f->src, type, &r);
-        break;
-    case AM__CTL_RPC_REQ:
-    case AM__CTL_RPC_REP:
-        am__rpc_ctl(ctx, f->src, type, &r, f);
-        break;
-    }
+    e->fn(ctx, f->src, &r);
 }
 
 /* ------------------------------------------------------ failure detection */
@@ -983,8 +1007,7 @@ static int unreachable(am_ctx_t *ctx, int pe)
             pr_header_encode(&h, data);
             zmq_send(ctx->sock, data, len, ZMQ_DONTWAIT);
             free(data);
-            ctx->ctl_st[AM__CTL_PING].sent++;
-            ctx->st.ctl_sent++;
+            count_send(ctx, PR_FLAG_CONTROL, AM__CTL_PING, 0, USER_NONE, 0);
         }
     }
     pr_buf_free(&b);
@@ -1017,3 +1040,30 @@ void am__check_peers(am_ctx_t *ctx)
             peer_gone(ctx, pe);
     }
 }
+
+/* A PING only tests whether its connection is still there (unreachable()
+ * above): its receiver has nothing to do, and does not look at the body. */
+static void on_ping(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    (void)ctx;
+    (void)src;
+    (void)body;
+}
+
+static void on_abort(am_ctx_t *ctx, int src, pr_reader *body)
+{
+    am__abort_msg m;
+    if (am__abort_get(body, &m)) {
+        am__reject(ctx, AM__REJ_BODY, src, "abort");
+        return;
+    }
+    /* Passed on as is: the sender already named the PE concerned. */
+    am__fail(ctx, AM_EPEER, "%.*s (noticed by PE %d)", (int)m.reason.len,
+             (const char *)m.reason.p, src);
+}
+
+const am__ctl_entry am__transport_ctls[] = {
+    {AM__CTL_PING, "ping", 0, on_ping},
+    {AM__CTL_ABORT, "abort", 0, on_abort},
+    {0, NULL, 0, NULL},
+};

@@ -13,6 +13,12 @@
  *                          declared, and only after the last message
  *   am_mp rpc              a thread blocked in am_call does not block the
  *                          other threads of its PE
+ *   am_mp counts           every PE sends messages of known sizes to the
+ *                          next one by each send path (am_send, am_send_buf,
+ *                          am_send_zc, am_call with am_reply and with
+ *                          am_reply_to); checks that the statistics count
+ *                          each exactly once, sent and received, in total,
+ *                          per handler and per control type
  *   am_mp rtt N            prints the mean AM round trip between ranks 0
  *                          and 1 ("rtt_us X")
  *   am_mp coll             barrier, allreduce, gather
@@ -495,6 +501,201 @@ static int run_rpc(am_ctx_t *ctx)
     return 0;
 }
 
+/* --------------------------------------------------------------- counts */
+
+enum { H_C_SEND = 40, H_C_BUF = 41, H_C_ZC = 42, H_C_CALL = 43, H_C_LATER = 44 };
+
+static const size_t c_send_lens[] = {0, 1, 10, 100, 70000};
+static const size_t c_buf_lens[] = {7, 0, 64};
+static const size_t c_zc_lens[] = {5, 16};
+static const size_t c_call_lens[] = {0, 3, 12, 40};
+static const size_t c_later_lens[] = {9, 20};
+
+#define N_OF(a) (sizeof a / sizeof a[0])
+
+static uint8_t c_junk[70000];
+
+static uint64_t sum_of(const size_t *a, size_t n)
+{
+    uint64_t s = 0;
+    for (size_t i = 0; i < n; i++)
+        s += a[i];
+    return s;
+}
+
+/* Reply sizes: am_reply answers 2 len + 1 bytes, am_reply_to len / 2 + 1. */
+static size_t c_reply_len(size_t len, int later)
+{
+    return later ? len / 2 + 1 : 2 * len + 1;
+}
+
+static void c_count(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)m;
+    (*(int *)arg)++;
+}
+
+static void c_call(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    int rc = am_reply(ctx, m, c_junk, c_reply_len(m->len, 0));
+    CHECK(rc == 0, "am_reply: %s", am_strerror(rc));
+}
+
+typedef struct c_later_reply {
+    int src;
+    uint64_t call_id;
+    size_t len;
+} c_later_reply;
+
+static void c_later_thread(am_ctx_t *ctx, void *arg)
+{
+    c_later_reply *r = arg;
+    am_yield(ctx);
+    int rc = am_reply_to(ctx, r->src, r->call_id, c_junk, c_reply_len(r->len, 1));
+    CHECK(rc == 0, "am_reply_to: %s", am_strerror(rc));
+    free(r);
+}
+
+static void c_later(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    c_later_reply *r = malloc(sizeof *r);
+    *r = (c_later_reply){m->src, m->call_id, m->len};
+    am_thread_spawn(ctx, c_later_thread, r, NULL);
+}
+
+static void c_free(void *frame, void *hint)
+{
+    (void)hint;
+    free(frame);
+}
+
+static void c_sender(am_ctx_t *ctx, void *arg)
+{
+    (void)arg;
+    int to = (am_rank(ctx) + 1) % am_size(ctx), rc;
+    for (size_t i = 0; i < N_OF(c_send_lens); i++) {
+        rc = am_send(ctx, to, H_C_SEND, c_junk, c_send_lens[i]);
+        CHECK(rc == 0, "am_send: %s", am_strerror(rc));
+    }
+    for (size_t i = 0; i < N_OF(c_buf_lens); i++) {
+        void *p = am_buf_alloc(c_buf_lens[i]);
+        rc = am_send_buf(ctx, to, H_C_BUF, p, c_buf_lens[i]);
+        CHECK(rc == 0, "am_send_buf: %s", am_strerror(rc));
+    }
+    for (size_t i = 0; i < N_OF(c_zc_lens); i++) {
+        uint8_t *frame = calloc(1, AM_HEADROOM + c_zc_lens[i]);
+        rc = am_send_zc(ctx, to, H_C_ZC, frame, c_zc_lens[i], c_free, NULL);
+        CHECK(rc == 0, "am_send_zc: %s", am_strerror(rc));
+    }
+    for (int later = 0; later < 2; later++) {
+        const size_t *lens = later ? c_later_lens : c_call_lens;
+        size_t n = later ? N_OF(c_later_lens) : N_OF(c_call_lens);
+        for (size_t i = 0; i < n; i++) {
+            void *reply = NULL;
+            size_t got = 0;
+            rc = am_call(ctx, to, later ? H_C_LATER : H_C_CALL, c_junk, lens[i],
+                         &reply, &got);
+            CHECK(rc == 0 && got == c_reply_len(lens[i], later),
+                  "am_call: %s, %zu bytes", am_strerror(rc), got);
+            free(reply);
+        }
+    }
+}
+
+/* Expects text to contain the statistics entry "KEY": {"sent": N,
+ * "sent_bytes": B, "recv": N, "recv_bytes": B, ... */
+static void expect_hstat(const char *text, const char *key, uint64_t n,
+                         uint64_t bytes)
+{
+    char want[256];
+    snprintf(want, sizeof want,
+             "%s{\"sent\": %llu, \"sent_bytes\": %llu, \"recv\": %llu, "
+             "\"recv_bytes\": %llu, ",
+             key, (unsigned long long)n, (unsigned long long)bytes,
+             (unsigned long long)n, (unsigned long long)bytes);
+    CHECK(strstr(text, want), "the statistics have no %s", want);
+}
+
+static int run_counts(am_ctx_t *ctx)
+{
+    int plain = 0;
+    am_register(ctx, H_C_SEND, "send", c_count, &plain);
+    am_register(ctx, H_C_BUF, "buf", c_count, &plain);
+    am_register(ctx, H_C_ZC, "zc", c_count, &plain);
+    am_register(ctx, H_C_CALL, "call", c_call, NULL);
+    am_register(ctx, H_C_LATER, "later", c_later, NULL);
+    /* The statistics are compared whole: the start-up and the barrier
+     * exchange control frames only, and a successor may deliver messages
+     * while it is still in the barrier. */
+    am_barrier(ctx);
+    am_thread_spawn(ctx, c_sender, NULL, NULL);
+    int rc = am_run_until_done(ctx, NULL, NULL);
+    CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+    am_stats_t st;
+    am_stats_get(ctx, &st);
+
+    /* Every PE sends the same to its successor and answers its
+     * predecessor's calls, so it receives what it sends. */
+    uint64_t calls = N_OF(c_call_lens) + N_OF(c_later_lens);
+    uint64_t req_bytes = sum_of(c_call_lens, N_OF(c_call_lens)) +
+                         sum_of(c_later_lens, N_OF(c_later_lens));
+    uint64_t rep_bytes = 0;
+    for (size_t i = 0; i < N_OF(c_call_lens); i++)
+        rep_bytes += c_reply_len(c_call_lens[i], 0);
+    for (size_t i = 0; i < N_OF(c_later_lens); i++)
+        rep_bytes += c_reply_len(c_later_lens[i], 1);
+    uint64_t msgs = N_OF(c_send_lens) + N_OF(c_buf_lens) + N_OF(c_zc_lens) + calls;
+    uint64_t bytes = sum_of(c_send_lens, N_OF(c_send_lens)) +
+                     sum_of(c_buf_lens, N_OF(c_buf_lens)) +
+                     sum_of(c_zc_lens, N_OF(c_zc_lens)) + req_bytes;
+    CHECK(plain == (int)(msgs - calls), "%d plain messages handled", plain);
+    CHECK(st.msgs_sent == msgs && st.bytes_sent == bytes,
+          "sent %llu messages, %llu bytes; expected %llu, %llu",
+          (unsigned long long)st.msgs_sent, (unsigned long long)st.bytes_sent,
+          (unsigned long long)msgs, (unsigned long long)bytes);
+    CHECK(st.msgs_recv == msgs && st.bytes_recv == bytes,
+          "received %llu messages, %llu bytes; expected %llu, %llu",
+          (unsigned long long)st.msgs_recv, (unsigned long long)st.bytes_recv,
+          (unsigned long long)msgs, (unsigned long long)bytes);
+    CHECK(st.rejected == 0, "%llu frames rejected",
+          (unsigned long long)st.rejected);
+
+    /* Per handler, per control type and replies: from the statistics
+     * file. */
+    char path[128];
+    snprintf(path, sizeof path, "%s/am_mp-counts-%ld.json",
+             getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (long)getpid());
+    CHECK(am_stats_write_json(ctx, path) == 0, "cannot write %s", path);
+    static char text[1 << 16];
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(text, 1, sizeof text - 1, f) : 0;
+    text[n] = '\0';
+    if (f)
+        fclose(f);
+    unlink(path);
+    expect_hstat(text, "\"name\": \"send\", \"stats\": ", N_OF(c_send_lens),
+                 sum_of(c_send_lens, N_OF(c_send_lens)));
+    expect_hstat(text, "\"name\": \"buf\", \"stats\": ", N_OF(c_buf_lens),
+                 sum_of(c_buf_lens, N_OF(c_buf_lens)));
+    expect_hstat(text, "\"name\": \"zc\", \"stats\": ", N_OF(c_zc_lens),
+                 sum_of(c_zc_lens, N_OF(c_zc_lens)));
+    expect_hstat(text, "\"name\": \"call\", \"stats\": ", N_OF(c_call_lens),
+                 sum_of(c_call_lens, N_OF(c_call_lens)));
+    expect_hstat(text, "\"name\": \"later\", \"stats\": ",
+                 N_OF(c_later_lens), sum_of(c_later_lens, N_OF(c_later_lens)));
+    expect_hstat(text, "\"rpc_replies\": ", calls, rep_bytes);
+    /* Bodies: call id and handler id (10 bytes) before a request's payload,
+     * the call id (8) before a reply's. */
+    expect_hstat(text, "\"rpc_request\": ", calls, 10 * calls + req_bytes);
+    expect_hstat(text, "\"rpc_reply\": ", calls, 8 * calls + rep_bytes);
+    printf("counts: PE %d: %llu messages, %llu bytes each way, counted once\n",
+           am_rank(ctx), (unsigned long long)msgs, (unsigned long long)bytes);
+    return 0;
+}
+
 /* ------------------------------------------------------------------ rtt */
 
 static int pongs;
@@ -803,6 +1004,8 @@ int main(int argc, char **argv)
         rc = run_term(ctx, arg1 > 0 ? arg1 : 4, arg2 > 0 ? arg2 : 6);
     else if (!strcmp(mode, "rpc"))
         rc = run_rpc(ctx);
+    else if (!strcmp(mode, "counts"))
+        rc = run_counts(ctx);
     else if (!strcmp(mode, "rtt"))
         rc = run_rtt(ctx, arg1 > 0 ? arg1 : 50);
     else if (!strcmp(mode, "coll"))
@@ -814,8 +1017,8 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
     else {
-        fprintf(stderr, "usage: am_mp storm|term|rpc|rtt|coll|kill|malformed|"
-                        "stranger [ARGS]\n");
+        fprintf(stderr, "usage: am_mp storm|term|rpc|counts|rtt|coll|kill|"
+                        "malformed|stranger [ARGS]\n");
         rc = 2;
     }
     int frc = am_finalize(&ctx);

@@ -51,6 +51,7 @@ AM_MP_TESTS = \
 	tests/am-storm.sh \
 	tests/am-term.sh \
 	tests/am-rpc.sh \
+	tests/am-counts.sh \
 	tests/am-latency.sh \
 	tests/am-kill.sh \
 	tests/am-coll.sh \

@@ -357,6 +357,180 @@ START_TEST(zero_copy_ownership)
 }
 END_TEST
 
+/* ------------------------------------------------------- send accounting */
+
+/* Every send path, with messages of known sizes, to this PE: each message
+ * must be counted exactly once when sent and once when received, in the
+ * runtime totals, under its handler, and (RPC) under its control type and
+ * the reply counters. */
+enum { H_SEND = 40, H_BUF = 41, H_ZC = 42, H_CALL = 43, H_LATER = 44 };
+
+static const size_t send_lens[] = {0, 1, 10, 100, 70000};
+static const size_t buf_lens[] = {7, 0, 64};
+static const size_t zc_lens[] = {5, 16};
+static const size_t call_lens[] = {0, 3, 12, 40};
+static const size_t later_lens[] = {9, 20};
+
+#define N_OF(a) (sizeof a / sizeof a[0])
+
+static size_t sum_of(const size_t *a, size_t n)
+{
+    size_t s = 0;
+    for (size_t i = 0; i < n; i++)
+        s += a[i];
+    return s;
+}
+
+/* The reply to a request of len bytes: am_reply answers 2 len + 1 bytes,
+ * am_reply_to (from a thread) len / 2 + 1. */
+static size_t reply_len(size_t len, int later)
+{
+    return later ? len / 2 + 1 : 2 * len + 1;
+}
+
+static uint8_t junk[70000];
+
+static void count_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)m;
+    (*(int *)arg)++;
+}
+
+static void call_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    ck_assert_int_eq(am_reply(ctx, m, junk, reply_len(m->len, 0)), 0);
+}
+
+typedef struct later_reply {
+    int src;
+    uint64_t call_id;
+    size_t len;
+} later_reply;
+
+static void later_thread(am_ctx_t *ctx, void *arg)
+{
+    later_reply *r = arg;
+    am_yield(ctx);
+    ck_assert_int_eq(am_reply_to(ctx, r->src, r->call_id, junk,
+                                 reply_len(r->len, 1)),
+                     0);
+    free(r);
+}
+
+static void later_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    later_reply *r = malloc(sizeof *r);
+    *r = (later_reply){m->src, m->call_id, m->len};
+    ck_assert_int_eq(am_thread_spawn(ctx, later_thread, r, NULL), 0);
+}
+
+static void zc_free(void *frame, void *hint)
+{
+    (void)hint;
+    free(frame);
+}
+
+static void sender_thread(am_ctx_t *ctx, void *arg)
+{
+    (void)arg;
+    for (size_t i = 0; i < N_OF(send_lens); i++)
+        ck_assert_int_eq(am_send(ctx, 0, H_SEND, junk, send_lens[i]), 0);
+    for (size_t i = 0; i < N_OF(buf_lens); i++) {
+        void *p = am_buf_alloc(buf_lens[i]);
+        ck_assert_ptr_nonnull(p);
+        ck_assert_int_eq(am_send_buf(ctx, 0, H_BUF, p, buf_lens[i]), 0);
+    }
+    for (size_t i = 0; i < N_OF(zc_lens); i++) {
+        uint8_t *frame = calloc(1, AM_HEADROOM + zc_lens[i]);
+        ck_assert_int_eq(am_send_zc(ctx, 0, H_ZC, frame, zc_lens[i], zc_free,
+                                    NULL),
+                         0);
+    }
+    for (int later = 0; later < 2; later++) {
+        const size_t *lens = later ? later_lens : call_lens;
+        size_t n = later ? N_OF(later_lens) : N_OF(call_lens);
+        for (size_t i = 0; i < n; i++) {
+            void *reply = NULL;
+            size_t got = 0;
+            ck_assert_int_eq(am_call(ctx, 0, later ? H_LATER : H_CALL, junk,
+                                     lens[i], &reply, &got),
+                             0);
+            ck_assert_uint_eq(got, reply_len(lens[i], later));
+            free(reply);
+        }
+    }
+}
+
+static void check_hstat(const am__hstat *h, uint64_t n, uint64_t bytes)
+{
+    ck_assert_uint_eq(h->sent, n);
+    ck_assert_uint_eq(h->sent_bytes, bytes);
+    ck_assert_uint_eq(h->recv, n);
+    ck_assert_uint_eq(h->recv_bytes, bytes);
+}
+
+START_TEST(every_send_path_counted_once)
+{
+    am_ctx_t *ctx = open_ctx();
+    int plain = 0;
+    am_register(ctx, H_SEND, "send", count_handler, &plain);
+    am_register(ctx, H_BUF, "buf", count_handler, &plain);
+    am_register(ctx, H_ZC, "zc", count_handler, &plain);
+    am_register(ctx, H_CALL, "call", call_handler, NULL);
+    am_register(ctx, H_LATER, "later", later_handler, NULL);
+    ck_assert_int_eq(am_thread_spawn(ctx, sender_thread, NULL, NULL), 0);
+    ck_assert_int_eq(am_run_until_done(ctx, NULL, NULL), 0);
+    ck_assert_int_eq(plain, N_OF(send_lens) + N_OF(buf_lens) + N_OF(zc_lens));
+
+    size_t n_calls = N_OF(call_lens) + N_OF(later_lens);
+    size_t req_bytes = sum_of(call_lens, N_OF(call_lens)) +
+                       sum_of(later_lens, N_OF(later_lens));
+    size_t rep_bytes = 0;
+    for (size_t i = 0; i < N_OF(call_lens); i++)
+        rep_bytes += reply_len(call_lens[i], 0);
+    for (size_t i = 0; i < N_OF(later_lens); i++)
+        rep_bytes += reply_len(later_lens[i], 1);
+
+    check_hstat(&ctx->handlers[H_SEND].st, N_OF(send_lens),
+                sum_of(send_lens, N_OF(send_lens)));
+    check_hstat(&ctx->handlers[H_BUF].st, N_OF(buf_lens),
+                sum_of(buf_lens, N_OF(buf_lens)));
+    check_hstat(&ctx->handlers[H_ZC].st, N_OF(zc_lens),
+                sum_of(zc_lens, N_OF(zc_lens)));
+    check_hstat(&ctx->handlers[H_CALL].st, N_OF(call_lens),
+                sum_of(call_lens, N_OF(call_lens)));
+    check_hstat(&ctx->handlers[H_LATER].st, N_OF(later_lens),
+                sum_of(later_lens, N_OF(later_lens)));
+    check_hstat(&ctx->rpc_reply_st, n_calls, rep_bytes);
+    /* A request's body is its call id (8 bytes) and handler id (2) before
+     * the payload; a reply's, the call id. */
+    check_hstat(&ctx->ctl_st[AM__CTL_RPC_REQ], n_calls, 10 * n_calls + req_bytes);
+    check_hstat(&ctx->ctl_st[AM__CTL_RPC_REP], n_calls, 8 * n_calls + rep_bytes);
+
+    am_stats_t st;
+    am_stats_get(ctx, &st);
+    uint64_t msgs = N_OF(send_lens) + N_OF(buf_lens) + N_OF(zc_lens) + n_calls;
+    uint64_t bytes = sum_of(send_lens, N_OF(send_lens)) +
+                     sum_of(buf_lens, N_OF(buf_lens)) +
+                     sum_of(zc_lens, N_OF(zc_lens)) + req_bytes;
+    ck_assert_uint_eq(st.msgs_sent, msgs);
+    ck_assert_uint_eq(st.bytes_sent, bytes);
+    ck_assert_uint_eq(st.msgs_recv, msgs);
+    ck_assert_uint_eq(st.bytes_recv, bytes);
+    /* One PE exchanges no other control frames. */
+    ck_assert_uint_eq(st.ctl_sent, 2 * n_calls);
+    ck_assert_uint_eq(st.ctl_recv, 2 * n_calls);
+    ck_assert_uint_eq(st.rejected, 0);
+    /* Requests and replies are basic messages, like AMs: as many counted
+     * sent as delivered. */
+    ck_assert_int_eq(ctx->term.count, 0);
+    ck_assert_int_eq(am_finalize(&ctx), 0);
+}
+END_TEST
+
 static Suite *stats_suite(void)
 {
     Suite *s = suite_create("am_stats");
@@ -369,6 +543,7 @@ static Suite *stats_suite(void)
     tcase_add_test(tc, one_pe_runs_until_done);
     tcase_add_test(tc, loop_errors);
     tcase_add_test(tc, zero_copy_ownership);
+    tcase_add_test(tc, every_send_path_counted_once);
     suite_add_tcase(s, tc);
     return s;
 }
