@@ -34,6 +34,14 @@ tests_test_quality_SOURCES = tests/test_quality.c
 tests_test_quality_CFLAGS = $(UNIT_CFLAGS)
 tests_test_quality_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 
+# The stages of pdr mesh used one by one (cli/mesh_pipeline.c is part of
+# the pdr program, not of the library, so the test compiles it in).
+check_PROGRAMS += tests/test_mesh_pipeline
+TESTS += tests/test_mesh_pipeline
+tests_test_mesh_pipeline_SOURCES = tests/test_mesh_pipeline.c mesher/cli/mesh_pipeline.c
+tests_test_mesh_pipeline_CFLAGS = $(UNIT_CFLAGS)
+tests_test_mesh_pipeline_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+
 MESHIO_TESTS = tests/plc-errors.sh tests/plc-example.sh tests/domain-cli.sh \
 	tests/domain-tetgen.sh tests/output-meshio.sh tests/output-plot.sh
 TESTS += $(MESHIO_TESTS)

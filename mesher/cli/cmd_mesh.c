@@ -1,5 +1,7 @@
 /* cli/cmd_mesh.c -- 'pdr mesh': guaranteed-quality tetrahedral mesh of a PLC
- * (TetGen .poly/.smesh, .off, .stl, or a built-in model problem). */
+ * (TetGen .poly/.smesh, .off, .stl, or a built-in model problem). This file
+ * is the command line: it parses the options into an mp_opts and runs the
+ * stages of cli/mesh_pipeline.h in order. */
 #include "config.h"
 
 #include <errno.h>
@@ -8,19 +10,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
-#include "plc/dom.h"
-#include "refine/im.h"
-#include "io/face.h"
-#include "io/msh.h"
-#include "io/tg.h"
-#include "io/vtu.h"
+#include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
-#include "base/pdr_util.h"
-#include "plc/plc.h"
+#include "plc/dom.h"
 #include "refine/refine.h"
-#include "mesh/vf.h"
 
 /* Size bound of 'pdr mesh' without an input file: cube-in-cube meshed to
  * about 20 000 tetrahedra in well under a second. */
@@ -76,21 +70,8 @@ static void usage(FILE *f)
             DEFAULT_DOMAIN_MAXVOL);
 }
 
-/* The refinement's progress callback: a pdr_progress line on stderr. */
-static void show_progress(void *arg, const ref_mesher *r)
-{
-    pdr_progress_line(arg, "pdr mesh: %u vertices, %u tetrahedra (with exterior)", r->m.nv - 1,
-                      r->m.nlive - r->m.nghost);
-}
-
-/* IN.poly -> IN.1 (TetGen's naming, which never overwrites an input). */
-static char *default_base(const char *in)
-{
-    return pdr_path_ext(in, pdr_path_stem(in), ".1");
-}
-
-enum { FMT_NODE = 1, FMT_VTU = 2, FMT_MSH = 4 };
-
+/* "-f node,vtu": the MP_FMT_* bits of a comma-separated list. Returns 0,
+ * or -1 for an unknown name (or no memory to split the list). */
 static int parse_formats(const char *s, unsigned *out)
 {
     unsigned f = 0;
@@ -100,11 +81,11 @@ static int parse_formats(const char *s, unsigned *out)
     int ok = 1;
     for (char *tok = strtok(copy, ","); tok; tok = strtok(NULL, ",")) {
         if (!strcmp(tok, "node") || !strcmp(tok, "ele") || !strcmp(tok, "tetgen"))
-            f |= FMT_NODE;
+            f |= MP_FMT_NODE;
         else if (!strcmp(tok, "vtu") || !strcmp(tok, "vtk"))
-            f |= FMT_VTU;
+            f |= MP_FMT_VTU;
         else if (!strcmp(tok, "msh") || !strcmp(tok, "gmsh"))
-            f |= FMT_MSH;
+            f |= MP_FMT_MSH;
         else if (!strcmp(tok, "none"))
             ;
         else
@@ -115,6 +96,7 @@ static int parse_formats(const char *s, unsigned *out)
     return ok ? 0 : -1;
 }
 
+/* A finite number and nothing else. Returns 0 or -1. */
 static int parse_double(const char *s, double *out)
 {
     char *end;
@@ -126,222 +108,197 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
-static int write_outputs(const ref_output *o, const char *base, unsigned fmt, int quiet,
-                         pdr_diag *diag)
-{
-    int rc = 0;
-    const mesh_export *v = &o->view;
-    if (fmt & FMT_NODE) {
-        tg_nodes nodes = {.n = v->nv, .first = 1, .xyz = (double *)o->xyz};
-        char *pn = pdr_path_join(base, ".node"), *pe = pdr_path_join(base, ".ele"),
-             *pf = pdr_path_join(base, ".face");
-        if (!pn || !pe || !pf)
-            rc = PDR_ENOMEM;
-        if (!rc)
-            rc = tg_write_node(pn, &nodes, diag);
-        if (!rc)
-            rc = tg_write_ele_view(pe, v, o->tet_attr, 1, diag);
-        if (!rc)
-            rc = face_write(v, pf, 1, diag);
-        if (!rc && !quiet)
-            printf("wrote %s, %s, %s\n", pn, pe, pf);
-        free(pn);
-        free(pe);
-        free(pf);
-    }
-    if (!rc && (fmt & FMT_VTU)) {
-        char *p = pdr_path_join(base, ".vtu");
-        vtu_opts vo = {0, 0};
-        rc = p ? vtu_write(v, p, &vo, diag) : PDR_ENOMEM;
-        if (!rc && !quiet)
-            printf("wrote %s\n", p);
-        free(p);
-    }
-    if (!rc && (fmt & FMT_MSH)) {
-        char *p = pdr_path_join(base, ".msh");
-        rc = p ? msh_write(v, p, diag) : PDR_ENOMEM;
-        if (!rc && !quiet)
-            printf("wrote %s\n", p);
-        free(p);
-    }
-    return rc;
-}
+/* Long options without a short letter. */
+enum {
+    O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH
+};
 
-/* Exact verification of the finished mesh (interior tetrahedra only),
- * like 'pdr check': topology, orientation, local Delaunay property. */
-static int self_check(const ref_output *o, int quiet)
+static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
+                                          {"max-volume", required_argument, NULL, 'a'},
+                                          {"max-edge", required_argument, NULL, 'L'},
+                                          {"min-dihedral", required_argument, NULL, O_MINDIH},
+                                          {"output", required_argument, NULL, 'o'},
+                                          {"format", required_argument, NULL, 'f'},
+                                          {"domain", required_argument, NULL, O_DOMAIN},
+                                          {"mo", required_argument, NULL, O_MO},
+                                          {"mo-only", no_argument, NULL, O_MO_ONLY},
+                                          {"mo-size", required_argument, NULL, O_MO_SIZE},
+                                          {"order", required_argument, NULL, O_ORDER},
+                                          {"rho", required_argument, NULL, O_RHO},
+                                          {"no-region-volume", no_argument, NULL, O_NOREGVOL},
+                                          {"check", no_argument, NULL, O_CHECK},
+                                          {"quiet", no_argument, NULL, 'Q'},
+                                          {"help", no_argument, NULL, 'h'},
+                                          {NULL, 0, NULL, 0}};
+
+/* -q B or -q B/D (TetGen's form, which also gives the smallest dihedral
+ * angle). The slash is overwritten, so that a bad B is quoted alone.
+ * Returns 0 or PDR_EXIT_USAGE after the message. */
+static int parse_quality(char *arg, ref_opts *ro)
 {
-    tm_mesh m;
-    if (tm_init(&m, 0))
-        return PDR_ENOMEM;
-    const mesh_export *v = &o->view;
-    int rc = tm_reserve(&m, v->nv + 1, v->nt + 16);
-    for (size_t i = 0; i < v->nv && !rc; i++) {
-        uint32_t id;
-        rc = tm_add_vertex(&m, v->xyz[i], &id);
-    }
-    if (!rc)
-        rc = tm_room(&m, v->nt);
-    for (size_t t = 0; t < v->nt && !rc; t++) {
-        uint32_t s = tm_alloc_tet(&m);
-        for (int k = 0; k < 4; k++) {
-            m.tets[s].v[k] = v->tet[t][k] + 1;
-            m.tets[s].n[k] = TM_LINK_NONE;
+    double x;
+    char *slash = strchr(arg, '/');
+    if (slash) {
+        *slash = 0;
+        if (parse_double(slash + 1, &x) || x < 0 || x >= 60) {
+            pdr_cli_error("mesh", "-q B/D needs an angle D in [0, 60) degrees, not '%s'",
+                          slash + 1);
+            return PDR_EXIT_USAGE;
         }
+        ro->min_dihedral = x;
     }
-    vf_report r;
-    memset(&r, 0, sizeof r);
-    if (!rc)
-        rc = tm_link_faces(&m, &r.nonmanifold);
-    if (!rc)
-        rc = vf_check(&m, VF_TOPOLOGY | VF_ORIENTATION | VF_DELAUNAY | VF_VERTICES, &r);
-    tm_free(&m);
-    if (rc)
-        return rc;
-    size_t d = vf_defects(&r);
-    if (!quiet || d)
-        printf("check: %zu defect%s (topology, orientation, Delaunay)\n", d, d == 1 ? "" : "s");
-    if (d)
-        vf_print(&r, stdout);
-    return d ? PDR_ETOPOLOGY : 0;
+    if (parse_double(arg, &x) || !(x > 1.0)) {
+        pdr_cli_error("mesh", "-q needs a radius-edge bound greater than 1, not '%s'", arg);
+        return PDR_EXIT_USAGE;
+    }
+    ro->ratio = x;
+    return 0;
 }
 
-int pdr_cmd_mesh(int argc, char **argv)
+/* The options that take a number: checks the range and stores it.
+ * Returns 0 or PDR_EXIT_USAGE after the message. */
+static int parse_number(int c, const char *arg, mp_opts *o)
 {
-    enum {
-        O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK,
-        O_MINDIH
-    };
-    static const struct option opts[] = {{"quality", required_argument, NULL, 'q'},
-                                         {"max-volume", required_argument, NULL, 'a'},
-                                         {"max-edge", required_argument, NULL, 'L'},
-                                         {"min-dihedral", required_argument, NULL, O_MINDIH},
-                                         {"output", required_argument, NULL, 'o'},
-                                         {"format", required_argument, NULL, 'f'},
-                                         {"domain", required_argument, NULL, O_DOMAIN},
-                                         {"mo", required_argument, NULL, O_MO},
-                                         {"mo-only", no_argument, NULL, O_MO_ONLY},
-                                         {"mo-size", required_argument, NULL, O_MO_SIZE},
-                                         {"order", required_argument, NULL, O_ORDER},
-                                         {"rho", required_argument, NULL, O_RHO},
-                                         {"no-region-volume", no_argument, NULL, O_NOREGVOL},
-                                         {"check", no_argument, NULL, O_CHECK},
-                                         {"quiet", no_argument, NULL, 'Q'},
-                                         {"help", no_argument, NULL, 'h'},
-                                         {NULL, 0, NULL, 0}};
-    ref_opts ro;
-    ref_default_opts(&ro);
-    im_opts io = {0, 0};
-    const char *out = NULL, *domain = NULL;
-    unsigned fmt = FMT_NODE;
-    int quiet = 0, mo_only = 0, check = 0, have_a = 0;
-    double mo_size = 0;
-    int c;
+    double x = 0;
+    int bad = parse_double(arg, &x);
+    switch (c) {
+    case O_MINDIH:
+        if (bad || x < 0 || x >= 60) {
+            pdr_cli_error("mesh", "--min-dihedral needs an angle in [0, 60) degrees, not '%s'",
+                          arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->ref.min_dihedral = x;
+        return 0;
+    case 'a':
+        if (bad || !(x > 0.0)) {
+            pdr_cli_error("mesh", "-a needs a positive volume, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->ref.maxvol = x;
+        return 0;
+    case 'L':
+        if (bad || !(x > 0.0)) {
+            pdr_cli_error("mesh", "-L needs a positive length, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->ref.maxedge = x;
+        return 0;
+    case O_MO_SIZE:
+        if (bad || !(x >= 1)) {
+            pdr_cli_error("mesh", "--mo-size needs a number of tetrahedra, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->mo_size = x;
+        return 0;
+    default: /* O_RHO */
+        if (bad || x < 0 || x >= 1) {
+            pdr_cli_error("mesh", "--rho needs a number in [0, 1), not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->ref.rho = x;
+        return 0;
+    }
+}
+
+/* The options that take a word. Returns 0 or PDR_EXIT_USAGE after the
+ * message. */
+static int parse_word(int c, const char *arg, mp_opts *o)
+{
+    switch (c) {
+    case 'f':
+        if (parse_formats(arg, &o->formats)) {
+            pdr_cli_error("mesh", "unknown output format in '%s' (node, vtu, msh, none)", arg);
+            return PDR_EXIT_USAGE;
+        }
+        return 0;
+    case O_MO:
+        if (strcmp(arg, "paper") && strcmp(arg, "conform")) {
+            pdr_cli_error("mesh", "--mo is 'conform' or 'paper', not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->mo.paper = !strcmp(arg, "paper");
+        return 0;
+    default: /* O_ORDER */
+        if (strcmp(arg, "lifo") && strcmp(arg, "fifo")) {
+            pdr_cli_error("mesh", "--order is 'lifo' or 'fifo', not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->ref.order = strcmp(arg, "lifo") ? REF_ORDER_FIFO : REF_ORDER_LIFO;
+        return 0;
+    }
+}
+
+/* The input: one file, or a domain, or by default the cube-in-cube with
+ * its own volume bound (unless -a gave one). Returns 0 or PDR_EXIT_USAGE
+ * after the message. */
+static int parse_input(int argc, char **argv, int have_a, mp_opts *o)
+{
+    if (optind < argc - 1 || (optind < argc && o->domain)) {
+        pdr_cli_error("mesh", "give one input file or --domain, not both or several");
+        return PDR_EXIT_USAGE;
+    }
+    o->in = optind < argc ? argv[optind] : NULL;
+    if (!o->in && !o->domain) {
+        o->domain = "cube-in-cube";
+        if (!have_a)
+            o->ref.maxvol = DEFAULT_DOMAIN_MAXVOL;
+    }
+    if (o->domain && dom_lookup(o->domain) < 0) {
+        pdr_cli_error("mesh", "unknown domain '%s' (cube-in-cube, tee, sphere)", o->domain);
+        return PDR_EXIT_USAGE;
+    }
+    return 0;
+}
+
+/* What parse_args returns when the pipeline is to run. */
+#define RUN_PIPELINE (-1)
+
+/* Parses the command line into *o. Returns RUN_PIPELINE, or the exit
+ * status when the command is done already: --help, or a usage error
+ * (after its message). */
+static int parse_args(int argc, char **argv, mp_opts *o)
+{
+    int have_a = 0, c, rc = 0;
+    mp_default_opts(o);
     optind = 1;
-    while ((c = getopt_long(argc, argv, "q:a:L:o:f:Qh", opts, NULL)) != -1) {
-        double x;
+    while (!rc && (c = getopt_long(argc, argv, "q:a:L:o:f:Qh", long_opts, NULL)) != -1) {
         switch (c) {
-        case 'q': {
-            /* TetGen's form B/D also gives the smallest dihedral angle */
-            char *slash = strchr(optarg, '/');
-            if (slash) {
-                *slash = 0;
-                double dd;
-                if (parse_double(slash + 1, &dd) || dd < 0 || dd >= 60) {
-                    pdr_cli_error("mesh", "-q B/D needs an angle D in [0, 60) degrees, not '%s'",
-                                  slash + 1);
-                    return PDR_EXIT_USAGE;
-                }
-                ro.min_dihedral = dd;
-            }
-            if (parse_double(optarg, &x) || !(x > 1.0)) {
-                pdr_cli_error("mesh", "-q needs a radius-edge bound greater than 1, not '%s'",
-                              optarg);
-                return PDR_EXIT_USAGE;
-            }
-            ro.ratio = x;
-            break;
-        }
-        case O_MINDIH:
-            if (parse_double(optarg, &x) || x < 0 || x >= 60) {
-                pdr_cli_error("mesh", "--min-dihedral needs an angle in [0, 60) degrees, not '%s'",
-                              optarg);
-                return PDR_EXIT_USAGE;
-            }
-            ro.min_dihedral = x;
+        case 'q':
+            rc = parse_quality(optarg, &o->ref);
             break;
         case 'a':
-            if (parse_double(optarg, &x) || !(x > 0.0)) {
-                pdr_cli_error("mesh", "-a needs a positive volume, not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
-            ro.maxvol = x;
             have_a = 1;
+            rc = parse_number(c, optarg, o);
             break;
         case 'L':
-            if (parse_double(optarg, &x) || !(x > 0.0)) {
-                pdr_cli_error("mesh", "-L needs a positive length, not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
-            ro.maxedge = x;
-            break;
-        case 'o':
-            out = optarg;
+        case O_MINDIH:
+        case O_MO_SIZE:
+        case O_RHO:
+            rc = parse_number(c, optarg, o);
             break;
         case 'f':
-            if (parse_formats(optarg, &fmt)) {
-                pdr_cli_error("mesh", "unknown output format in '%s' (node, vtu, msh, none)",
-                              optarg);
-                return PDR_EXIT_USAGE;
-            }
+        case O_MO:
+        case O_ORDER:
+            rc = parse_word(c, optarg, o);
+            break;
+        case 'o':
+            o->out = optarg;
             break;
         case O_DOMAIN:
-            domain = optarg;
-            break;
-        case O_MO:
-            if (!strcmp(optarg, "paper"))
-                io.paper = 1;
-            else if (!strcmp(optarg, "conform"))
-                io.paper = 0;
-            else {
-                pdr_cli_error("mesh", "--mo is 'conform' or 'paper', not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
+            o->domain = optarg;
             break;
         case O_MO_ONLY:
-            mo_only = 1;
-            break;
-        case O_MO_SIZE:
-            if (parse_double(optarg, &mo_size) || !(mo_size >= 1)) {
-                pdr_cli_error("mesh", "--mo-size needs a number of tetrahedra, not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
-            break;
-        case O_ORDER:
-            if (!strcmp(optarg, "lifo"))
-                ro.order = REF_ORDER_LIFO;
-            else if (!strcmp(optarg, "fifo"))
-                ro.order = REF_ORDER_FIFO;
-            else {
-                pdr_cli_error("mesh", "--order is 'lifo' or 'fifo', not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
-            break;
-        case O_RHO:
-            if (parse_double(optarg, &x) || x < 0 || x >= 1) {
-                pdr_cli_error("mesh", "--rho needs a number in [0, 1), not '%s'", optarg);
-                return PDR_EXIT_USAGE;
-            }
-            ro.rho = x;
+            o->mo_only = 1;
             break;
         case O_NOREGVOL:
-            ro.use_region_maxvol = 0;
+            o->ref.use_region_maxvol = 0;
             break;
         case O_CHECK:
-            check = 1;
+            o->check = 1;
             break;
         case 'Q':
-            quiet = 1;
+            o->quiet = 1;
             break;
         case 'h':
             usage(stdout);
@@ -351,180 +308,46 @@ int pdr_cmd_mesh(int argc, char **argv)
             return PDR_EXIT_USAGE;
         }
     }
-    if (optind < argc - 1 || (optind < argc && domain)) {
-        pdr_cli_error("mesh", "give one input file or --domain, not both or several");
-        return PDR_EXIT_USAGE;
-    }
-    const char *in = optind < argc ? argv[optind] : NULL;
-    if (!in && !domain) {
-        domain = "cube-in-cube";
-        if (!have_a)
-            ro.maxvol = DEFAULT_DOMAIN_MAXVOL;
-    }
-    int dom = domain ? dom_lookup(domain) : -1;
-    if (domain && dom < 0) {
-        pdr_cli_error("mesh", "unknown domain '%s' (cube-in-cube, tee, sphere)", domain);
-        return PDR_EXIT_USAGE;
-    }
-    if (ro.ratio < 2.0)
+    if (!rc)
+        rc = parse_input(argc, argv, have_a, o);
+    if (rc)
+        return rc;
+    if (o->ref.ratio < 2.0)
         fprintf(stderr,
                 "pdr mesh: warning: with -q %g below 2, termination is not guaranteed "
                 "(refinement is attempted)\n",
-                ro.ratio);
+                o->ref.ratio);
+    return RUN_PIPELINE;
+}
 
-    int status = PDR_EXIT_FAIL, rc;
-    pdr_diag diag = {0};
-    plc p;
-    ref_mesher r;
-    ref_output o;
-    int have_plc = 0, have_r = 0, have_o = 0;
-    char *base = NULL;
-    memset(&o, 0, sizeof o);
-    double t0 = pdr_now();
-    pdr_progress pg;
-    pdr_progress_start(&pg, t0, quiet);
+/* The stages in order; each one that fails has told the user why. */
+static int run_pipeline(mp_ctx *c)
+{
+    int rc = mp_read(c);
+    if (!rc)
+        rc = mp_initial_mesh(c);
+    if (!rc && !c->o.mo_only)
+        rc = mp_refine(c);
+    if (!rc)
+        rc = mp_export(c);
+    if (!rc)
+        rc = mp_write(c);
+    if (!rc)
+        rc = mp_report(c);
+    if (!rc && c->o.check)
+        rc = mp_verify(c);
+    return rc;
+}
 
-    if ((rc = plc_init(&p, in ? in : domain)))
-        goto fail;
-    have_plc = 1;
-    if (in) {
-        rc = plc_read(&p, in, &diag);
-        if (!rc)
-            rc = plc_validate(&p, &diag);
-    } else {
-        rc = dom_build_default(&p, dom, &diag);
-    }
-    if (!rc && !in)
-        rc = plc_validate(&p, &diag);
-    if (rc) {
-        pdr_diag_print(&diag, stderr);
-        if (rc != PDR_EPARSE && rc != PDR_EGEOMETRY && rc != PDR_EIO)
-            pdr_cli_error("mesh", "%s", pdr_strerror(rc));
-        goto done;
-    }
-    base = out ? strdup(out) : default_base(in ? in : domain);
-    if (!base) {
-        rc = PDR_ENOMEM;
-        goto fail;
-    }
-    double t_read = pdr_now();
-    if (!quiet)
-        printf("input: %s: %zu vertices, %zu segments, %zu facets, %zu hole%s, %zu region%s "
-               "(%.3f s)\n",
-               in ? in : domain, p.nv, p.nseg, p.nfacet, p.nhole, p.nhole == 1 ? "" : "s",
-               p.nregion, p.nregion == 1 ? "" : "s", t_read - t0);
-
-    ro.progress = show_progress;
-    ro.progress_arg = &pg;
-    if ((rc = ref_init(&r, &p, &ro)))
-        goto fail;
-    have_r = 1;
-    im_stats is;
-    rc = im_build(&r, &io, &is, &diag);
-    if (diag.ntotal) {
-        pdr_diag_print(&diag, stderr);
-        pdr_diag_free(&diag);
-    }
-    if (rc)
-        goto fail;
-    if (mo_size > 0 && !(rc = im_mo_size(&r, (size_t)mo_size)))
-        is.tets = ref_interior_tets(&r);
-    if (rc)
-        goto fail;
-    double t_mo = pdr_now();
-    if (!quiet) {
-        printf("initial mesh (%s): %zu tetrahedra, %zu points added on segments, %zu on "
-               "facets",
-               io.paper ? "paper" : "conforming", is.tets, is.seg_points, is.fac_points);
-        if (io.paper)
-            printf(", d = %.6g", is.d);
-        printf(" (%.3f s)\n", t_mo - t_read);
-    }
-    size_t v0 = r.m.nv;
-    if (!mo_only) {
-        if ((rc = ref_refine(&r)))
-            goto fail;
-    }
-    double t_ref = pdr_now();
-    pdr_progress_end(&pg);
-    ref_count_bad(&r);
-    ref_release_work(&r);
-    size_t v_added = (size_t)(r.m.nv - v0);
-    if ((rc = ref_export_take(&r, &o)))
-        goto fail;
-    have_o = 1;
-    double t_exp = pdr_now();
-    size_t nt = o.view.nt;
-    if (!quiet) {
-        double tref = t_ref - t_mo;
-        if (!mo_only)
-            printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu "
-                   "subsegment points), %zu circumcentres rejected (%.3f s, %.0f "
-                   "tetrahedra/s)\n",
-                   v_added, r.st.tet_points, r.st.fac_points, r.st.seg_points, r.st.rejected,
-                   tref, tref > 0 ? (double)nt / tref : 0.0);
-        printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", o.view.nv, nt,
-               o.view.nf);
-    }
-    if (fmt) {
-        rc = write_outputs(&o, base, fmt, quiet, &diag);
-        if (rc) {
-            pdr_diag_print(&diag, stderr);
-            goto done;
-        }
-    }
-    double t_out = pdr_now();
-    /* Quality of the result. */
-    ref_quality qs;
-    ref_quality_range(&o.view, &qs);
-    double t_q = pdr_now();
-    if (!quiet) {
-        printf("quality: radius-edge %.4f .. %.4f, dihedral %.2f .. %.2f degrees\n", qs.re_min,
-               qs.re_max, qs.dih_min, qs.dih_max);
-    }
-    if (r.st.left_ratio || r.st.left_size || r.st.left_sliver || !quiet) {
-        printf("left above the bound: %zu tetrahedra with radius-edge >= %g", r.st.left_ratio,
-               ro.ratio);
-        if (r.st.left_ratio)
-            printf(" (%zu next to input angles too small to refine, %zu degenerate, %zu other)",
-                   r.st.left_ratio_angle, r.st.left_ratio_degenerate,
-                   r.st.left_ratio - r.st.left_ratio_angle - r.st.left_ratio_degenerate);
-        if (r.st.left_size)
-            printf(", %zu above the size bound", r.st.left_size);
-        if (r.st.left_sliver)
-            printf(", %zu with a dihedral angle below %g degrees", r.st.left_sliver,
-                   ro.min_dihedral);
-        printf("\n");
-    }
-    if (!quiet) {
-        double total = t_out - t0;
-        printf("time: read %.3f, initial mesh %.3f, refine %.3f, export %.3f, write %.3f, "
-               "quality %.3f s\n",
-               t_read - t0, t_mo - t_read, t_ref - t_mo, t_exp - t_ref, t_out - t_exp,
-               t_q - t_out);
-        printf("total: %.3f s to written mesh, %.0f tetrahedra/s, peak memory %.1f MB\n", total,
-               total > 0 ? (double)nt / total : 0.0, (double)pdr_peak_rss() / 1048576.0);
-    }
-    if (check) {
-        rc = self_check(&o, quiet);
-        if (rc == PDR_ETOPOLOGY)
-            goto done;
-        if (rc)
-            goto fail;
-    }
-    status = PDR_EXIT_OK;
-    goto done;
-fail:
-    pdr_diag_print(&diag, stderr);
-    pdr_cli_error("mesh", "%s", pdr_strerror(rc));
-done:
-    if (have_o)
-        ref_output_free(&o);
-    if (have_r)
-        ref_free(&r);
-    if (have_plc)
-        plc_free(&p);
-    pdr_diag_free(&diag);
-    free(base);
-    return status;
+int pdr_cmd_mesh(int argc, char **argv)
+{
+    mp_opts o;
+    int status = parse_args(argc, argv, &o);
+    if (status != RUN_PIPELINE)
+        return status;
+    mp_ctx c;
+    mp_init(&c, &o);
+    int rc = run_pipeline(&c);
+    mp_free(&c);
+    return rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
 }

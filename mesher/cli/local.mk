@@ -1,6 +1,7 @@
 # mesher/cli: the pdr program (pdr.c dispatches to one cmd_*.c per
-# subcommand). Uses every layer.
-noinst_HEADERS += mesher/cli/pdr_cli.h
+# subcommand; mesh_pipeline.c holds the stages of pdr mesh). Uses every
+# layer.
+noinst_HEADERS += mesher/cli/mesh_pipeline.h mesher/cli/pdr_cli.h
 pdr_SOURCES += \
 	mesher/cli/pdr.c \
 	mesher/cli/cmd_check.c \
@@ -8,4 +9,5 @@ pdr_SOURCES += \
 	mesher/cli/cmd_domain.c \
 	mesher/cli/cmd_info.c \
 	mesher/cli/cmd_mesh.c \
-	mesher/cli/cmd_run.c
+	mesher/cli/cmd_run.c \
+	mesher/cli/mesh_pipeline.c

@@ -1,0 +1,384 @@
+/* cli/mesh_pipeline.c -- the stages of 'pdr mesh': read, initial mesh,
+ * refine, export, write, report, verify (see mesh_pipeline.h). */
+#include "config.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/pdr_util.h"
+#include "cli/mesh_pipeline.h"
+#include "cli/pdr_cli.h"
+#include "io/face.h"
+#include "io/msh.h"
+#include "io/tg.h"
+#include "io/vtu.h"
+#include "mesh/tm.h"
+#include "mesh/vf.h"
+#include "plc/dom.h"
+
+/* The command whose name the messages carry. */
+#define MP_CMD "mesh"
+
+void mp_default_opts(mp_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    ref_default_opts(&o->ref);
+    o->formats = MP_FMT_NODE;
+}
+
+/* The refinement's progress callback: a pdr_progress line on stderr. */
+static void show_progress(void *arg, const ref_mesher *r)
+{
+    pdr_progress_line(arg, "pdr mesh: %u vertices, %u tetrahedra (with exterior)", r->m.nv - 1,
+                      r->m.nlive - r->m.nghost);
+}
+
+void mp_init(mp_ctx *c, const mp_opts *o)
+{
+    memset(c, 0, sizeof *c);
+    c->o = *o;
+    c->o.ref.progress = show_progress;
+    c->o.ref.progress_arg = &c->pg;
+    c->t_start = pdr_now();
+    pdr_progress_start(&c->pg, c->t_start, o->quiet);
+}
+
+void mp_free(mp_ctx *c)
+{
+    if (c->have_out)
+        ref_output_free(&c->out);
+    if (c->have_r)
+        ref_free(&c->r);
+    if (c->have_plc)
+        plc_free(&c->p);
+    c->have_out = c->have_r = c->have_plc = 0;
+    pdr_diag_free(&c->diag);
+    free(c->base);
+    c->base = NULL;
+}
+
+/* The common way a stage fails: whatever diagnostics are pending, then
+ * the reason. Returns rc. */
+static int fail(mp_ctx *c, int rc)
+{
+    pdr_diag_print(&c->diag, stderr);
+    pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+    return rc;
+}
+
+/* The name of the input in messages and of the default output. */
+static const char *input_name(const mp_ctx *c)
+{
+    return c->o.in ? c->o.in : c->o.domain;
+}
+
+/* ------------------------------------------------------------- read */
+
+/* Fills the (initialised) PLC from the input file or the domain and
+ * validates it; the reasons for a failure are in diag. */
+static int load_plc(mp_ctx *c)
+{
+    int rc;
+    if (c->o.in) {
+        rc = plc_read(&c->p, c->o.in, &c->diag);
+    } else {
+        int dom = c->o.domain ? dom_lookup(c->o.domain) : -1;
+        rc = dom < 0 ? PDR_EINVAL : dom_build_default(&c->p, dom, &c->diag);
+    }
+    return rc ? rc : plc_validate(&c->p, &c->diag);
+}
+
+/* IN.poly -> IN.1 (TetGen's naming, which never overwrites an input), or
+ * the -o name as given. */
+static char *output_base(const mp_ctx *c)
+{
+    if (c->o.out)
+        return strdup(c->o.out);
+    const char *in = input_name(c);
+    return pdr_path_ext(in, pdr_path_stem(in), ".1");
+}
+
+int mp_read(mp_ctx *c)
+{
+    double t = pdr_now();
+    int rc = plc_init(&c->p, input_name(c));
+    if (rc)
+        return fail(c, rc);
+    c->have_plc = 1;
+    if ((rc = load_plc(c))) {
+        /* The reader's file:line messages say it all for a bad input;
+         * anything else (memory, no input) gets its reason too. */
+        pdr_diag_print(&c->diag, stderr);
+        if (rc != PDR_EPARSE && rc != PDR_EGEOMETRY && rc != PDR_EIO)
+            pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+        return rc;
+    }
+    if (!(c->base = output_base(c)))
+        return fail(c, PDR_ENOMEM);
+    c->sec[MP_READ] = pdr_now() - t;
+    const plc *p = &c->p;
+    if (!c->o.quiet)
+        printf("input: %s: %zu vertices, %zu segments, %zu facets, %zu hole%s, %zu region%s "
+               "(%.3f s)\n",
+               input_name(c), p->nv, p->nseg, p->nfacet, p->nhole, p->nhole == 1 ? "" : "s",
+               p->nregion, p->nregion == 1 ? "" : "s", c->sec[MP_READ]);
+    return 0;
+}
+
+/* ----------------------------------------------------- initial mesh */
+
+int mp_initial_mesh(mp_ctx *c)
+{
+    double t = pdr_now();
+    int rc = ref_init(&c->r, &c->p, &c->o.ref);
+    if (rc)
+        return fail(c, rc);
+    c->have_r = 1;
+    rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
+    /* Warnings (a region point outside the domain) are shown even when
+     * Mo was built. */
+    if (c->diag.ntotal) {
+        pdr_diag_print(&c->diag, stderr);
+        pdr_diag_free(&c->diag);
+    }
+    if (rc)
+        return fail(c, rc);
+    if (c->o.mo_size > 0) {
+        if ((rc = im_mo_size(&c->r, (size_t)c->o.mo_size)))
+            return fail(c, rc);
+        c->is.tets = ref_interior_tets(&c->r);
+    }
+    c->sec[MP_MO] = pdr_now() - t;
+    if (!c->o.quiet) {
+        printf("initial mesh (%s): %zu tetrahedra, %zu points added on segments, %zu on "
+               "facets",
+               c->o.mo.paper ? "paper" : "conforming", c->is.tets, c->is.seg_points,
+               c->is.fac_points);
+        if (c->o.mo.paper)
+            printf(", d = %.6g", c->is.d);
+        printf(" (%.3f s)\n", c->sec[MP_MO]);
+    }
+    c->v0 = c->r.m.nv;
+    return 0;
+}
+
+/* ----------------------------------------------------------- refine */
+
+int mp_refine(mp_ctx *c)
+{
+    double t = pdr_now();
+    int rc = ref_refine(&c->r);
+    if (rc)
+        return fail(c, rc);
+    c->sec[MP_REFINE] = pdr_now() - t;
+    c->refined = 1;
+    return 0;
+}
+
+/* ----------------------------------------------------------- export */
+
+/* The lines about the refinement and the mesh it made come after the
+ * export because the rate counts the exported tetrahedra. */
+void mp_print_mesh_summary(const mp_ctx *c)
+{
+    const mesh_export *v = &c->out.view;
+    if (c->o.quiet)
+        return;
+    if (c->refined) {
+        double tref = c->sec[MP_REFINE];
+        printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu "
+               "subsegment points), %zu circumcentres rejected (%.3f s, %.0f "
+               "tetrahedra/s)\n",
+               c->v_added, c->st.tet_points, c->st.fac_points, c->st.seg_points,
+               c->st.rejected, tref, tref > 0 ? (double)v->nt / tref : 0.0);
+    }
+    printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", v->nv, v->nt,
+           v->nf);
+}
+
+int mp_export(mp_ctx *c)
+{
+    double t = pdr_now();
+    /* The progress line, open on a terminal, ends before the summary. */
+    pdr_progress_end(&c->pg);
+    ref_count_bad(&c->r);
+    /* The work memory goes first, so that the export's peak is lower. */
+    ref_release_work(&c->r);
+    c->v_added = (size_t)(c->r.m.nv - c->v0);
+    int rc = ref_export_take(&c->r, &c->out);
+    if (rc)
+        return fail(c, rc);
+    c->have_out = 1;
+    c->st = c->r.st;
+    c->sec[MP_EXPORT] = pdr_now() - t;
+    mp_print_mesh_summary(c);
+    return 0;
+}
+
+/* ------------------------------------------------------------ write */
+
+/* BASE.node, BASE.ele, BASE.face (1-based, region attributes). */
+static int write_tetgen(mp_ctx *c)
+{
+    const ref_output *o = &c->out;
+    tg_nodes nodes = {.n = o->view.nv, .first = 1, .xyz = (double *)o->xyz};
+    char *pn = pdr_path_join(c->base, ".node"), *pe = pdr_path_join(c->base, ".ele"),
+         *pf = pdr_path_join(c->base, ".face");
+    int rc = pn && pe && pf ? 0 : PDR_ENOMEM;
+    if (!rc)
+        rc = tg_write_node(pn, &nodes, &c->diag);
+    if (!rc)
+        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, &c->diag);
+    if (!rc)
+        rc = face_write(&o->view, pf, 1, &c->diag);
+    if (!rc && !c->o.quiet)
+        printf("wrote %s, %s, %s\n", pn, pe, pf);
+    free(pn);
+    free(pe);
+    free(pf);
+    return rc;
+}
+
+/* BASE.vtu, binary, without the quality fields. */
+static int write_vtu(mp_ctx *c)
+{
+    char *p = pdr_path_join(c->base, ".vtu");
+    vtu_opts vo = {0, 0};
+    int rc = p ? vtu_write(&c->out.view, p, &vo, &c->diag) : PDR_ENOMEM;
+    if (!rc && !c->o.quiet)
+        printf("wrote %s\n", p);
+    free(p);
+    return rc;
+}
+
+/* BASE.msh, Gmsh 4.1. */
+static int write_msh(mp_ctx *c)
+{
+    char *p = pdr_path_join(c->base, ".msh");
+    int rc = p ? msh_write(&c->out.view, p, &c->diag) : PDR_ENOMEM;
+    if (!rc && !c->o.quiet)
+        printf("wrote %s\n", p);
+    free(p);
+    return rc;
+}
+
+int mp_write(mp_ctx *c)
+{
+    double t = pdr_now();
+    unsigned f = c->o.formats;
+    int rc = 0;
+    if (f & MP_FMT_NODE)
+        rc = write_tetgen(c);
+    if (!rc && (f & MP_FMT_VTU))
+        rc = write_vtu(c);
+    if (!rc && (f & MP_FMT_MSH))
+        rc = write_msh(c);
+    if (rc) {
+        /* The writers name the file and the reason in diag; there is no
+         * further "pdr mesh:" line. */
+        pdr_diag_print(&c->diag, stderr);
+        return rc;
+    }
+    c->t_written = pdr_now();
+    c->sec[MP_WRITE] = c->t_written - t;
+    return 0;
+}
+
+/* ----------------------------------------------------------- report */
+
+/* "left above the bound: ...": printed also when quiet if anything was
+ * left, since that is a warning about the mesh. */
+static void print_left(const mp_ctx *c)
+{
+    const ref_stats *st = &c->st;
+    if (!st->left_ratio && !st->left_size && !st->left_sliver && c->o.quiet)
+        return;
+    printf("left above the bound: %zu tetrahedra with radius-edge >= %g", st->left_ratio,
+           c->o.ref.ratio);
+    if (st->left_ratio)
+        printf(" (%zu next to input angles too small to refine, %zu degenerate, %zu other)",
+               st->left_ratio_angle, st->left_ratio_degenerate,
+               st->left_ratio - st->left_ratio_angle - st->left_ratio_degenerate);
+    if (st->left_size)
+        printf(", %zu above the size bound", st->left_size);
+    if (st->left_sliver)
+        printf(", %zu with a dihedral angle below %g degrees", st->left_sliver,
+               c->o.ref.min_dihedral);
+    printf("\n");
+}
+
+/* The seconds per stage, and the whole run to the written mesh. */
+static void print_times(const mp_ctx *c)
+{
+    const double *s = c->sec;
+    double total = c->t_written - c->t_start;
+    size_t nt = c->out.view.nt;
+    printf("time: read %.3f, initial mesh %.3f, refine %.3f, export %.3f, write %.3f, "
+           "quality %.3f s\n",
+           s[MP_READ], s[MP_MO], s[MP_REFINE], s[MP_EXPORT], s[MP_WRITE], s[MP_REPORT]);
+    printf("total: %.3f s to written mesh, %.0f tetrahedra/s, peak memory %.1f MB\n", total,
+           total > 0 ? (double)nt / total : 0.0, (double)pdr_peak_rss() / 1048576.0);
+}
+
+int mp_report(mp_ctx *c)
+{
+    double t = pdr_now();
+    ref_quality q;
+    ref_quality_range(&c->out.view, &q);
+    c->sec[MP_REPORT] = pdr_now() - t;
+    if (!c->o.quiet)
+        printf("quality: radius-edge %.4f .. %.4f, dihedral %.2f .. %.2f degrees\n", q.re_min,
+               q.re_max, q.dih_min, q.dih_max);
+    print_left(c);
+    if (!c->o.quiet)
+        print_times(c);
+    return 0;
+}
+
+/* ----------------------------------------------------------- verify */
+
+/* Builds a tm_mesh of the exported tetrahedra (1-based vertices, no
+ * ghosts) with its face adjacency, the form vf_check reads. Non-manifold
+ * faces are counted into r. */
+static int rebuild_mesh(const mesh_export *v, tm_mesh *m, vf_report *r)
+{
+    int rc = tm_reserve(m, v->nv + 1, v->nt + 16);
+    for (size_t i = 0; i < v->nv && !rc; i++) {
+        uint32_t id;
+        rc = tm_add_vertex(m, v->xyz[i], &id);
+    }
+    if (!rc)
+        rc = tm_room(m, v->nt);
+    for (size_t t = 0; t < v->nt && !rc; t++) {
+        uint32_t s = tm_alloc_tet(m);
+        for (int k = 0; k < 4; k++) {
+            m->tets[s].v[k] = v->tet[t][k] + 1;
+            m->tets[s].n[k] = TM_LINK_NONE;
+        }
+    }
+    return rc ? rc : tm_link_faces(m, &r->nonmanifold);
+}
+
+int mp_verify(mp_ctx *c)
+{
+    double t = pdr_now();
+    tm_mesh m;
+    if (tm_init(&m, 0))
+        return fail(c, PDR_ENOMEM);
+    vf_report r;
+    memset(&r, 0, sizeof r);
+    int rc = rebuild_mesh(&c->out.view, &m, &r);
+    if (!rc)
+        rc = vf_check(&m, VF_TOPOLOGY | VF_ORIENTATION | VF_DELAUNAY | VF_VERTICES, &r);
+    tm_free(&m);
+    if (rc)
+        return fail(c, rc);
+    size_t d = vf_defects(&r);
+    c->sec[MP_VERIFY] = pdr_now() - t;
+    if (!c->o.quiet || d)
+        printf("check: %zu defect%s (topology, orientation, Delaunay)\n", d, d == 1 ? "" : "s");
+    if (d)
+        vf_print(&r, stdout);
+    return d ? PDR_ETOPOLOGY : 0;
+}
