@@ -1,7 +1,7 @@
 /*
  * cli/pdr_cli.h -- the subcommands of the pdr program.
  *
- * Each subcommand NAME lives in mesher/cmd_NAME.c as
+ * Each subcommand NAME lives in mesher/cli/cmd_NAME.c as
  *     int pdr_cmd_NAME(int argc, char **argv);
  * which receives argv[0] == "NAME", parses its own options, and returns the
  * process exit status (0 success, 1 failure of the job, 2 usage error).

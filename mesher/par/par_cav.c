@@ -814,10 +814,14 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
                 break;
             cc->cavs[cc->ncavs++] = c;
         }
+        if (cc->on_block)
+            cc->on_block(cc->hook_arg, c);
         cc->nblocked_dist++;
         int wrc = am_wait(cc->am, c->fut);
         cc->nblocked_dist--;
         am_future_reset(c->fut);
+        if (cc->on_resume)
+            cc->on_resume(cc->hook_arg, c);
         if (wrc)
             rc = PDR_EIO;
         else if (c->err)

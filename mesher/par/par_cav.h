@@ -167,6 +167,11 @@ typedef struct par_cav_ctx {
      * tetrahedron, 1 a subsegment, 2 a subfacet (ids of this PE). */
     int (*requeue)(void *arg, int kind, uint32_t id);
     void *requeue_arg;
+    /* Called when the running thread blocks waiting for replies and when
+     * it resumes (time accounting); may be NULL. */
+    void (*on_block)(void *arg, struct par_cav *c);
+    void (*on_resume)(void *arg, struct par_cav *c);
+    void *hook_arg;
     par_cav_stats st;
 } par_cav_ctx;
 
