@@ -18,6 +18,7 @@
 #include "base/nf.h"
 #include "plc/plc.h"
 #include "refine/refine.h"
+#include "refine/refine_int.h" /* ref__split_point */
 #include "unit.h"
 #include "mesh/vf.h"
 

@@ -83,6 +83,10 @@
  * says which exist, so one that an insertion deletes (possible where input
  * angles are acute, and during recovery) is known to be missing and is
  * recovered by splitting it, as in Shewchuk's algorithm.
+ *
+ * The implementation is split over refine/refine*.c along these steps;
+ * refine/refine_int.h says which file holds what and declares what they
+ * share.
  */
 #ifndef PDR_REFINE_H
 #define PDR_REFINE_H
@@ -225,7 +229,8 @@ typedef struct ref_opts {
     void *progress_arg;
 } ref_opts;
 
-/* Queue of refinement work: 32-bit ids, each with a float (rmin). */
+/* Queue of refinement work: 32-bit ids, each with a float (rmin). Only
+ * the refine*.c files use it; it is here because ref_mesher holds three. */
 typedef struct ref_queue {
     uint32_t *id;
     float *rmin;   /* smallest acceptable insertion radius of the split */
@@ -332,9 +337,6 @@ size_t ref_interior_tets(const ref_mesher *r);
 double ref_tet_ratio2(const double *a, const double *b, const double *c, const double *d,
                       double *vol, double *lmax2, double cc[3]);
 
-/* Ensures the per-tet region array covers every slot of the mesh. */
-int ref_region_room(ref_mesher *r);
-
 /* Radius-edge and dihedral angle ranges of a mesh, in one cheap pass (the
  * summary of 'pdr mesh'; check/ql.h has the full statistics). */
 typedef struct ref_quality {
@@ -343,9 +345,6 @@ typedef struct ref_quality {
 } ref_quality;
 
 void ref_quality_range(const mesh_export *e, ref_quality *q);
-
-/* Internal, for the tests: the point that splits subsegment ab. */
-void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
 /* ----------------------------------------------------------- export */
 
