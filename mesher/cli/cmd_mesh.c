@@ -416,6 +416,20 @@ int pdr_cmd_mesh(int argc, char **argv)
 
     ro.progress = show_progress;
     ro.progress_arg = &pg;
+    /* The refinement's debugging aids, turned on from the environment
+     * here because the library reads none: PDR_REF_CHECK checks the marks
+     * against the subsegment and subfacet tables before every step (slow)
+     * and fails at the first disagreement, described on stderr;
+     * PDR_REF_TRACE=N prints the queues and counters every N steps. */
+    if (getenv("PDR_REF_CHECK")) {
+        ro.check_each_step = 1;
+        ro.log = stderr;
+    }
+    const char *trace = getenv("PDR_REF_TRACE");
+    if (trace && atol(trace) > 0) {
+        ro.trace = stderr;
+        ro.trace_every = (size_t)atol(trace);
+    }
     if ((rc = ref_init(&r, &p, &ro)))
         goto fail;
     have_r = 1;

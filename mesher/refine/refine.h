@@ -227,6 +227,19 @@ typedef struct ref_opts {
     /* Called about every 2^14 insertions when not NULL. */
     void (*progress)(void *arg, const struct ref_mesher *r);
     void *progress_arg;
+    /* Debugging aids, off after ref_default_opts. The library reads no
+     * environment and never aborts: a caller that wants them sets them
+     * (pdr mesh does from PDR_REF_CHECK and PDR_REF_TRACE). */
+    int check_each_step; /* ref_run checks the marks against the tables
+                            (ref_consistency) before every step and, at the
+                            first disagreement, stops with PDR_ETOPOLOGY;
+                            slow */
+    FILE *log;         /* where check_each_step describes a disagreement;
+                          NULL: nowhere (the error code still says it) */
+    FILE *trace;       /* ref_run's trace lines (queue lengths, counters);
+                          NULL: none */
+    size_t trace_every; /* a trace line every this many steps; 0: only
+                           the line at the end of each ref_run */
 } ref_opts;
 
 /* Queue of refinement work: 32-bit ids, each with a float (rmin). Only
@@ -276,7 +289,7 @@ typedef struct ref_mesher {
 
 /* Sets *o to the defaults: ratio 2, smallest dihedral angle 10 degrees,
  * no size bound, rho 1/(2 sqrt 2), regional volume bounds on, LIFO
- * order. */
+ * order, no progress callback, no checks, no trace. */
 void ref_default_opts(ref_opts *o);
 
 /* Prepares an empty mesher for PLC p (validated; p must outlive r).
@@ -292,7 +305,10 @@ void ref_release_work(ref_mesher *r);
 
 /* Splits queued subsegments and subfacets (recovery and encroachment)
  * until none is queued; with tets != 0 and the mesh classified, also bad
- * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY. */
+ * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY (also when
+ * the option check_each_step finds the tables and the mesh disagree; r is
+ * then left as it was after the last step, good for ref_consistency and
+ * ref_free). */
 int ref_run(ref_mesher *r, int tets);
 
 /* Flags exterior and hole tetrahedra and assigns regions by flood fill

@@ -691,28 +691,31 @@ int ref_run(ref_mesher *r, int tets)
     int lifo = r->o.order == REF_ORDER_LIFO;
     size_t iter = 0;
     int rc = 0;
-    /* Debugging aids: PDR_REF_TRACE=N prints the queues and counters
-     * every N steps; PDR_REF_CHECK=1 checks the marks against the tables
-     * after every step (slow) and aborts at the first disagreement. */
-    const char *tr = getenv("PDR_REF_TRACE");
-    size_t trace = tr ? (size_t)atol(tr) : 0;
-    int cons = getenv("PDR_REF_CHECK") != NULL;
+    /* Debugging aids (ref_opts): trace lines every trace_every steps,
+     * and with check_each_step the marks checked against the tables
+     * before every step (slow), stopping at the first disagreement, which
+     * the step just done (iter - 1, r->last_op) brought in. */
+    FILE *trace = r->o.trace;
+    size_t every = r->o.trace_every;
     while (!rc) {
         if ((++iter & 0x3fff) == 0 && r->o.progress)
             r->o.progress(r->o.progress_arg, r);
-        if (cons && ref_consistency(r, stderr, 0)) {
-            fprintf(stderr, "pdr: refinement tables disagree with the mesh after step %zu (%s)\n",
-                    iter, r->last_op);
-            abort();
+        if (r->o.check_each_step && ref_consistency(r, r->o.log, 0)) {
+            if (r->o.log)
+                fprintf(r->o.log,
+                        "refinement tables disagree with the mesh after step %zu (%s)\n",
+                        iter - 1, r->last_op ? r->last_op : "-");
+            rc = PDR_ETOPOLOGY;
+            break;
         }
-        if (trace && iter % trace == 0)
-            fprintf(stderr,
+        if (trace && every && iter % every == 0)
+            fprintf(trace,
                     "trace %zu (%s): nv %u segq %zu facq %zu tetq %zu | seg %zu fac %zu tet %zu "
                     "rej %zu tol %zu gave %zu miss %zu anom %zu flips %zu\n",
-                    iter, r->last_op ? r->last_op : "-", r->m.nv, r->segq.n - r->segq.head, r->facq.n - r->facq.head,
-                    r->tetq.n - r->tetq.head, r->st.seg_points, r->st.fac_points,
-                    r->st.tet_points, r->st.rejected, r->st.tolerated, r->st.gave_up,
-                    r->st.missing_recovered, r->anomalies, r->flips);
+                    iter, r->last_op ? r->last_op : "-", r->m.nv, r->segq.n - r->segq.head,
+                    r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.seg_points,
+                    r->st.fac_points, r->st.tet_points, r->st.rejected, r->st.tolerated,
+                    r->st.gave_up, r->st.missing_recovered, r->anomalies, r->flips);
         float rmin;
         if (!q_empty(&r->segq)) {
             uint32_t id = q_pop(&r->segq, 0, &rmin);
@@ -736,7 +739,7 @@ int ref_run(ref_mesher *r, int tets)
         }
     }
     if (trace)
-        fprintf(stderr,
+        fprintf(trace,
                 "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
                 "slivers %zu miss %zu anom %zu flips %zu\n",
                 iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
