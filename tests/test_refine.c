@@ -18,6 +18,7 @@
 #include "base/nf.h"
 #include "plc/plc.h"
 #include "refine/refine.h"
+#include "refine/refine_int.h" /* ref__split_point */
 #include "unit.h"
 #include "mesh/vf.h"
 
@@ -621,6 +622,105 @@ START_TEST(small_angles_terminate)
 }
 END_TEST
 
+/* ---------------------------------------------------- debugging aids */
+
+/* Builds Mo for p and refines it; *nv gets the number of vertices. */
+static int refine_once(const plc *p, const ref_opts *o, uint32_t *nv)
+{
+    ref_mesher r;
+    pdr_diag diag = {0};
+    im_opts io = {0, 0};
+    ck_assert_int_eq(ref_init(&r, p, o), 0);
+    int rc = im_build(&r, &io, NULL, &diag);
+    if (!rc)
+        rc = ref_refine(&r);
+    *nv = r.m.nv;
+    ref_free(&r);
+    pdr_diag_free(&diag);
+    return rc;
+}
+
+/* The library's debugging aids are options (it reads no environment):
+ * with check_each_step the marks are checked against the tables before
+ * every step of both runs (recovery and quality); a sound run completes
+ * with 0, the same mesh as without the check and nothing on the log; the
+ * trace goes to the stream given. */
+START_TEST(check_each_step_passes)
+{
+    plc p;
+    cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    ck_assert_int_eq(o.check_each_step, 0);
+    ck_assert_ptr_null(o.log);
+    ck_assert_ptr_null(o.trace);
+    o.maxvol = 0.01;
+    uint32_t nv_plain, nv_checked;
+    ck_assert_int_eq(refine_once(&p, &o, &nv_plain), 0);
+    FILE *log = tmpfile(), *trace = tmpfile();
+    ck_assert_ptr_nonnull(log);
+    ck_assert_ptr_nonnull(trace);
+    o.check_each_step = 1;
+    o.log = log;
+    o.trace = trace;
+    o.trace_every = 100;
+    ck_assert_int_eq(refine_once(&p, &o, &nv_checked), 0);
+    ck_assert_uint_eq(nv_checked, nv_plain);
+    ck_assert_int_eq(ftell(log), 0);
+    ck_assert_int_gt(ftell(trace), 0);
+    char line[256];
+    rewind(trace);
+    ck_assert_ptr_nonnull(fgets(line, sizeof line, trace));
+    ck_assert_int_eq(strncmp(line, "trace ", 6), 0);
+    fclose(trace);
+    fclose(log);
+    plc_free(&p);
+}
+END_TEST
+
+/* A broken state (a face marked that is no subfacet) makes ref_run with
+ * check_each_step return PDR_ETOPOLOGY, described on the log, instead of
+ * ending the process; with no log, the error code alone. */
+START_TEST(check_each_step_reports_broken_tables)
+{
+    plc p;
+    cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    ref_mesher r;
+    pdr_diag diag = {0};
+    im_opts io = {0, 0};
+    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
+    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    ck_assert_uint_eq(ref_consistency(&r, NULL, 0), 0);
+    uint32_t t = 0;
+    while (t < r.m.nslots && (!ref_is_interior(&r.m, t) || (r.m.flags[t] & TM_F_FACEMARKS)))
+        t++;
+    ck_assert_uint_lt(t, r.m.nslots);
+    tm_mark_face(&r.m, t, 0, 1);
+    ck_assert_uint_gt(ref_consistency(&r, NULL, 0), 0);
+    FILE *log = tmpfile();
+    ck_assert_ptr_nonnull(log);
+    r.o.check_each_step = 1;
+    r.o.log = log;
+    ck_assert_int_eq(ref_run(&r, 1), PDR_ETOPOLOGY);
+    rewind(log);
+    char line[256];
+    int no_subfacet = 0, disagree = 0;
+    while (fgets(line, sizeof line, log)) {
+        no_subfacet |= strstr(line, "is no live subfacet") != NULL;
+        disagree |= strstr(line, "refinement tables disagree") != NULL;
+    }
+    ck_assert(no_subfacet && disagree);
+    r.o.log = NULL;
+    ck_assert_int_eq(ref_run(&r, 1), PDR_ETOPOLOGY);
+    fclose(log);
+    ref_free(&r);
+    pdr_diag_free(&diag);
+    plc_free(&p);
+}
+END_TEST
+
 /* ---------------------------------------------------- number format */
 
 static void same_as_printf(double x)
@@ -685,6 +785,8 @@ static Suite *suite(void)
     tcase_add_test(t, mesh_tee);
     tcase_add_test(t, mesh_rotated_cube);
     tcase_add_test(t, small_angles_terminate);
+    tcase_add_test(t, check_each_step_passes);
+    tcase_add_test(t, check_each_step_reports_broken_tables);
     suite_add_tcase(s, t);
     return s;
 }

@@ -345,6 +345,20 @@ int pdr_cmd_mesh(int argc, char **argv)
     int status = parse_args(argc, argv, &o);
     if (status != RUN_PIPELINE)
         return status;
+    /* The refinement's debugging aids, turned on from the environment
+     * here because the library reads none: PDR_REF_CHECK checks the marks
+     * against the subsegment and subfacet tables before every step (slow)
+     * and fails at the first disagreement, described on stderr;
+     * PDR_REF_TRACE=N prints the queues and counters every N steps. */
+    if (getenv("PDR_REF_CHECK")) {
+        o.ref.check_each_step = 1;
+        o.ref.log = stderr;
+    }
+    const char *trace = getenv("PDR_REF_TRACE");
+    if (trace && atol(trace) > 0) {
+        o.ref.trace = stderr;
+        o.ref.trace_every = (size_t)atol(trace);
+    }
     mp_ctx c;
     mp_init(&c, &o);
     int rc = run_pipeline(&c);

@@ -3,8 +3,13 @@
 noinst_HEADERS += \
 	mesher/refine/bd.h \
 	mesher/refine/im.h \
-	mesher/refine/refine.h
+	mesher/refine/refine.h \
+	mesher/refine/refine_int.h
 libpdrmesh_la_SOURCES += \
 	mesher/refine/bd.c \
 	mesher/refine/im.c \
-	mesher/refine/refine.c
+	mesher/refine/refine.c \
+	mesher/refine/refine_bound.c \
+	mesher/refine/refine_classify.c \
+	mesher/refine/refine_decide.c \
+	mesher/refine/refine_run.c

@@ -83,6 +83,10 @@
  * says which exist, so one that an insertion deletes (possible where input
  * angles are acute, and during recovery) is known to be missing and is
  * recovered by splitting it, as in Shewchuk's algorithm.
+ *
+ * The implementation is split over refine/refine*.c along these steps;
+ * refine/refine_int.h says which file holds what and declares what they
+ * share.
  */
 #ifndef PDR_REFINE_H
 #define PDR_REFINE_H
@@ -223,9 +227,23 @@ typedef struct ref_opts {
     /* Called about every 2^14 insertions when not NULL. */
     void (*progress)(void *arg, const struct ref_mesher *r);
     void *progress_arg;
+    /* Debugging aids, off after ref_default_opts. The library reads no
+     * environment and never aborts: a caller that wants them sets them
+     * (pdr mesh does from PDR_REF_CHECK and PDR_REF_TRACE). */
+    int check_each_step; /* ref_run checks the marks against the tables
+                            (ref_consistency) before every step and, at the
+                            first disagreement, stops with PDR_ETOPOLOGY;
+                            slow */
+    FILE *log;         /* where check_each_step describes a disagreement;
+                          NULL: nowhere (the error code still says it) */
+    FILE *trace;       /* ref_run's trace lines (queue lengths, counters);
+                          NULL: none */
+    size_t trace_every; /* a trace line every this many steps; 0: only
+                           the line at the end of each ref_run */
 } ref_opts;
 
-/* Queue of refinement work: 32-bit ids, each with a float (rmin). */
+/* Queue of refinement work: 32-bit ids, each with a float (rmin). Only
+ * the refine*.c files use it; it is here because ref_mesher holds three. */
 typedef struct ref_queue {
     uint32_t *id;
     float *rmin;   /* smallest acceptable insertion radius of the split */
@@ -271,7 +289,7 @@ typedef struct ref_mesher {
 
 /* Sets *o to the defaults: ratio 2, smallest dihedral angle 10 degrees,
  * no size bound, rho 1/(2 sqrt 2), regional volume bounds on, LIFO
- * order. */
+ * order, no progress callback, no checks, no trace. */
 void ref_default_opts(ref_opts *o);
 
 /* Prepares an empty mesher for PLC p (validated; p must outlive r).
@@ -287,7 +305,10 @@ void ref_release_work(ref_mesher *r);
 
 /* Splits queued subsegments and subfacets (recovery and encroachment)
  * until none is queued; with tets != 0 and the mesh classified, also bad
- * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY. */
+ * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY (also when
+ * the option check_each_step finds the tables and the mesh disagree; r is
+ * then left as it was after the last step, good for ref_consistency and
+ * ref_free). */
 int ref_run(ref_mesher *r, int tets);
 
 /* Flags exterior and hole tetrahedra and assigns regions by flood fill
@@ -332,9 +353,6 @@ size_t ref_interior_tets(const ref_mesher *r);
 double ref_tet_ratio2(const double *a, const double *b, const double *c, const double *d,
                       double *vol, double *lmax2, double cc[3]);
 
-/* Ensures the per-tet region array covers every slot of the mesh. */
-int ref_region_room(ref_mesher *r);
-
 /* Radius-edge and dihedral angle ranges of a mesh, in one cheap pass (the
  * summary of 'pdr mesh'; check/ql.h has the full statistics). */
 typedef struct ref_quality {
@@ -343,9 +361,6 @@ typedef struct ref_quality {
 } ref_quality;
 
 void ref_quality_range(const mesh_export *e, ref_quality *q);
-
-/* Internal, for the tests: the point that splits subsegment ab. */
-void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
 /* ----------------------------------------------------------- export */
 

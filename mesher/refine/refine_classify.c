@@ -1,0 +1,538 @@
+/*
+ * refine/refine_classify.c -- what the refinement asks of a whole mesh
+ * rather than of one cavity: classification (exterior, holes and regions
+ * by flood fill), the consistency check of the marks against the
+ * subsegment and subfacet tables, counting what was left above the
+ * bounds, the radius-edge and dihedral ranges of the summary, and the
+ * export to the writers' neutral form.
+ */
+#include "config.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "refine/refine_int.h"
+#include "base/v3.h"
+
+#define X(m, v) ((m)->xyz + 3 * (size_t)(v))
+
+/* ---------------------------------------------------- classification */
+
+/* Classification is a flood fill over faces that are not subfacets: from
+ * the ghosts (the outside), from every hole point, and, with a region
+ * number, from every region point; what is left is inside, with no
+ * region. */
+
+static int push(uint32_t **st, size_t *n, size_t *cap, uint32_t t)
+{
+    if (*n == *cap) {
+        size_t c = *cap ? *cap * 2 : 1024;
+        uint32_t *s = realloc(*st, c * sizeof *s);
+        if (!s)
+            return PDR_ENOMEM;
+        *st = s;
+        *cap = c;
+    }
+    (*st)[(*n)++] = t;
+    return 0;
+}
+
+/* Spreads state s (and region g) from the tetrahedra on the stack over
+ * faces that are not subfacets. */
+static int flood(ref_mesher *r, uint8_t *state, uint8_t s, uint16_t g, uint32_t **st, size_t *n,
+                 size_t *cap)
+{
+    tm_mesh *m = &r->m;
+    while (*n) {
+        uint32_t t = (*st)[--*n];
+        for (int k = 0; k < 4; k++) {
+            if (m->flags[t] & TM_F_FACEMARK(k))
+                continue;
+            tm_link l = m->tets[t].n[k];
+            if (tm_is_special(l))
+                continue;
+            uint32_t u = tm_ltet(l);
+            if (state[u])
+                continue;
+            state[u] = s;
+            if (r->region && s == 2)
+                r->region[u] = g;
+            if (push(st, n, cap, u))
+                return PDR_ENOMEM;
+        }
+    }
+    return 0;
+}
+
+/* Seeds the flood at the tetrahedron containing point x; returns 1 if it
+ * was seeded, 0 if x is outside the hull or already classified. */
+static int seed(ref_mesher *r, const double *x, uint8_t *state, uint8_t s, uint16_t g,
+                uint32_t **st, size_t *n, size_t *cap, int *rc)
+{
+    tm_mesh *m = &r->m;
+    uint32_t t;
+    tm_link exit;
+    int l = dt_locate(m, x, TM_NONE, &t, &exit);
+    *rc = 0;
+    if (l != 0) {
+        *rc = l < 0 ? l : 0;
+        return 0;
+    }
+    if (tm_is_ghost(m, t) || state[t])
+        return 0;
+    state[t] = s;
+    if (r->region && s == 2)
+        r->region[t] = g;
+    *rc = push(st, n, cap, t);
+    if (!*rc)
+        *rc = flood(r, state, s, g, st, n, cap);
+    return 1;
+}
+
+int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *diag)
+{
+    tm_mesh *m = &r->m;
+    const plc *p = r->p;
+    int rc = ref__region_room(r);
+    if (rc)
+        return rc;
+    uint8_t *state = calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */
+    uint32_t *st = NULL;
+    size_t n = 0, cap = 0;
+    if (!state)
+        return PDR_ENOMEM;
+    /* the previous regions, to count changes: a copy of the region array
+     * (the exterior flags stay on the mesh until the end) */
+    uint16_t *old = NULL;
+    if (r->region && r->classified) {
+        old = malloc(r->region_cap * sizeof *old);
+        if (!old) {
+            free(state);
+            return PDR_ENOMEM;
+        }
+        memcpy(old, r->region, r->region_cap * sizeof *old);
+    }
+    if (r->region)
+        memset(r->region, 0, r->region_cap * sizeof *r->region);
+    /* Outside: everything reachable from the hull without crossing a
+     * subfacet. */
+    for (uint32_t t = 0; t < m->nslots && !rc; t++)
+        if (!tm_is_dead(m, t) && tm_is_ghost(m, t)) {
+            state[t] = 1;
+            rc = push(&st, &n, &cap, t);
+        }
+    if (!rc)
+        rc = flood(r, state, 1, 0, &st, &n, &cap);
+    for (size_t h = 0; h < p->nhole && !rc; h++)
+        seed(r, p->holes[h].xyz, state, 1, 0, &st, &n, &cap, &rc);
+    size_t lost = 0;
+    for (size_t j = 0; j < p->nregion && !rc; j++) {
+        uint32_t t;
+        tm_link exit;
+        int l = dt_locate(m, p->regions[j].xyz, TM_NONE, &t, &exit);
+        if (l < 0) {
+            rc = l;
+            break;
+        }
+        if (l != 0 || tm_is_ghost(m, t) || state[t] == 1) {
+            lost++;
+            if (diag)
+                pdr_diag_add(diag, p->path, p->regions[j].line,
+                             "warning: region point %zu lies outside the domain; ignored", j + 1);
+            continue;
+        }
+        if (state[t] == 2)
+            continue; /* a region already seeded by an earlier point */
+        seed(r, p->regions[j].xyz, state, 2, (uint16_t)(j + 1), &st, &n, &cap, &rc);
+    }
+    size_t nchanged = 0;
+    if (!rc) {
+        for (uint32_t t = 0; t < m->nslots; t++) {
+            if (tm_is_dead(m, t))
+                continue;
+            uint16_t was = m->flags[t] & REF_F_EXTERIOR;
+            if (state[t] == 1)
+                m->flags[t] |= REF_F_EXTERIOR;
+            else
+                m->flags[t] &= (uint16_t)~REF_F_EXTERIOR;
+            if (r->classified && !tm_is_ghost(m, t) &&
+                (was != (m->flags[t] & REF_F_EXTERIOR) ||
+                 (old && state[t] != 1 && old[t] != r->region[t]))) {
+                nchanged++;
+                m->flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE);
+            }
+        }
+        r->classified = 1;
+    }
+    if (unreached)
+        *unreached = lost;
+    if (changed)
+        *changed = nchanged;
+    free(old);
+    free(st);
+    free(state);
+    return rc;
+}
+
+/* ---------------------------------------------------- checks and counts */
+
+size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
+{
+    const tm_mesh *m = &r->m;
+    const bd_set *bd = &r->bd;
+    size_t bad = 0;
+    /* While a subfacet is missing, the marks do not yet separate the
+     * regions there: check regions only when none is. */
+    int regions = r->classified && check_regions;
+    for (uint32_t i = 0; i < bd->nfacs && regions; i++)
+        if ((bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING)
+            regions = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        const tm_tet *T = &m->tets[t];
+        for (int k = 0; k < 4; k++) {
+            if (!(m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            uint32_t a = T->v[tm_face_vtx[k][0]], b = T->v[tm_face_vtx[k][1]],
+                     c = T->v[tm_face_vtx[k][2]];
+            uint32_t id = bd_find_subfac(bd, a, b, c);
+            if (id == BD_NONE || (bd->facs[id].flags & BD_F_MISSING) ||
+                (int32_t)bd->facs[id].facet + 1 != m->marker[4 * (size_t)t + (size_t)k]) {
+                if (log)
+                    fprintf(log, "marked face %u %u %u of tet %u is no live subfacet\n", a, b, c, t);
+                bad++;
+            }
+        }
+        /* regions change only across subfacets */
+        for (int k = 0; k < 4 && regions; k++) {
+            tm_link l = T->n[k];
+            if (tm_is_special(l) || (m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            uint32_t u = tm_ltet(l);
+            int et = (m->flags[t] & REF_F_EXTERIOR) || tm_is_ghost(m, t);
+            int eu = (m->flags[u] & REF_F_EXTERIOR) || tm_is_ghost(m, u);
+            if (et != eu || (r->region && !et && r->region[t] != r->region[u])) {
+                if (log)
+                    fprintf(log,
+                            "tets %u (%u %u %u %u, flags %x) and %u (%u %u %u %u, flags %x) "
+                            "differ in region across unmarked face %d (regions %d %d)\n",
+                            t, T->v[0], T->v[1], T->v[2], T->v[3], m->flags[t], u,
+                            m->tets[u].v[0], m->tets[u].v[1], m->tets[u].v[2], m->tets[u].v[3],
+                            m->flags[u], k, r->region ? r->region[t] : -1,
+                            r->region ? r->region[u] : -1);
+                bad++;
+            }
+        }
+        for (int e = 0; e < 6; e++) {
+            if (!(m->flags[t] & TM_F_SUBSEG(e)))
+                continue;
+            uint32_t a = T->v[tm_edge_vtx[e][0]], b = T->v[tm_edge_vtx[e][1]];
+            uint32_t id = bd_find_subseg(bd, a, b);
+            if (id == BD_NONE || (bd->segs[id].flags & BD_F_MISSING)) {
+                if (log)
+                    fprintf(log, "flagged edge %u %u of tet %u is no live subsegment\n", a, b, t);
+                bad++;
+            }
+        }
+    }
+    for (uint32_t i = 0; i < bd->nfacs; i++) {
+        const bd_subfac *s = &bd->facs[i];
+        if (s->flags & (BD_F_DEAD | BD_F_MISSING))
+            continue;
+        uint32_t t;
+        if (!ref__find_in_star(m, s->v[0], s->v[1], s->v[2], &t)) {
+            if (log)
+                fprintf(log, "present subfacet %u (%u %u %u) is no face\n", i, s->v[0], s->v[1],
+                        s->v[2]);
+            bad++;
+            continue;
+        }
+        const tm_tet *T = &m->tets[t];
+        int k = 6 - ref__slot_in(T, s->v[0]) - ref__slot_in(T, s->v[1]) - ref__slot_in(T, s->v[2]);
+        if (!(m->flags[t] & TM_F_FACEMARK(k))) {
+            if (log)
+                fprintf(log, "present subfacet %u (%u %u %u) is not marked\n", i, s->v[0],
+                        s->v[1], s->v[2]);
+            bad++;
+        }
+    }
+    return bad;
+}
+
+size_t ref_interior_tets(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        n += ref_is_interior(m, t);
+    return n;
+}
+
+void ref_count_bad(ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
+    r->st.left_size = r->st.left_sliver = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!ref_is_interior(m, t))
+            continue;
+        double cc[3], q;
+        int why = ref__tet_bad(r, t, cc, &q);
+        if (!why)
+            continue;
+        if (r->b2 > 0 && q >= r->b2) {
+            r->st.left_ratio++;
+            if (m->flags[t] & REF_F_GIVEUP) {
+                if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0]))
+                    r->st.left_ratio_degenerate++;
+                else
+                    r->st.left_ratio_angle++;
+            }
+        } else if (why == 2) {
+            r->st.left_sliver++;
+        } else {
+            r->st.left_size++;
+        }
+    }
+}
+
+/* ------------------------------------------------------------ summary */
+
+double ref_tet_ratio2(const double *a, const double *b, const double *c, const double *d,
+                      double *vol, double *lmax2, double cc[3])
+{
+    double u[3], v[3], w[3], vw[3], wu[3], uv[3];
+    double det = v3_tet_frame(a, b, c, d, u, v, w, vw, wu, uv);
+    double uu = v3_dot(u, u), vv = v3_dot(v, v), ww = v3_dot(w, w);
+    double e3 = v3_dist2(b, c), e4 = v3_dist2(b, d), e5 = v3_dist2(c, d);
+    double lo = uu, hi = uu;
+    double e[5] = {vv, ww, e3, e4, e5};
+    for (int k = 0; k < 5; k++) {
+        if (e[k] < lo)
+            lo = e[k];
+        if (e[k] > hi)
+            hi = e[k];
+    }
+    if (vol)
+        *vol = det / 6.0;
+    if (lmax2)
+        *lmax2 = hi;
+    if (!(det > 0.0) || !(lo > 0.0)) {
+        if (cc)
+            cc[0] = cc[1] = cc[2] = NAN;
+        return INFINITY;
+    }
+    double inv = 0.5 / det;
+    double x = (uu * vw[0] + vv * wu[0] + ww * uv[0]) * inv;
+    double y = (uu * vw[1] + vv * wu[1] + ww * uv[1]) * inv;
+    double z = (uu * vw[2] + vv * wu[2] + ww * uv[2]) * inv;
+    if (cc) {
+        cc[0] = a[0] + x;
+        cc[1] = a[1] + y;
+        cc[2] = a[2] + z;
+    }
+    return (x * x + y * y + z * z) / lo;
+}
+
+void ref_quality_range(const mesh_export *e, ref_quality *q)
+{
+    double re2_lo = INFINITY, re2_hi = 0, c_lo = INFINITY, c_hi = -INFINITY;
+    for (size_t t = 0; t < e->nt; t++) {
+        const double *p[4];
+        for (int k = 0; k < 4; k++)
+            p[k] = e->xyz[e->tet[t][k]];
+        double q2 = ref_tet_ratio2(p[0], p[1], p[2], p[3], NULL, NULL, NULL);
+        if (q2 < re2_lo)
+            re2_lo = q2;
+        if (q2 > re2_hi)
+            re2_hi = q2;
+        /* face normals (either orientation of the tetrahedron: the sign of
+         * every normal flips together, the dot products do not) */
+        double n[4][3], len[4];
+        for (int i = 0; i < 4; i++) {
+            const uint8_t *f = tm_face_vtx[i];
+            double u[3], v[3];
+            v3_sub(p[f[1]], p[f[0]], u);
+            v3_sub(p[f[2]], p[f[0]], v);
+            v3_cross(u, v, n[i]);
+            len[i] = sqrt(v3_dot(n[i], n[i]));
+        }
+        for (int i = 0; i < 4; i++)
+            for (int j = i + 1; j < 4; j++) {
+                /* the dihedral angle at the edge shared by faces i and j:
+                 * cos = -(n_i . n_j) / (|n_i| |n_j|) */
+                double c = -v3_dot(n[i], n[j]) / (len[i] * len[j]);
+                if (c < c_lo)
+                    c_lo = c;
+                if (c > c_hi)
+                    c_hi = c;
+            }
+    }
+    q->re_min = sqrt(re2_lo);
+    q->re_max = sqrt(re2_hi);
+    q->dih_min = acos(fmax(-1.0, fmin(1.0, c_hi))) * 180.0 / M_PI;
+    q->dih_max = acos(fmax(-1.0, fmin(1.0, c_lo))) * 180.0 / M_PI;
+}
+
+/* ------------------------------------------------------------- export */
+
+void ref_output_free(ref_output *out)
+{
+    free(out->xyz);
+    free(out->tet);
+    free(out->tet_region);
+    free(out->tet_attr);
+    free(out->tri);
+    free(out->tri_marker);
+    free(out->tri_facet);
+    free(out->vmap);
+    memset(out, 0, sizeof *out);
+}
+
+/* The export of ref_export; with_tets 0 leaves out->tet (and the view's
+ * tet) NULL for ref_export_take to fill. */
+static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
+{
+    memset(out, 0, sizeof *out);
+    const tm_mesh *m = &r->m;
+    const bd_set *bd = &r->bd;
+    size_t nt = ref_interior_tets(r);
+    out->vmap = malloc((size_t)m->nv * sizeof *out->vmap);
+    if (with_tets)
+        out->tet = malloc((nt ? nt : 1) * sizeof *out->tet);
+    if (!out->vmap || (with_tets && !out->tet))
+        goto nomem;
+    memset(out->vmap, 0xff, (size_t)m->nv * sizeof *out->vmap);
+    if (r->region) {
+        out->tet_region = malloc((nt ? nt : 1) * sizeof *out->tet_region);
+        out->tet_attr = malloc((nt ? nt : 1) * sizeof *out->tet_attr);
+        if (!out->tet_region || !out->tet_attr)
+            goto nomem;
+    }
+    /* Vertices numbered in the order tetrahedra first use them, which
+     * keeps the output's memory order close to the mesh's. */
+    size_t nv = 0, k = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!ref_is_interior(m, t))
+            continue;
+        for (int s = 0; s < 4; s++) {
+            uint32_t v = m->tets[t].v[s];
+            if (out->vmap[v] == UINT32_MAX)
+                out->vmap[v] = (uint32_t)nv++;
+            if (with_tets)
+                out->tet[k][s] = out->vmap[v];
+        }
+        if (r->region) {
+            int g = r->region[t];
+            double a = g ? r->p->regions[g - 1].attr : 0.0;
+            out->tet_attr[k] = a;
+            out->tet_region[k] = (int)lrint(a);
+        }
+        k++;
+    }
+    out->xyz = malloc((nv ? nv : 1) * sizeof *out->xyz);
+    if (!out->xyz)
+        goto nomem;
+    for (uint32_t v = 1; v < m->nv; v++)
+        if (out->vmap[v] != UINT32_MAX)
+            memcpy(out->xyz[out->vmap[v]], X(m, v), sizeof out->xyz[0]);
+    /* Subfacets with an interior tetrahedron on at least one side (a facet
+     * with the outside or a hole on both sides bounds nothing), taken from
+     * the marked faces of the interior tetrahedra, in the facet
+     * triangulation's orientation. */
+    size_t nf = 0, capf = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        if (pass == 1) {
+            capf = nf ? nf : 1;
+            out->tri = malloc(capf * sizeof *out->tri);
+            out->tri_marker = malloc(capf * sizeof *out->tri_marker);
+            out->tri_facet = malloc(capf * sizeof *out->tri_facet);
+            if (!out->tri || !out->tri_marker || !out->tri_facet)
+                goto nomem;
+            nf = 0;
+        }
+        for (uint32_t t = 0; t < m->nslots; t++) {
+            uint16_t fl = m->flags[t];
+            if (!(fl & TM_F_FACEMARKS) || (fl & (TM_F_DEAD | REF_F_EXTERIOR)) || tm_is_ghost(m, t))
+                continue;
+            const tm_tet *T = &m->tets[t];
+            for (int fi = 0; fi < 4; fi++) {
+                if (!(fl & TM_F_FACEMARK(fi)))
+                    continue;
+                tm_link l = T->n[fi];
+                if (!tm_is_special(l)) {
+                    uint32_t u = tm_ltet(l);
+                    if (u < t && !(m->flags[u] & REF_F_EXTERIOR) && !tm_is_ghost(m, u))
+                        continue; /* listed from u */
+                }
+                if (pass == 0) {
+                    nf++;
+                    continue;
+                }
+                uint32_t a = T->v[tm_face_vtx[fi][0]], b = T->v[tm_face_vtx[fi][1]],
+                         c = T->v[tm_face_vtx[fi][2]];
+                uint32_t id = bd_find_subfac(bd, a, b, c);
+                uint32_t tv[3] = {a, b, c};
+                const uint32_t *q = id != BD_NONE ? bd->facs[id].v : tv;
+                for (int j = 0; j < 3; j++)
+                    out->tri[nf][j] = out->vmap[q[j]];
+                int32_t f = m->marker[4 * (size_t)t + (size_t)fi] - 1;
+                out->tri_marker[nf] = r->p->facets[f].marker;
+                out->tri_facet[nf] = f;
+                nf++;
+            }
+        }
+    }
+    mesh_export *e = &out->view;
+    e->nv = nv;
+    e->xyz = (const double(*)[3])out->xyz;
+    e->nt = nt;
+    e->tet = (const uint32_t(*)[4])out->tet;
+    e->tet_region = out->tet_region;
+    e->nf = nf;
+    e->tri = (const uint32_t(*)[3])out->tri;
+    e->tri_marker = out->tri_marker;
+    return 0;
+nomem:
+    ref_output_free(out);
+    return PDR_ENOMEM;
+}
+
+int ref_export(const ref_mesher *r, ref_output *out)
+{
+    return export_mesh(r, out, 1);
+}
+
+int ref_export_take(ref_mesher *r, ref_output *out)
+{
+    int rc = export_mesh(r, out, 0);
+    if (rc)
+        return rc;
+    /* Output tetrahedron k (16 bytes) goes to bytes [16k, 16k + 16) of the
+     * slot array (32-byte slots): inside slot k / 2, and k <= t, so no
+     * slot is overwritten before it has been read (slot 0 is read whole
+     * first). */
+    tm_mesh *m = &r->m;
+    uint32_t(*dst)[4] = (uint32_t(*)[4])(void *)m->tets;
+    size_t k = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!ref_is_interior(m, t))
+            continue;
+        uint32_t v[4];
+        for (int s = 0; s < 4; s++)
+            v[s] = out->vmap[m->tets[t].v[s]];
+        memcpy(dst[k], v, sizeof v);
+        k++;
+    }
+    size_t bytes = (k ? k : 1) * sizeof *dst;
+    uint32_t(*shrunk)[4] = realloc(dst, bytes);
+    out->tet = shrunk ? shrunk : dst;
+    m->tets = NULL;
+    tm_free(m);
+    out->view.tet = (const uint32_t(*)[4])out->tet;
+    return 0;
+}

@@ -1,0 +1,88 @@
+/*
+ * refine/refine_int.h -- shared between the refine*.c files (prefix ref__);
+ * not for other modules, which use refine/refine.h.
+ *
+ * The refinement is one algorithm in five files, cut where the data each
+ * part works on changes:
+ *
+ *   refine.c           the ref_mesher: options, set-up, release
+ *   refine_decide.c    one cavity: its marks and the decision (reads no
+ *                      ref_mesher, so the parallel search can call it)
+ *   refine_bound.c     the subsegment and subfacet tables after a
+ *                      boundary split: new pieces, 2D cavity, repairs
+ *   refine_run.c       the queues, tetrahedron quality, commit, the splits
+ *                      and the insertion loop
+ *   refine_classify.c  the whole mesh: regions, consistency, counts,
+ *                      quality range, export
+ *
+ * Each function below is defined in the file named above its group; the
+ * comment at its definition says what it does.
+ */
+#ifndef PDR_REFINE_INT_H
+#define PDR_REFINE_INT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "refine/refine.h"
+
+/* ------------------------------------------------ refine_decide.c */
+
+/* Circumcentre and squared circumradius of triangle abc in space; 0, or
+ * -1 when degenerate. */
+int ref__tri_circumcentre(const double *a, const double *b, const double *c, double cc[3],
+                          double *r2);
+/* p strictly inside the diametral ball of ab. */
+int ref__in_diametral(const double *a, const double *b, const double *p);
+/* p strictly inside the equatorial ball of abc and off its plane. */
+int ref__in_equatorial(const double *a, const double *b, const double *c, const double *p);
+/* Orientation of abc projected on facet f's plane. */
+int ref__orient_facet(const plc *pl, uint32_t f, const double *a, const double *b,
+                      const double *c);
+/* Calls fn on every tetrahedron around edge ab, starting at t. */
+int ref__around_edge(const tm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
+                     int (*fn)(const tm_mesh *m, uint32_t t, void *arg), void *arg);
+
+/* The slot (0..3) of vertex v in tetrahedron T, or -1. */
+static inline int ref__slot_in(const tm_tet *T, uint32_t v)
+{
+    return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : T->v[3] == v ? 3 : -1;
+}
+
+/* ---------------------------------------------------------- refine.c */
+
+/* Ensures the per-tet region array covers every slot of the mesh. */
+int ref__region_room(ref_mesher *r);
+
+/* ------------------------------------------------------ refine_run.c */
+
+void ref__queue_free(ref_queue *q);
+/* Queue a subsegment or subfacet for splitting (once: BD_F_QUEUED). */
+int ref__queue_seg(ref_mesher *r, uint32_t id, float rmin);
+int ref__queue_fac(ref_mesher *r, uint32_t id, float rmin);
+/* 1 if all four vertices v lie on one facet by construction. */
+int ref__flat_on_facet(const ref_mesher *r, const uint32_t *v);
+/* Why interior tetrahedron t is bad (0: it is not; 1 a bound, 2 only the
+ * dihedral angle, 3 flat on a facet), its circumcentre and squared
+ * radius-edge ratio. */
+int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2);
+
+/* ---------------------------------------------------- refine_bound.c */
+
+/* 1 if vertex v lies on facet f by construction. */
+int ref__on_facet(const ref_mesher *r, uint32_t v, uint32_t f);
+/* The 2D cavity: r->list holds its subfacets, r->bedge its boundary. */
+int ref__list_add(ref_mesher *r, uint32_t s);
+void ref__list_clear(ref_mesher *r);
+int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb, uint32_t *ea,
+                       uint32_t *eb);
+/* A tetrahedron with face abc (edge ab when c is TM_NONE), found from a's
+ * star; 1 if found. */
+int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout);
+/* The subsegment and subfacet tables after committing vertex v for a
+ * boundary split (of subsegment split_id, or BD_NONE). */
+int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id);
+/* The point that splits subsegment ab (tests/test_refine.c checks it). */
+void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
+
+#endif /* PDR_REFINE_INT_H */

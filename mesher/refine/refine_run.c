@@ -1,0 +1,792 @@
+/*
+ * refine/refine_run.c -- the insertion loop of refine/refine.h: the work
+ * queues, the quality test of a tetrahedron, committing a point, the
+ * splits of subsegments, subfacets and bad tetrahedra (Refine(tau) of the
+ * paper, each asking refine_decide.c whether its point may go in), and
+ * ref_run, which pops the queues until they are empty; ref_refine drives
+ * it for the quality refinement.
+ */
+#include "config.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/pdr_util.h"
+#include "refine/refine_int.h"
+#include "base/v3.h"
+
+#define X(m, v) ((m)->xyz + 3 * (size_t)(v))
+
+/* ------------------------------------------------------------ helpers */
+
+/* fmin/fmax are library calls (their NaN rules); these are not. */
+static inline double dmin(double a, double b)
+{
+    return b < a ? b : a;
+}
+static inline double dmax(double a, double b)
+{
+    return b > a ? b : a;
+}
+
+/* ---------------------------------------------------------------- queues */
+
+static int q_push(ref_queue *q, uint32_t id, float rmin)
+{
+    if (q->n == q->cap) {
+        if (q->head > 0 && q->head >= q->cap / 2) {
+            memmove(q->id, q->id + q->head, (q->n - q->head) * sizeof *q->id);
+            memmove(q->rmin, q->rmin + q->head, (q->n - q->head) * sizeof *q->rmin);
+            q->n -= q->head;
+            q->head = 0;
+        } else {
+            size_t c = q->cap ? q->cap * 2 : 1024;
+            uint32_t *ids = realloc(q->id, c * sizeof *ids);
+            if (!ids)
+                return PDR_ENOMEM;
+            q->id = ids;
+            float *rp = realloc(q->rmin, c * sizeof *rp);
+            if (!rp)
+                return PDR_ENOMEM;
+            q->rmin = rp;
+            q->cap = c;
+        }
+    }
+    q->id[q->n] = id;
+    q->rmin[q->n] = rmin;
+    q->n++;
+    return 0;
+}
+
+static int q_empty(const ref_queue *q)
+{
+    return q->head == q->n;
+}
+
+static uint32_t q_pop(ref_queue *q, int lifo, float *rmin)
+{
+    size_t i = lifo ? --q->n : q->head++;
+    uint32_t id = q->id[i];
+    if (rmin)
+        *rmin = q->rmin[i];
+    if (q->head == q->n)
+        q->head = q->n = 0;
+    return id;
+}
+
+void ref__queue_free(ref_queue *q)
+{
+    free(q->id);
+    free(q->rmin);
+    memset(q, 0, sizeof *q);
+}
+
+int ref__queue_seg(ref_mesher *r, uint32_t id, float rmin)
+{
+    bd_subseg *s = &r->bd.segs[id];
+    if (s->flags & (BD_F_DEAD | BD_F_QUEUED))
+        return 0;
+    s->flags |= BD_F_QUEUED;
+    return q_push(&r->segq, id, rmin);
+}
+
+int ref__queue_fac(ref_mesher *r, uint32_t id, float rmin)
+{
+    bd_subfac *s = &r->bd.facs[id];
+    if (s->flags & (BD_F_DEAD | BD_F_QUEUED))
+        return 0;
+    s->flags |= BD_F_QUEUED;
+    return q_push(&r->facq, id, rmin);
+}
+
+static int queue_tet(ref_mesher *r, uint32_t t)
+{
+    if (r->m.flags[t] & TM_F_QUEUED)
+        return 0;
+    r->m.flags[t] |= TM_F_QUEUED;
+    return q_push(&r->tetq, t, 0.0f);
+}
+
+/* -------------------------------------------------------- tet quality */
+
+static double region_maxvol(const ref_mesher *r, uint32_t t)
+{
+    double mv = r->o.maxvol;
+    if (r->region && r->o.use_region_maxvol && r->region[t]) {
+        double rv = r->p->regions[r->region[t] - 1].maxvol;
+        if (rv > 0 && (mv <= 0 || rv < mv))
+            mv = rv;
+    }
+    return mv;
+}
+
+/* 1 if all four vertices of t lie on one facet by construction: a flat
+ * tetrahedron on that facet (possible where the facet is not axis-aligned
+ * and four of its vertices are cocircular up to rounding errors). Its
+ * circumcentre lies on the facet, so splitting it splits a subfacet. */
+int ref__flat_on_facet(const ref_mesher *r, const uint32_t *v)
+{
+    const bd_set *bd = &r->bd;
+    for (int s = 0; s < 4; s++)
+        if (bd->vkind[v[s]] == BD_V_VOLUME)
+            return 0;
+    const plc *p = r->p;
+    uint32_t x = bd->vfeat[v[0]];
+    const uint32_t *cand;
+    size_t n;
+    uint32_t one;
+    switch (bd->vkind[v[0]]) {
+    case BD_V_FACET:
+        one = x;
+        cand = &one;
+        n = 1;
+        break;
+    case BD_V_SEGMENT:
+        cand = p->seg_facets + p->seg_fstart[x];
+        n = p->seg_fstart[x + 1] - p->seg_fstart[x];
+        break;
+    default:
+        cand = p->v_facets + p->v_fstart[x];
+        n = p->v_fstart[x + 1] - p->v_fstart[x];
+        break;
+    }
+    for (size_t i = 0; i < n; i++)
+        if (ref__on_facet(r, v[1], cand[i]) && ref__on_facet(r, v[2], cand[i]) &&
+            ref__on_facet(r, v[3], cand[i]))
+            return 1;
+    return 0;
+}
+
+/* 1 if interior tetrahedron t breaks a bound (2: only the dihedral angle
+ * bound, 3: it lies flat on a facet); cc gets its circumcentre and
+ * *ratio2 its squared radius-edge ratio. One pass without square roots:
+ * this runs on every new tetrahedron. With u, v, w the edges at a, the
+ * face normals (twice the areas) are n1 = v x w, n2 = w x u, n3 = u x v
+ * and n0 = n1 + n2 + n3 (the four sum to zero with outward orientation),
+ * and the dihedral angle at the edge e shared by faces i and j has
+ * sin = 6V |e| / (4 A_i A_j) = det |e| / (|n_i| |n_j|). */
+int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2)
+{
+    const tm_mesh *m = &r->m;
+    const uint32_t *tv = m->tets[t].v;
+    const double *a = X(m, tv[0]), *b = X(m, tv[1]), *c = X(m, tv[2]), *d = X(m, tv[3]);
+    double u[3], v[3], w[3], n1[3], n2[3], n3[3];
+    double det = v3_tet_frame(a, b, c, d, u, v, w, n1, n2, n3);
+    double l2[6];
+    l2[0] = v3_dot(u, u);
+    l2[1] = v3_dot(v, v);
+    l2[2] = v3_dot(w, w);
+    l2[3] = v3_dist2(b, c);
+    l2[4] = v3_dist2(b, d);
+    l2[5] = v3_dist2(c, d);
+    double lo = l2[0], hi = l2[0];
+    for (int k = 1; k < 6; k++) {
+        lo = dmin(lo, l2[k]);
+        hi = dmax(hi, l2[k]);
+    }
+    double q = INFINITY;
+    if (det > 0.0 && lo > 0.0) {
+        double inv = 0.5 / det, x[3];
+        for (int k = 0; k < 3; k++) {
+            x[k] = (l2[0] * n1[k] + l2[1] * n2[k] + l2[2] * n3[k]) * inv;
+            cc[k] = a[k] + x[k];
+        }
+        q = v3_dot(x, x) / lo;
+    } else {
+        cc[0] = cc[1] = cc[2] = NAN;
+    }
+    if (ratio2)
+        *ratio2 = q;
+    if (ref__flat_on_facet(r, tv))
+        return 3;
+    if (r->b2 > 0 && q >= r->b2)
+        return 1;
+    double mv = region_maxvol(r, t);
+    if (mv > 0 && det > 6.0 * mv)
+        return 1;
+    if (r->o.maxedge > 0 && hi > r->o.maxedge * r->o.maxedge)
+        return 1;
+    if (r->sin_min > 0) {
+        double n0[3] = {n1[0] + n2[0] + n3[0], n1[1] + n2[1] + n3[1], n1[2] + n2[2] + n3[2]};
+        double f0 = v3_dot(n0, n0), f1 = v3_dot(n1, n1), f2 = v3_dot(n2, n2), f3 = v3_dot(n3, n3);
+        double s2 = r->sin_min * r->sin_min, d2 = det * det;
+        /* edges 01 02 03 12 13 23 lie on faces (2,3) (1,3) (1,2) (0,3)
+         * (0,2) (0,1) */
+        if (d2 * l2[0] < s2 * f2 * f3 || d2 * l2[1] < s2 * f1 * f3 ||
+            d2 * l2[2] < s2 * f1 * f2 || d2 * l2[3] < s2 * f0 * f3 ||
+            d2 * l2[4] < s2 * f0 * f2 || d2 * l2[5] < s2 * f0 * f1)
+            return 2;
+    }
+    return 0;
+}
+
+static int queue_new_tets(ref_mesher *r)
+{
+    if (!r->classified)
+        return 0;
+    tm_mesh *m = &r->m;
+    const dt_cavity *c = &r->cav;
+    for (size_t i = 0; i < c->nnew; i++) {
+        uint32_t n = c->newtets[i];
+        if ((m->flags[n] & REF_F_EXTERIOR) || tm_is_ghost(m, n))
+            continue;
+        double cc[3];
+        if (ref__tet_bad(r, n, cc, NULL)) {
+            int rc = queue_tet(r, n);
+            if (rc)
+                return rc;
+        }
+    }
+    return 0;
+}
+
+/* ---------------------------------------------------------- commit */
+
+static uint16_t cavity_flags(const ref_mesher *r)
+{
+    uint16_t any = 0;
+    const dt_cavity *c = &r->cav;
+    for (size_t i = 0; i < c->ntets; i++)
+        any |= r->m.flags[c->tets[i]];
+    return any;
+}
+
+/* Inserts p (the pending cavity's point) as a new vertex lying on a
+ * feature of the given kind; new tetrahedra inherit the exterior flag and
+ * region of the cavity tetrahedron they are built on. */
+static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, double rins,
+                        uint32_t *vout)
+{
+    tm_mesh *m = &r->m;
+    dt_cavity *c = &r->cav;
+    size_t nb = c->nbnd;
+    int keep_ext = (any & REF_F_EXTERIOR) != 0, keep_reg = r->region != NULL;
+    if (keep_reg && ref__region_room(r))
+        return PDR_ENOMEM;
+    if (keep_ext || keep_reg) {
+        size_t cap = r->cap_b;
+        if (pdr_grow((void **)&r->bflag, &cap, nb, sizeof *r->bflag))
+            return PDR_ENOMEM;
+        cap = r->cap_b;
+        if (pdr_grow((void **)&r->breg, &cap, nb, sizeof *r->breg))
+            return PDR_ENOMEM;
+        r->cap_b = cap;
+        for (size_t i = 0; i < nb; i++) {
+            uint32_t t = c->bnd[i].tet;
+            r->bflag[i] = m->flags[t] & REF_F_EXTERIOR;
+            r->breg[i] = keep_reg ? r->region[t] : 0;
+        }
+    }
+    uint32_t v;
+    int rc = tm_add_vertex(m, c->p, &v);
+    if (!rc)
+        rc = bd_vertex_room(&r->bd, m->nv);
+    if (!rc)
+        rc = dt_cavity_commit(m, v, c);
+    if (!rc)
+        rc = ref__region_room(r);
+    if (rc)
+        return rc;
+    if (keep_ext || keep_reg)
+        for (size_t i = 0; i < nb; i++) {
+            uint32_t n = c->newtets[i];
+            m->flags[n] |= r->bflag[i];
+            if (keep_reg)
+                r->region[n] = r->breg[i];
+        }
+    r->bd.vkind[v] = (uint8_t)vkind;
+    r->bd.vfeat[v] = feat;
+    r->bd.vrins[v] = (float)rins;
+    *vout = v;
+    return 0;
+}
+
+/* ------------------------------------------------------------- splits */
+
+enum { SPLIT_DONE = 0, SPLIT_DEFERRED = 1, SPLIT_REFUSED = 2 };
+
+/* Slivers (small dihedral angles, good radius-edge ratio) are split only
+ * when their circumradius is at least this times their shortest edge. */
+#ifndef SLIVER_RHO
+#define SLIVER_RHO 0.7
+#endif
+
+/* The insertion radius of the pending cavity's point: its distance to the
+ * nearest vertex it will be joined to (every vertex of the cavity
+ * boundary), which is the length of the shortest edge at it once
+ * inserted. */
+static double insertion_radius(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    const dt_cavity *c = &r->cav;
+    double best = INFINITY;
+    for (size_t i = 0; i < c->nbnd; i++) {
+        const tm_tet *T = &m->tets[c->bnd[i].tet];
+        const uint8_t *f = tm_face_vtx[c->bnd[i].face];
+        for (int k = 0; k < 3; k++) {
+            uint32_t v = T->v[f[k]];
+            if (v != TM_VINF)
+                best = fmin(best, v3_dist2(c->p, X(m, v)));
+        }
+    }
+    return sqrt(best);
+}
+
+struct root_arg {
+    ref_mesher *r;
+    int rc;
+};
+
+static int add_root(void *arg, uint32_t s)
+{
+    struct root_arg *a = arg;
+    if (a->r->bd.facs[s].flags & BD_F_VISIT)
+        return 0;
+    if (ref__list_add(a->r, s)) {
+        a->rc = PDR_ENOMEM;
+        return 1;
+    }
+    return 0;
+}
+
+/* Splits subsegment id. A split of a present subsegment is refused
+ * (SPLIT_REFUSED, the subsegment flagged TOLERATED) when the new vertex
+ * would be nearer than rmin to an existing one: rmin is how the
+ * refinement keeps splits caused by nearby features or bad tetrahedra
+ * from cascading (see ref_opts.rho and split_tet). A missing subsegment is
+ * always split: the mesh must conform. */
+static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
+{
+    tm_mesh *m = &r->m;
+    bd_subseg S = r->bd.segs[id];
+    *result = SPLIT_REFUSED;
+    int missing = (S.flags & BD_F_MISSING) != 0;
+    double p[3];
+    ref__split_point(r, S.v[0], S.v[1], p);
+    int rc = dt_cavity_search(m, p, m->vhint[S.v[0]], DT_LOCATE, &r->cav);
+    if (rc)
+        return rc;
+    if (r->cav.status != DT_OK) {
+        dt_cavity_abandon(m, &r->cav);
+        r->bd.segs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    double rins = insertion_radius(r);
+    if (!missing && rins < rmin) {
+        dt_cavity_abandon(m, &r->cav);
+        r->bd.segs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    uint16_t any = cavity_flags(r);
+    rc = ref_gather_marks(m, &r->cav, &r->marks);
+    ref_decision d;
+    if (!rc)
+        ref_decide(r->p, p, REF_SUBSEG, &r->marks, &d);
+    struct root_arg ra = {r, 0};
+    ref__list_clear(r);
+    if (!rc) {
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        rc = ra.rc;
+    }
+    uint32_t ea, eb;
+    int g = rc ? rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
+    if (g < 0) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return g;
+    }
+    if (g > 0)
+        r->anomalies++; /* not expected for a point on the segment */
+    uint32_t v;
+    r->last_op = "subsegment point";
+    rc = commit_point(r, any, BD_V_SEGMENT, S.seg, rins, &v);
+    if (rc) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    rc = ref__update_boundary(r, v, id);
+    if (!rc)
+        rc = queue_new_tets(r);
+    r->st.seg_points++;
+    if (missing)
+        r->st.missing_recovered++;
+    *result = SPLIT_DONE;
+    return rc;
+}
+
+/* Splits, at once, the subsegments flagged encroached in r->marks, each
+ * with the floor rmin; *done counts those split. */
+static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done)
+{
+    *done = 0;
+    uint32_t ids[64];
+    size_t n = 0;
+    for (size_t k = 0; k < r->marks.n && n < 64; k++) {
+        const ref_mark *mk = &r->marks.m[k];
+        if (mk->nv != 2 || !mk->encroached)
+            continue;
+        uint32_t id = bd_find_subseg(&r->bd, mk->v[0], mk->v[1]);
+        if (id != BD_NONE)
+            ids[n++] = id;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (r->bd.segs[ids[i]].flags & BD_F_DEAD)
+            continue;
+        int res, rc = split_subseg(r, ids[i], rmin, &res);
+        if (rc)
+            return rc;
+        if (res == SPLIT_DONE)
+            (*done)++;
+    }
+    return 0;
+}
+
+/* Splits subfacet id at its circumcentre; when that point encroaches
+ * subsegments, splits them instead (SPLIT_DEFERRED: the subfacet is still
+ * there). rmin as for split_subseg; SPLIT_REFUSED when nothing was
+ * inserted. */
+static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
+{
+    tm_mesh *m = &r->m;
+    bd_subfac G = r->bd.facs[id];
+    *result = SPLIT_REFUSED;
+    int missing = (G.flags & BD_F_MISSING) != 0;
+    if (missing)
+        rmin = 0;
+    double c[3], r2;
+    if (ref__tri_circumcentre(X(m, G.v[0]), X(m, G.v[1]), X(m, G.v[2]), c, &r2)) {
+        r->bd.facs[id].flags |= BD_F_TOLERATED;
+        return 0;
+    }
+    int rc = dt_cavity_search(m, c, m->vhint[G.v[0]], DT_LOCATE, &r->cav);
+    if (rc)
+        return rc;
+    if (r->cav.status != DT_OK) {
+        dt_cavity_abandon(m, &r->cav);
+        r->bd.facs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    uint16_t any = cavity_flags(r);
+    rc = ref_gather_marks(m, &r->cav, &r->marks);
+    if (rc) {
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    ref_decision d;
+    ref_decide(r->p, c, REF_SUBFACET, &r->marks, &d);
+    if (d.action == REF_SPLIT_SUBSEGS) {
+        dt_cavity_abandon(m, &r->cav);
+        size_t done;
+        rc = split_encroached_subsegs(r, rmin, &done);
+        *result = done ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        if (!done)
+            r->bd.facs[id].flags |= BD_F_TOLERATED;
+        return rc;
+    }
+    ref__list_clear(r);
+    rc = ref__list_add(r, id);
+    uint32_t ea = 0, eb = 0;
+    int g = rc ? rc : ref__grow_cavity2d(r, c, BD_NONE, BD_NONE, &ea, &eb);
+    if (g != 0) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        if (g < 0)
+            return g;
+        uint32_t sid = g == 1 ? bd_find_subseg(&r->bd, ea, eb) : BD_NONE;
+        if (sid == BD_NONE) {
+            r->anomalies++;
+            r->bd.facs[id].flags |= BD_F_TOLERATED;
+            return 0;
+        }
+        /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
+        int res;
+        rc = split_subseg(r, sid, rmin, &res);
+        *result = res == SPLIT_DONE ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        return rc;
+    }
+    double rins = insertion_radius(r);
+    if (!missing && rins < rmin) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        r->bd.facs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    uint32_t v;
+    r->last_op = r->forced ? "subfacet point (forced 2D cavity)" : "subfacet point";
+    rc = commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
+    if (rc) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    rc = ref__update_boundary(r, v, BD_NONE);
+    if (!rc)
+        rc = queue_new_tets(r);
+    r->st.fac_points++;
+    if (missing)
+        r->st.missing_recovered++;
+    *result = SPLIT_DONE;
+    return rc;
+}
+
+static void give_up(ref_mesher *r, uint32_t t, int degenerate)
+{
+    r->m.flags[t] |= REF_F_GIVEUP | (degenerate ? REF_F_DEGENERATE : 0);
+    r->st.gave_up++;
+    if (degenerate)
+        r->st.degenerate++;
+}
+
+/* Refine(t) for a bad tetrahedron: its circumcentre, or the split of the
+ * subsegments or the subfacet that circumcentre encroaches. Those splits
+ * must not put a vertex nearer to another than t's shortest edge (on an
+ * input that meets Shewchuk's conditions they never do: the new vertex is
+ * at least r/sqrt(2) >= B l/sqrt(2) from every vertex, r the circumradius,
+ * l the shortest edge); where they would, near a boundary piece left
+ * encroached at an acute input angle, t is left as it is and counted. That
+ * floor is what makes the refinement terminate on any input: apart from
+ * the recovery of missing pieces, no vertex is inserted nearer to another
+ * than the shortest edge already in the mesh. */
+static int split_tet(ref_mesher *r, uint32_t t)
+{
+    tm_mesh *m = &r->m;
+    double cc[3], q2;
+    int why = ref__tet_bad(r, t, cc, &q2);
+    if (!why)
+        return 0;
+    if (why == 2 && q2 < SLIVER_RHO * SLIVER_RHO) {
+        /* A sliver whose circumradius is small against its shortest edge:
+         * its circumcentre would crowd its vertices, and splitting such
+         * slivers is what could cascade; they are rare and left. */
+        give_up(r, t, 0);
+        r->st.slivers_left++;
+        return 0;
+    }
+    if (why == 3) {
+        /* Flat on a facet: its circumcentre is ill-conditioned, and what
+         * removes it is the split of the subfacet it lies on. */
+        int rc = 0, outcome = SPLIT_REFUSED;
+        for (int k = 0; k < 4 && outcome == SPLIT_REFUSED && !rc; k++) {
+            if (!(m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            const uint32_t *tv = m->tets[t].v;
+            uint32_t g = bd_find_subfac(&r->bd, tv[tm_face_vtx[k][0]], tv[tm_face_vtx[k][1]],
+                                        tv[tm_face_vtx[k][2]]);
+            if (g != BD_NONE)
+                rc = split_subfac(r, g, 0.0, &outcome);
+        }
+        if (rc || outcome != SPLIT_REFUSED) {
+            if (!rc && !tm_is_dead(m, t))
+                rc = queue_tet(r, t);
+            return rc;
+        }
+    }
+    if (!isfinite(cc[0]) || !isfinite(cc[1]) || !isfinite(cc[2]) || dt_conflict(m, t, cc) <= 0) {
+        give_up(r, t, 1);
+        return 0;
+    }
+    int rc = dt_cavity_search(m, cc, t, 0, &r->cav);
+    if (rc)
+        return rc;
+    if (r->cav.status != DT_OK) {
+        dt_cavity_abandon(m, &r->cav);
+        give_up(r, t, 1);
+        return 0;
+    }
+    uint16_t any = cavity_flags(r);
+    const uint32_t *tv = m->tets[t].v;
+    double rp = sqrt(v3_dist2(cc, X(m, tv[0])));
+    if (any & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
+        rc = ref_gather_marks(m, &r->cav, &r->marks);
+        if (rc) {
+            dt_cavity_abandon(m, &r->cav);
+            return rc;
+        }
+        ref_decision d;
+        ref_decide(r->p, cc, REF_TET, &r->marks, &d);
+        if (d.action != REF_COMMIT) {
+            dt_cavity_abandon(m, &r->cav);
+            r->st.rejected++;
+            double lmin = INFINITY;
+            for (int e = 0; e < 6; e++)
+                lmin = fmin(lmin,
+                            v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+            /* For a tetrahedron that is bad by its size alone the floor is
+             * half its circumradius instead (the clean bound is
+             * r/sqrt(2)): its splits are then never smaller than a
+             * fixed fraction of the size bound. */
+            double floor = fmin(sqrt(lmin) * fmin(1.0, 0.9 * r->o.ratio / M_SQRT2), 0.5 * rp);
+            /* A flat tetrahedron lying on a facet is a rounding artifact
+             * that only the split of that facet's subfacet removes. */
+            if (why == 3)
+                floor = 0;
+            int outcome = SPLIT_REFUSED;
+            if (d.action == REF_SPLIT_SUBSEGS) {
+                size_t done;
+                rc = split_encroached_subsegs(r, floor, &done);
+                outcome = done ? SPLIT_DONE : SPLIT_REFUSED;
+            } else {
+                const ref_mark *mk = &r->marks.m[d.which];
+                uint32_t g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
+                if (g != BD_NONE)
+                    rc = split_subfac(r, g, floor, &outcome);
+            }
+            if (rc)
+                return rc;
+            if (tm_is_dead(m, t))
+                return 0;
+            if (outcome == SPLIT_REFUSED)
+                give_up(r, t, 0);
+            else
+                rc = queue_tet(r, t);
+            return rc;
+        }
+    }
+    uint32_t v;
+    r->last_op = any & (TM_F_FACEMARKS | TM_F_SUBSEGS) ? "circumcentre (cavity with marks)"
+                                                        : "circumcentre";
+    rc = commit_point(r, any, BD_V_VOLUME, 0, rp, &v);
+    if (rc) {
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    r->st.tet_points++;
+    return queue_new_tets(r);
+}
+
+static int process_seg(ref_mesher *r, uint32_t id, float rmin)
+{
+    bd_subseg *s = &r->bd.segs[id];
+    if (s->flags & BD_F_DEAD)
+        return 0;
+    s->flags &= (uint16_t)~BD_F_QUEUED;
+    int res;
+    return split_subseg(r, id, rmin, &res);
+}
+
+static int process_fac(ref_mesher *r, uint32_t id, float rmin)
+{
+    bd_subfac *s = &r->bd.facs[id];
+    if (s->flags & BD_F_DEAD)
+        return 0;
+    s->flags &= (uint16_t)~BD_F_QUEUED;
+    int outcome;
+    int rc = split_subfac(r, id, rmin, &outcome);
+    if (!rc && outcome == SPLIT_DEFERRED)
+        rc = ref__queue_fac(r, id, rmin);
+    return rc;
+}
+
+int ref_run(ref_mesher *r, int tets)
+{
+    tm_mesh *m = &r->m;
+    int lifo = r->o.order == REF_ORDER_LIFO;
+    size_t iter = 0;
+    int rc = 0;
+    /* Debugging aids (ref_opts): trace lines every trace_every steps,
+     * and with check_each_step the marks checked against the tables
+     * before every step (slow), stopping at the first disagreement, which
+     * the step just done (iter - 1, r->last_op) brought in. */
+    FILE *trace = r->o.trace;
+    size_t every = r->o.trace_every;
+    while (!rc) {
+        if ((++iter & 0x3fff) == 0 && r->o.progress)
+            r->o.progress(r->o.progress_arg, r);
+        if (r->o.check_each_step && ref_consistency(r, r->o.log, 0)) {
+            if (r->o.log)
+                fprintf(r->o.log,
+                        "refinement tables disagree with the mesh after step %zu (%s)\n",
+                        iter - 1, r->last_op ? r->last_op : "-");
+            rc = PDR_ETOPOLOGY;
+            break;
+        }
+        if (trace && every && iter % every == 0)
+            fprintf(trace,
+                    "trace %zu (%s): nv %u segq %zu facq %zu tetq %zu | seg %zu fac %zu tet %zu "
+                    "rej %zu tol %zu gave %zu miss %zu anom %zu flips %zu\n",
+                    iter, r->last_op ? r->last_op : "-", r->m.nv, r->segq.n - r->segq.head,
+                    r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.seg_points,
+                    r->st.fac_points, r->st.tet_points, r->st.rejected, r->st.tolerated,
+                    r->st.gave_up, r->st.missing_recovered, r->anomalies, r->flips);
+        float rmin;
+        if (!q_empty(&r->segq)) {
+            uint32_t id = q_pop(&r->segq, 0, &rmin);
+            r->last_op = "subsegment";
+            rc = process_seg(r, id, rmin);
+        } else if (!q_empty(&r->facq)) {
+            uint32_t id = q_pop(&r->facq, 0, &rmin);
+            r->last_op = "subfacet";
+            rc = process_fac(r, id, rmin);
+        } else if (tets && r->classified && !q_empty(&r->tetq)) {
+            uint32_t t = q_pop(&r->tetq, lifo, NULL);
+            if (tm_is_dead(m, t) || !(m->flags[t] & TM_F_QUEUED))
+                continue;
+            m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+            if (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP))
+                continue;
+            r->last_op = "tetrahedron";
+            rc = split_tet(r, t);
+        } else {
+            break;
+        }
+    }
+    if (trace)
+        fprintf(trace,
+                "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
+                "slivers %zu miss %zu anom %zu flips %zu\n",
+                iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
+                r->st.rejected, r->st.tolerated, r->st.gave_up, r->st.slivers_left,
+                r->st.missing_recovered, r->anomalies, r->flips);
+    return rc;
+}
+
+/* -------------------------------------------- the quality refinement */
+
+int ref_queue_all_tets(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!ref_is_interior(m, t))
+            continue;
+        double cc[3];
+        if (ref__tet_bad(r, t, cc, NULL)) {
+            int rc = queue_tet(r, t);
+            if (rc)
+                return rc;
+        }
+    }
+    return 0;
+}
+
+int ref_refine(ref_mesher *r)
+{
+    int rc = ref_queue_all_tets(r);
+    if (!rc)
+        rc = ref_run(r, 1);
+    /* Regions follow the tetrahedra through every insertion; a flat
+     * tetrahedron on a facet that is not axis-aligned can pass on the
+     * wrong one (see reclassify_new in refine_bound.c). When one was met,
+     * the finished mesh is classified afresh (a flood fill, cheap); when
+     * that moves a tetrahedron, refinement resumes (that tetrahedron may
+     * need it now), at most a few times. */
+    for (int round = 0; round < 4 && !rc && r->region_doubts; round++) {
+        size_t changed = 0;
+        r->region_doubts = 0;
+        rc = ref_classify(r, NULL, &changed, NULL);
+        if (rc || !changed)
+            break;
+        r->st.reclassified += changed;
+        rc = ref_queue_all_tets(r);
+        if (!rc)
+            rc = ref_run(r, 1);
+    }
+    return rc;
+}
