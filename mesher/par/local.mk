@@ -2,7 +2,9 @@
 # up to refine, and the runtime (libam) and proto.
 noinst_HEADERS += \
 	mesher/par/par_cav.h \
+	mesher/par/par_run.h \
 	mesher/par/par_sub.h
 libpdrmesh_la_SOURCES += \
 	mesher/par/par_cav.c \
+	mesher/par/par_run.c \
 	mesher/par/par_sub.c

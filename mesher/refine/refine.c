@@ -41,7 +41,7 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
     if (rc)
         return rc;
     if (p->nregion) {
-        rc = ref__region_room(r);
+        rc = ref_region_room(r);
         if (rc) {
             ref_free(r);
             return rc;
@@ -74,7 +74,7 @@ void ref_release_work(ref_mesher *r)
     ref__queue_free(&r->tetq);
 }
 
-int ref__region_room(ref_mesher *r)
+int ref_region_room(ref_mesher *r)
 {
     if (!r->p->nregion || r->region_cap >= r->m.tcap)
         return 0;

@@ -242,6 +242,25 @@ typedef struct ref_opts {
                            the line at the end of each ref_run */
 } ref_opts;
 
+/* The parallel refinement's hooks (par/par_run.c). With hooks installed
+ * (ref_mesher.hooks), every new point's cavity is searched from a
+ * tetrahedron of this PE in conflict with it (no walk), after the
+ * cavity hook has made that cavity local; a piece whose tetrahedra are
+ * no longer on this PE is left to the PE that holds them. */
+#define REF_SETBACK 1 /* a step gave up without changing anything */
+
+typedef struct ref_hooks {
+    /* Called before the cavity of point p is searched, with start a
+     * tetrahedron in conflict with p. Returns 0 when the cavity of p and
+     * the tetrahedra around it are now all in this mesh (the step goes
+     * on), REF_SETBACK to give the step up, or a negative code. */
+    int (*cavity)(void *arg, const double p[3], uint32_t start);
+    /* Called after vertex v was committed; c->newtets are the new
+     * tetrahedra. Returns 0 or a negative code. */
+    int (*committed)(void *arg, uint32_t v, const dt_cavity *c);
+    void *arg;
+} ref_hooks;
+
 /* Queue of refinement work: 32-bit ids, each with a float (rmin). Only
  * the refine*.c files use it; it is here because ref_mesher holds three. */
 typedef struct ref_queue {
@@ -283,6 +302,7 @@ typedef struct ref_mesher {
     const char *last_op; /* what the last step split (for debugging) */
     size_t region_doubts; /* flat tetrahedra on facets met, flips after
                              classification: reasons to classify again */
+    const ref_hooks *hooks; /* NULL when sequential; not owned */
     uint32_t *miss;    /* new subfacets missing from T */
     size_t nmiss, cap_miss;
 } ref_mesher;
@@ -310,6 +330,24 @@ void ref_release_work(ref_mesher *r);
  * then left as it was after the last step, good for ref_consistency and
  * ref_free). */
 int ref_run(ref_mesher *r, int tets);
+
+/* One item of work, as ref_run does it (for a driver with its own loop,
+ * the parallel refinement): kind REF_TET (id a tetrahedron), REF_SUBSEG
+ * or REF_SUBFACET (id a table index, rmin its floor). Returns 0, REF_SETBACK
+ * (the cavity hook gave up: nothing changed, the caller tries again
+ * later), or a negative code. */
+int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin);
+/* Pops the next item, subsegments first, then subfacets, then bad
+ * tetrahedra of a classified mesh (skipping stale entries); returns 1
+ * with *kind, *id, *rmin set, or 0 when every queue is empty. */
+int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin);
+/* Puts an item back on its queue (once, as the queues do). */
+int ref_requeue(ref_mesher *r, int kind, uint32_t id, float rmin);
+/* Queues interior tetrahedron t if it is bad. Returns 0 or PDR_ENOMEM. */
+int ref_check_tet(ref_mesher *r, uint32_t t);
+/* Ensures the per-tet region array covers every slot of the mesh (for a
+ * caller that adds tetrahedra itself). Returns 0 or PDR_ENOMEM. */
+int ref_region_room(ref_mesher *r);
 
 /* Flags exterior and hole tetrahedra and assigns regions by flood fill
  * over faces that are not subfacets, from the convex hull, the hole

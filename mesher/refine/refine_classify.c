@@ -96,7 +96,7 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
 {
     tm_mesh *m = &r->m;
     const plc *p = r->p;
-    int rc = ref__region_room(r);
+    int rc = ref_region_room(r);
     if (rc)
         return rc;
     uint8_t *state = calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */

@@ -49,11 +49,6 @@ static inline int ref__slot_in(const tm_tet *T, uint32_t v)
     return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : T->v[3] == v ? 3 : -1;
 }
 
-/* ---------------------------------------------------------- refine.c */
-
-/* Ensures the per-tet region array covers every slot of the mesh. */
-int ref__region_room(ref_mesher *r);
-
 /* ------------------------------------------------------ refine_run.c */
 
 void ref__queue_free(ref_queue *q);

@@ -264,7 +264,7 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
     dt_cavity *c = &r->cav;
     size_t nb = c->nbnd;
     int keep_ext = (any & REF_F_EXTERIOR) != 0, keep_reg = r->region != NULL;
-    if (keep_reg && ref__region_room(r))
+    if (keep_reg && ref_region_room(r))
         return PDR_ENOMEM;
     if (keep_ext || keep_reg) {
         size_t cap = r->cap_b;
@@ -287,7 +287,9 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
     if (!rc)
         rc = dt_cavity_commit(m, v, c);
     if (!rc)
-        rc = ref__region_room(r);
+        rc = ref_region_room(r);
+    if (!rc && r->hooks)
+        rc = r->hooks->committed(r->hooks->arg, v, c);
     if (rc)
         return rc;
     if (keep_ext || keep_reg)
@@ -352,6 +354,39 @@ static int add_root(void *arg, uint32_t s)
     return 0;
 }
 
+/* The cavity search of a new point p. Alone, it walks from vertex a's
+ * tetrahedron to p. With the parallel hooks, it starts from a tetrahedron
+ * of this PE in conflict with p, found around the piece being split (edge
+ * ab, or face abc when c is not TM_NONE) or by a walk that stays on this
+ * PE, after the cavity hook made p's cavity local. Returns 0 with r->cav
+ * searched, 1 when the piece is not on this PE any more (nothing
+ * searched: the PE holding it splits it), REF_SETBACK via *setback, or a
+ * negative code. */
+static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
+                        int *setback)
+{
+    tm_mesh *m = &r->m;
+    *setback = 0;
+    if (!r->hooks)
+        return dt_cavity_search(m, p, m->vhint[a], DT_LOCATE, &r->cav);
+    uint32_t t = TM_NONE;
+    if (!(ref__find_in_star(m, a, b, c, &t) && dt_conflict(m, t, p) > 0)) {
+        tm_link exit;
+        t = TM_NONE;
+        if (m->vhint[a] == TM_NONE || dt_locate(m, p, m->vhint[a], &t, &exit) != 0 ||
+            dt_conflict(m, t, p) <= 0)
+            return 1;
+    }
+    int rc = r->hooks->cavity(r->hooks->arg, p, t);
+    if (rc == REF_SETBACK) {
+        *setback = 1;
+        return 0;
+    }
+    if (rc)
+        return rc;
+    return dt_cavity_search(m, p, t, 0, &r->cav);
+}
+
 /* Splits subsegment id. A split of a present subsegment is refused
  * (SPLIT_REFUSED, the subsegment flagged TOLERATED) when the new vertex
  * would be nearer than rmin to an existing one: rmin is how the
@@ -366,7 +401,12 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     int missing = (S.flags & BD_F_MISSING) != 0;
     double p[3];
     ref__split_point(r, S.v[0], S.v[1], p);
-    int rc = dt_cavity_search(m, p, m->vhint[S.v[0]], DT_LOCATE, &r->cav);
+    int setback;
+    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
+    if (setback)
+        return REF_SETBACK;
+    if (rc > 0)
+        return 0; /* not on this PE any more */
     if (rc)
         return rc;
     if (r->cav.status != DT_OK) {
@@ -464,7 +504,12 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         r->bd.facs[id].flags |= BD_F_TOLERATED;
         return 0;
     }
-    int rc = dt_cavity_search(m, c, m->vhint[G.v[0]], DT_LOCATE, &r->cav);
+    int setback;
+    int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], &setback);
+    if (setback)
+        return REF_SETBACK;
+    if (rc > 0)
+        return 0; /* not on this PE any more */
     if (rc)
         return rc;
     if (r->cav.status != DT_OK) {
@@ -593,6 +638,11 @@ static int split_tet(ref_mesher *r, uint32_t t)
         give_up(r, t, 1);
         return 0;
     }
+    if (r->hooks) {
+        int h = r->hooks->cavity(r->hooks->arg, cc, t);
+        if (h)
+            return h;
+    }
     int rc = dt_cavity_search(m, cc, t, 0, &r->cav);
     if (rc)
         return rc;
@@ -629,6 +679,11 @@ static int split_tet(ref_mesher *r, uint32_t t)
             if (why == 3)
                 floor = 0;
             int outcome = SPLIT_REFUSED;
+            /* With the parallel hooks the splits below may wait for other
+             * PEs, during which t may be split or moved away and its slot
+             * reused: remember what t was. */
+            uint32_t was[4];
+            memcpy(was, m->tets[t].v, sizeof was);
             if (d.action == REF_SPLIT_SUBSEGS) {
                 size_t done;
                 rc = split_encroached_subsegs(r, floor, &done);
@@ -641,7 +696,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
             }
             if (rc)
                 return rc;
-            if (tm_is_dead(m, t))
+            if (tm_is_dead(m, t) || memcmp(was, m->tets[t].v, sizeof was))
                 return 0;
             if (outcome == SPLIT_REFUSED)
                 give_up(r, t, 0);
@@ -683,6 +738,79 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
     if (!rc && outcome == SPLIT_DEFERRED)
         rc = ref__queue_fac(r, id, rmin);
     return rc;
+}
+
+int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin)
+{
+    tm_mesh *m = &r->m;
+    switch (kind) {
+    case REF_SUBSEG:
+        return id < r->bd.nsegs ? process_seg(r, id, rmin) : PDR_EINVAL;
+    case REF_SUBFACET:
+        return id < r->bd.nfacs ? process_fac(r, id, rmin) : PDR_EINVAL;
+    case REF_TET:
+        if (id >= m->nslots)
+            return PDR_EINVAL;
+        if (tm_is_dead(m, id) || tm_is_ghost(m, id) ||
+            (m->flags[id] & (REF_F_EXTERIOR | REF_F_GIVEUP)))
+            return 0;
+        return split_tet(r, id);
+    }
+    return PDR_EINVAL;
+}
+
+int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin)
+{
+    tm_mesh *m = &r->m;
+    if (!q_empty(&r->segq)) {
+        *kind = REF_SUBSEG;
+        *id = q_pop(&r->segq, 0, rmin);
+        return 1;
+    }
+    if (!q_empty(&r->facq)) {
+        *kind = REF_SUBFACET;
+        *id = q_pop(&r->facq, 0, rmin);
+        return 1;
+    }
+    if (!r->classified)
+        return 0;
+    int lifo = r->o.order == REF_ORDER_LIFO;
+    while (!q_empty(&r->tetq)) {
+        uint32_t t = q_pop(&r->tetq, lifo, NULL);
+        if (tm_is_dead(m, t) || !(m->flags[t] & TM_F_QUEUED))
+            continue;
+        m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+        if (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP))
+            continue;
+        *kind = REF_TET;
+        *id = t;
+        *rmin = 0;
+        return 1;
+    }
+    return 0;
+}
+
+int ref_requeue(ref_mesher *r, int kind, uint32_t id, float rmin)
+{
+    switch (kind) {
+    case REF_SUBSEG:
+        return ref__queue_seg(r, id, rmin);
+    case REF_SUBFACET:
+        return ref__queue_fac(r, id, rmin);
+    case REF_TET:
+        return queue_tet(r, id);
+    }
+    return PDR_EINVAL;
+}
+
+int ref_check_tet(ref_mesher *r, uint32_t t)
+{
+    tm_mesh *m = &r->m;
+    if (!r->classified || tm_is_dead(m, t) || tm_is_ghost(m, t) ||
+        (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP)))
+        return 0;
+    double cc[3];
+    return ref__tet_bad(r, t, cc, NULL) ? queue_tet(r, t) : 0;
 }
 
 int ref_run(ref_mesher *r, int tets)

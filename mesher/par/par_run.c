@@ -1,0 +1,284 @@
+/* par/par_run.c -- the parallel refinement loop on one PE (see
+ * par/par_run.h). */
+#include "config.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/pdr_util.h"
+#include "par/par_run.h"
+
+/* One cavity thread: the item it refines and its insertion state. */
+typedef struct par_item {
+    struct par_run *pr;
+    int kind;          /* enum ref_kind */
+    uint32_t id;
+    float rmin;
+    par_cav cav;
+    double seg_start;  /* start of the current compute segment */
+    double work;       /* compute time of the current attempt */
+    double masked;     /* ... of it while another thread was blocked */
+    int blocked;       /* waiting for replies */
+    struct par_item *next_free;
+} par_item;
+
+typedef struct par_run {
+    am_ctx_t *am;
+    par_sub *s;
+    par_run_opts o;
+    par_cav_ctx cc;
+    ref_hooks hooks;
+    par_item *current;  /* the thread running now (set on every resume) */
+    par_item *free_items;
+    int nthreads;
+    uint64_t rng;
+    par_table1 *row;
+    int err;            /* first error of a thread */
+} par_run;
+
+double par_table1_tolerance(const par_table1 *t)
+{
+    double masked = t->masked_local_s + t->masked_dist_s;
+    double d = masked + t->setback_s;
+    return d > 0 ? masked / d : 1.0;
+}
+
+static double rnd(par_run *pr)
+{
+    pr->rng ^= pr->rng << 13;
+    pr->rng ^= pr->rng >> 7;
+    pr->rng ^= pr->rng << 17;
+    return (double)(pr->rng >> 11) / 9007199254740992.0;
+}
+
+/* Closes the running thread's compute segment. */
+static void segment_end(par_run *pr, par_item *it)
+{
+    double now = pdr_now(), d = now - it->seg_start;
+    it->work += d;
+    if (pr->cc.nblocked_dist > 0)
+        it->masked += d;
+    it->seg_start = now;
+}
+
+/* ------------------------------------------------------------ hooks */
+
+static int hook_cavity(void *arg, const double p[3], uint32_t start)
+{
+    par_run *pr = arg;
+    par_item *it = pr->current;
+    int rc = par_cav_gather(&it->cav, p, start);
+    pr->current = it; /* other threads ran while this one waited */
+    if (rc < 0)
+        return rc;
+    return rc == PAR_CAV_SETBACK ? REF_SETBACK : 0;
+}
+
+static par_item *item_of(par_cav *c)
+{
+    return (par_item *)(void *)((char *)c - offsetof(par_item, cav));
+}
+
+static void on_block(void *arg, par_cav *c)
+{
+    par_run *pr = arg;
+    par_item *it = item_of(c);
+    segment_end(pr, it);
+    it->blocked = 1;
+}
+
+static void on_resume(void *arg, par_cav *c)
+{
+    par_run *pr = arg;
+    par_item *it = item_of(c);
+    pr->current = it;
+    it->blocked = 0;
+    it->seg_start = pdr_now();
+}
+
+/* A new vertex v was committed: give it a global id, and point the
+ * interface entries of the cavity's remote boundary faces at the new
+ * tetrahedra built on them (face 3 of each, see mesh/dt.h). */
+static int hook_committed(void *arg, uint32_t v, const dt_cavity *c)
+{
+    par_run *pr = arg;
+    par_sub *s = pr->s;
+    tm_mesh *m = &s->r.m;
+    uint64_t gid = par_sub_new_gid(s);
+    m->gid[v] = gid;
+    int rc = hmap_put(&s->vmap, gid, v);
+    for (size_t i = 0; i < c->nbnd && !rc; i++) {
+        tm_link l = c->bnd[i].outer;
+        if (c->bnd[i].reason == DT_BND_REMOTE && l != TM_LINK_NONE)
+            s->ifc[l - TM_LINK_SPECIAL].local = tm_mklink(c->newtets[i], 3);
+    }
+    return rc;
+}
+
+static int requeue(void *arg, int kind, uint32_t id)
+{
+    par_run *pr = arg;
+    ref_mesher *r = &pr->s->r;
+    if (kind == 0)
+        return ref_check_tet(r, id);
+    float rmin = 0;
+    const bd_set *bd = &r->bd;
+    if (kind == 1 && !(bd->segs[id].flags & BD_F_MISSING))
+        rmin = (float)(r->o.rho * fmin(bd->vrins[bd->segs[id].v[0]], bd->vrins[bd->segs[id].v[1]]));
+    if (kind == 2 && !(bd->facs[id].flags & BD_F_MISSING)) {
+        const uint32_t *v = bd->facs[id].v;
+        rmin = (float)(r->o.rho * fmin(bd->vrins[v[0]], fmin(bd->vrins[v[1]], bd->vrins[v[2]])));
+    }
+    return ref_requeue(r, kind == 1 ? REF_SUBSEG : REF_SUBFACET, id, rmin);
+}
+
+/* ------------------------------------------------------------ threads */
+
+static void refine_thread(am_ctx_t *am, void *arg)
+{
+    par_item *it = arg;
+    par_run *pr = it->pr;
+    par_table1 *row = pr->row;
+    int failures = 0;
+    for (;;) {
+        pr->current = it;
+        it->work = it->masked = 0;
+        it->seg_start = pdr_now();
+        int rc = ref_step(&pr->s->r, it->kind, it->id, it->rmin);
+        pr->current = it;
+        segment_end(pr, it);
+        int dist = it->cav.distributed;
+        par_cav_release(&it->cav);
+        if (rc < 0) {
+            if (!pr->err)
+                pr->err = rc;
+            break;
+        }
+        if (rc != REF_SETBACK) {
+            row->completed_s += it->work;
+            if (dist)
+                row->masked_dist_s += it->masked;
+            else
+                row->masked_local_s += it->masked;
+            row->steps++;
+            break;
+        }
+        row->setback_s += it->work;
+        row->setbacks++;
+        if (++failures >= PAR_RUN_BACKOFF_AFTER) {
+            row->backoffs++;
+            am_sleep(am, pr->o.backoff_s * (1.0 + 2.0 * rnd(pr)));
+        } else {
+            am_yield(am);
+        }
+    }
+    pr->nthreads--;
+    it->next_free = pr->free_items;
+    pr->free_items = it;
+}
+
+/* The loop's "start new work" step: one thread per item, up to the cap. */
+static int start_work(am_ctx_t *am, void *arg)
+{
+    par_run *pr = arg;
+    if (pr->err)
+        return pr->err;
+    if (pr->nthreads >= pr->o.max_threads)
+        return 0;
+    int kind;
+    uint32_t id;
+    float rmin;
+    if (!ref_next(&pr->s->r, &kind, &id, &rmin))
+        return 0;
+    par_item *it = pr->free_items;
+    if (it) {
+        pr->free_items = it->next_free;
+    } else {
+        it = calloc(1, sizeof *it);
+        if (!it)
+            return PDR_ENOMEM;
+        it->pr = pr;
+        par_cav_init(&it->cav, &pr->cc);
+        if (!it->cav.fut) {
+            free(it);
+            return PDR_ENOMEM;
+        }
+    }
+    it->kind = kind;
+    it->id = id;
+    it->rmin = rmin;
+    int rc = am_thread_spawn(am, refine_thread, it, NULL);
+    if (rc) {
+        it->next_free = pr->free_items;
+        pr->free_items = it;
+        return rc;
+    }
+    pr->nthreads++;
+    return 1;
+}
+
+int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *row)
+{
+    memset(row, 0, sizeof *row);
+    par_run *pr = calloc(1, sizeof *pr);
+    if (!pr)
+        return PDR_ENOMEM;
+    pr->am = am;
+    pr->s = s;
+    pr->o = *o;
+    if (pr->o.max_threads < 1)
+        pr->o.max_threads = 1;
+    if (!(pr->o.backoff_s > 0))
+        pr->o.backoff_s = 200e-6;
+    pr->rng = (o->seed ^ 0x9E3779B97F4A7C15ULL) * (s->rank + 1) | 1;
+    pr->row = row;
+    int rc = par_cav_ctx_init(&pr->cc, am, s, PAR_RUN_HANDLER_BASE);
+    if (rc) {
+        free(pr);
+        return rc;
+    }
+    pr->cc.requeue = requeue;
+    pr->cc.requeue_arg = pr;
+    pr->cc.on_block = on_block;
+    pr->cc.on_resume = on_resume;
+    pr->cc.hook_arg = pr;
+    pr->hooks.cavity = hook_cavity;
+    pr->hooks.committed = hook_committed;
+    pr->hooks.arg = pr;
+    s->r.hooks = &pr->hooks;
+
+    am_stats_t a0, a1;
+    /* Every PE has its handlers before anyone sends. */
+    rc = am_barrier(am);
+    am_stats_get(am, &a0);
+    double t0 = pdr_now();
+    if (!rc)
+        rc = am_run_until_done(am, start_work, pr);
+    if (!rc && pr->err)
+        rc = pr->err;
+    row->exec_s = pdr_now() - t0;
+    am_stats_get(am, &a1);
+    row->poll_s = a1.poll_s - a0.poll_s;
+    row->poll_excess_s = a1.poll_excess_s - a0.poll_excess_s;
+    row->idle_s = a1.idle_s - a0.idle_s;
+    row->msgs_sent = a1.msgs_sent - a0.msgs_sent;
+    row->bytes_sent = a1.bytes_sent - a0.bytes_sent;
+    row->service_s = am_time_total(am, pr->cc.cat_service);
+    row->cav_local = pr->cc.st.gathers_local;
+    row->cav_dist = pr->cc.st.gathers_dist;
+    row->tets_in = pr->cc.st.tets_in;
+    row->tets_out = pr->cc.st.tets_out;
+    row->tets_end = ref_interior_tets(&s->r);
+    s->r.hooks = NULL;
+    while (pr->free_items) {
+        par_item *it = pr->free_items;
+        pr->free_items = it->next_free;
+        par_cav_free(&it->cav);
+        free(it);
+    }
+    par_cav_ctx_free(&pr->cc);
+    free(pr);
+    return rc;
+}

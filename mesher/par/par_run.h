@@ -1,0 +1,82 @@
+/*
+ * par/par_run.h -- the parallel refinement on one PE (prefix par_run_):
+ * the paper's ParRefinement loop (fig. 7) and its Table 1 accounting.
+ *
+ *   loop: poll the network; yield to the cavity threads;
+ *         pop the next item (encroached or missing subsegment, then
+ *         subfacet, then bad tetrahedron) and start Refine(item) as a
+ *         cooperative thread, while fewer than max_threads run;
+ *         stop when libam's termination detection says every PE is idle
+ *         and no message is in flight.
+ *
+ * Refine(item) is the sequential mesher's step (refine/refine.h,
+ * ref_step) with the parallel hooks installed: before a cavity is
+ * searched, par_cav_gather makes it local (par/par_cav.h); a setback
+ * gives the step up without changing anything, and the thread tries the
+ * item again after yielding, after a random pause longer than a round
+ * trip once it has failed PAR_RUN_BACKOFF_AFTER times in a row (the
+ * paper's live-lock guard).
+ *
+ * Time accounting (DESIGN 5.5), per PE, monotonic clock, measured around
+ * the code that does each thing:
+ *   exec       the whole refinement loop;
+ *   completed  compute time of steps that finished (inserted a point, or
+ *              split what the point encroached, or gave the item up),
+ *              excluding the time their thread was blocked on replies;
+ *   setback    compute time of attempts that ended in a setback;
+ *   masked     the part of completed (local and distributed steps apart)
+ *              computed while at least one other thread of this PE was
+ *              blocked waiting for remote data;
+ *   service    time in the handlers serving other PEs' cavities;
+ *   poll, poll excess, idle: the runtime's own figures (am_stats).
+ */
+#ifndef PDR_PAR_RUN_H
+#define PDR_PAR_RUN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "am.h"
+#include "par/par_cav.h"
+#include "par/par_sub.h"
+
+#define PAR_RUN_BACKOFF_AFTER 3
+/* Handler ids used by the parallel refinement (4 of them from here). */
+#define PAR_RUN_HANDLER_BASE 100
+
+typedef struct par_run_opts {
+    int max_threads;  /* cavity threads per PE (>= 1) */
+    uint64_t seed;    /* random back-off */
+    double backoff_s; /* base pause after repeated setbacks (a round trip) */
+} par_run_opts;
+
+/* One PE's Table 1 row and counts. */
+typedef struct par_table1 {
+    double exec_s;
+    double completed_s;
+    double masked_local_s, masked_dist_s;
+    double setback_s;
+    double service_s;
+    double poll_s, poll_excess_s, idle_s;
+    uint64_t steps;          /* items finished */
+    uint64_t cav_local;      /* attempts whose cavity stayed on this PE */
+    uint64_t cav_dist;       /* ... that needed other PEs */
+    uint64_t setbacks;       /* attempts that failed (locked or stale) */
+    uint64_t backoffs;       /* pauses of the live-lock guard */
+    uint64_t tets_in, tets_out; /* tetrahedra migrated in / out */
+    uint64_t msgs_sent, bytes_sent;
+    uint64_t tets_end;       /* live interior tetrahedra held at the end */
+} par_table1;
+
+/* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
+ * neither happened). */
+double par_table1_tolerance(const par_table1 *t);
+
+/* Runs the parallel refinement of s on this PE until every PE is done.
+ * Collective: every PE of am calls it once, after registering nothing
+ * else under the handler ids PAR_RUN_HANDLER_BASE..+3. The submesh must
+ * have its work queued (ref_queue_all_tets, ref_queue_boundary). Fills
+ * *row. Returns 0 or a negative code (PDR_E* or AM_E*). */
+int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *row);
+
+#endif /* PDR_PAR_RUN_H */
