@@ -480,6 +480,12 @@ static char *slurp(const char *path, size_t *n)
     return s;
 }
 
+/* memcmp of n bytes, n may be 0 (then a pointer may be NULL). */
+static int same_bytes(const void *a, const void *b, size_t n)
+{
+    return n == 0 || !memcmp(a, b, n);
+}
+
 /* plc_segment has padding: compare it field by field. */
 static void same_segments(const plc_segment *a, const plc_segment *b, size_t n)
 {
@@ -499,18 +505,18 @@ static void same_plc(const plc *a, const plc *b, const char *dir)
     ck_assert_int_eq(a->base, b->base);
     ck_assert(a->planar_tol == b->planar_tol);
     ck_assert_uint_eq(a->nv, b->nv);
-    ck_assert(!memcmp(a->xyz, b->xyz, a->nv * sizeof a->xyz[0]));
-    ck_assert(!memcmp(a->vline, b->vline, a->nv * sizeof a->vline[0]));
+    ck_assert(same_bytes(a->xyz, b->xyz, a->nv * sizeof a->xyz[0]));
+    ck_assert(same_bytes(a->vline, b->vline, a->nv * sizeof a->vline[0]));
     ck_assert_int_eq(!a->vmarker, !b->vmarker);
     if (a->vmarker)
-        ck_assert(!memcmp(a->vmarker, b->vmarker, a->nv * sizeof a->vmarker[0]));
+        ck_assert(same_bytes(a->vmarker, b->vmarker, a->nv * sizeof a->vmarker[0]));
     ck_assert_int_eq(!a->vattr, !b->vattr);
     if (a->vattr) {
         ck_assert_uint_eq(a->nvattr, b->nvattr);
-        ck_assert(!memcmp(a->vattr, b->vattr, a->nv * a->nvattr * sizeof a->vattr[0]));
+        ck_assert(same_bytes(a->vattr, b->vattr, a->nv * a->nvattr * sizeof a->vattr[0]));
     }
     ck_assert_uint_eq(a->ncorner, b->ncorner);
-    ck_assert(!memcmp(a->corners, b->corners, a->ncorner * sizeof a->corners[0]));
+    ck_assert(same_bytes(a->corners, b->corners, a->ncorner * sizeof a->corners[0]));
     ck_assert_uint_eq(a->npoly, b->npoly);
     for (size_t q = 0; q < a->npoly; q++) {
         ck_assert_uint_eq(a->polys[q].first, b->polys[q].first);
@@ -526,20 +532,20 @@ static void same_plc(const plc *a, const plc *b, const char *dir)
         ck_assert_uint_eq(x->nhole, y->nhole);
         ck_assert_int_eq(x->marker, y->marker);
         ck_assert_int_eq(x->line, y->line);
-        ck_assert(!memcmp(x->normal, y->normal, sizeof x->normal));
+        ck_assert(same_bytes(x->normal, y->normal, sizeof x->normal));
     }
     ck_assert_uint_eq(a->nfhole, b->nfhole);
-    ck_assert(!memcmp(a->fholes, b->fholes, a->nfhole * sizeof a->fholes[0]));
+    ck_assert(same_bytes(a->fholes, b->fholes, a->nfhole * sizeof a->fholes[0]));
     ck_assert_uint_eq(a->nsegin, b->nsegin);
     same_segments(a->segin, b->segin, a->nsegin);
     ck_assert_uint_eq(a->nhole, b->nhole);
-    ck_assert(!memcmp(a->holes, b->holes, a->nhole * sizeof a->holes[0]));
+    ck_assert(same_bytes(a->holes, b->holes, a->nhole * sizeof a->holes[0]));
     ck_assert_uint_eq(a->nregion, b->nregion);
-    ck_assert(!memcmp(a->regions, b->regions, a->nregion * sizeof a->regions[0]));
+    ck_assert(same_bytes(a->regions, b->regions, a->nregion * sizeof a->regions[0]));
     ck_assert_int_eq(b->derived, 1);
     ck_assert_uint_eq(a->nseg, b->nseg);
     same_segments(a->segs, b->segs, a->nseg);
-    ck_assert(!memcmp(a->ftri_start, b->ftri_start, (a->nfacet + 1) * sizeof a->ftri_start[0]));
+    ck_assert(same_bytes(a->ftri_start, b->ftri_start, (a->nfacet + 1) * sizeof a->ftri_start[0]));
     char pa[256], pb[256];
     snprintf(pa, sizeof pa, "%s/a.poly", dir);
     snprintf(pb, sizeof pb, "%s/b.poly", dir);
@@ -549,7 +555,7 @@ static void same_plc(const plc *a, const plc *b, const char *dir)
     size_t na, nb;
     char *ta = slurp(pa, &na), *tb = slurp(pb, &nb);
     ck_assert_uint_eq(na, nb);
-    ck_assert(!memcmp(ta, tb, na));
+    ck_assert(same_bytes(ta, tb, na));
     free(ta);
     free(tb);
     unlink(pa);
