@@ -87,3 +87,12 @@ REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
+
+# The parallel mesher's data path without the network: decomposition,
+# submesh messages, merge.
+check_PROGRAMS += tests/test_par
+TESTS += tests/test_par
+tests_test_par_SOURCES = tests/test_par.c
+tests_test_par_CFLAGS = $(UNIT_CFLAGS) $(METIS_CFLAGS)
+tests_test_par_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
+	$(EVENT_LIBS) $(UNIT_LIBS) -lm

@@ -1,0 +1,74 @@
+/*
+ * par/par_merge.h -- the merge at the end of the parallel refinement
+ * (prefix par_merge_): every PE encodes all its live tetrahedra, with its
+ * interface faces, as one message (par_wire); rank 0 takes the P messages
+ * and builds ONE ref_mesher holding the whole mesh, exactly as the
+ * sequential mesher would hold it (exterior tetrahedra and ghosts
+ * included), so that ref_export, ref_count_bad, ref_quality_range and the
+ * writers work on it unchanged.
+ *
+ * The merge CHECKS that the pieces fit, counting every kind of mismatch
+ * (par_merge_report) instead of stopping at the first:
+ *  - a gid sent by two PEs with different coordinates or vertex data;
+ *  - a tetrahedron (its four gids) sent twice: kept once;
+ *  - a face of more than two tetrahedra;
+ *  - a face with no neighbour: the union must be closed, as the
+ *    sequential mesh is (ghosts close the hull); an interface face with no
+ *    tetrahedron on the other side is counted apart;
+ *  - two tetrahedra sharing a face where the face is not an interface face
+ *    on both sides naming each other's PE (or is one within a PE);
+ *  - two tetrahedra sharing a face with the same orientation, or with
+ *    different markers;
+ *  - a subsegment or subfacet sent twice with different input feature or
+ *    orientation (equal copies are merged, their flags or-ed).
+ *
+ * The merged mesh: vertex 0 is the infinite vertex, vertices 1.. are the
+ * distinct gids in ascending order (so a mesh that went out from rank 0
+ * and back unrefined gets Mo's own vertex numbers), with TM_FEAT_GIDS
+ * holding each vertex's gid; tetrahedra in the order of the PEs and of
+ * each message; faces linked; markers, flags, regions, bd entries and
+ * vertex data as sent; vertex hints rebuilt; classified = 1.
+ */
+#ifndef PDR_PAR_MERGE_H
+#define PDR_PAR_MERGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "par/par_sub.h"
+#include "pr.h"
+#include "refine/refine.h"
+
+typedef struct par_merge_report {
+    size_t vertices;         /* merged vertices, the infinite one included */
+    size_t tets;             /* merged tetrahedra, ghosts included */
+    size_t vertex_conflicts; /* one gid, different coordinates or vertex data */
+    size_t dup_tets;         /* tetrahedra sent more than once */
+    size_t nonmanifold;      /* faces of more than two tetrahedra */
+    size_t open_faces;       /* faces without a neighbour, not interface
+                                (those of non-manifold faces included) */
+    size_t iface_unmatched;  /* interface faces with nothing on the other side */
+    size_t iface_mismatch;   /* shared faces not named as interface faces
+                                by both sides, naming each other's PE */
+    size_t misoriented;      /* shared faces seen with the same orientation */
+    size_t marker_mismatch;  /* shared faces whose two sides differ in marker */
+    size_t bd_conflicts;     /* subsegments/subfacets sent twice, differing */
+} par_merge_report;
+
+/* Number of mismatches in rep (everything but the sizes). */
+size_t par_merge_problems(const par_merge_report *rep);
+
+/* Appends the merge message of PE s (all its live tetrahedra) to b.
+ * Returns as par_wire_encode_sub. */
+int par_merge_encode(pr_buf *b, const par_sub *s);
+
+/* Builds the whole mesh into *out (which this initialises with ref_init
+ * for p and o; p must outlive it) from msg[k][0..len[k]), the message of
+ * PE k for k < n. *rep gets the counts. Returns 0; PDR_EPARSE when a
+ * message does not decode, or is not PE k's of n; PDR_ETOPOLOGY when
+ * par_merge_problems(rep) > 0; PDR_ENOMEM or PDR_ELIMIT. On error *out is
+ * freed (empty) and *rep holds what was counted. */
+int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
+                    const ref_opts *o, ref_mesher *out, par_merge_report *rep);
+
+#endif /* PDR_PAR_MERGE_H */

@@ -1,0 +1,747 @@
+/* par/par_wire.c -- the wire form of a submesh and the submesh built from
+ * it (see par/par_wire.h for the byte layout and its rules). */
+#include "config.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/v3.h"
+#include "par/par_wire.h"
+
+/* Bytes per element of the extension's arrays. */
+#define VEXT_ELEM (1 + 4 + 4)
+#define TEXT_ELEM (2 + 2)
+#define SEG_ELEM (4 + 4 + 4 + 2)
+#define FAC_ELEM (12 + 4 + 2)
+/* At most six subsegments and four subfacets per tetrahedron sent. */
+#define MAX_SEGS (6 * PR_MAX_TETS)
+#define MAX_FACS (4 * PR_MAX_TETS)
+
+/* A proto error as the mesher's: memory stays memory, everything else
+ * becomes 'other' (PDR_EPARSE for a decoder, PDR_EINVAL for an encoder). */
+static int from_pr(int rc, int other)
+{
+    return rc == 0 ? 0 : rc == PR_ENOMEM ? PDR_ENOMEM : other;
+}
+
+static uint32_t f32_bits(float x)
+{
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    return u;
+}
+
+static float f32_of(uint32_t u)
+{
+    float x;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
+/* ---------------------------------------------------------------- encode */
+
+typedef struct gid_vertex {
+    uint64_t gid;
+    uint32_t v;
+} gid_vertex;
+
+static int cmp_gid(const void *a, const void *b)
+{
+    uint64_t x = ((const gid_vertex *)a)->gid, y = ((const gid_vertex *)b)->gid;
+    return (x > y) - (x < y);
+}
+
+/* Scratch of one encoding; every pointer owned, freed by enc_free. */
+typedef struct enc {
+    uint32_t *idx;      /* per vertex of the mesh: message index or UINT32_MAX */
+    gid_vertex *verts;  /* the vertices sent, sorted by gid */
+    uint32_t nv;
+    pr_submesh sm;      /* arrays below are ours */
+    uint8_t *seen_seg, *seen_fac; /* per bd slot: listed already */
+    uint32_t *segs, *facs; /* bd indices to send */
+    uint32_t nseg, nfac;
+} enc;
+
+static void enc_free(enc *e)
+{
+    free(e->idx);
+    free(e->verts);
+    free(e->sm.vert.gid);
+    free(e->sm.vert.xyz);
+    free(e->sm.vert.flags);
+    free(e->sm.tet.v);
+    free(e->sm.tet.marker);
+    free(e->sm.tet.subseg);
+    free(e->sm.iface.face);
+    free(e->sm.iface.remote);
+    free(e->seen_seg);
+    free(e->seen_fac);
+    free(e->segs);
+    free(e->facs);
+}
+
+/* The vertex table: every vertex the tetrahedra use, by ascending gid. */
+static int enc_vertices(enc *e, const par_wire_src *src)
+{
+    const tm_mesh *m = &src->r->m;
+    e->idx = malloc(((size_t)m->nv ? m->nv : 1) * sizeof *e->idx);
+    /* at most 4 nt distinct vertices, and at most nv */
+    size_t cap = 4 * (size_t)src->nt < m->nv ? 4 * (size_t)src->nt : m->nv;
+    e->verts = malloc((cap ? cap : 1) * sizeof *e->verts);
+    if (!e->idx || !e->verts)
+        return PDR_ENOMEM;
+    memset(e->idx, 0xff, (size_t)m->nv * sizeof *e->idx);
+    uint32_t n = 0;
+    for (uint32_t k = 0; k < src->nt; k++) {
+        const uint32_t *v = m->tets[src->tets[k]].v;
+        for (int s = 0; s < 4; s++) {
+            if (v[s] >= m->nv)
+                return PDR_EINVAL;
+            if (e->idx[v[s]] != UINT32_MAX)
+                continue;
+            uint64_t g = src->gid[v[s]];
+            if ((v[s] == TM_VINF) != (g == PAR_GID_INF) || g == PR_GID_NONE ||
+                pr_gid_rank(g) >= src->size)
+                return PDR_EINVAL;
+            e->idx[v[s]] = n;
+            e->verts[n].gid = g;
+            e->verts[n].v = v[s];
+            n++;
+        }
+    }
+    if (n > PR_MAX_VERTICES)
+        return PDR_ELIMIT;
+    qsort(e->verts, n, sizeof *e->verts, cmp_gid);
+    for (uint32_t i = 0; i < n; i++) {
+        if (i > 0 && e->verts[i].gid == e->verts[i - 1].gid)
+            return PDR_EINVAL; /* two vertices with one gid */
+        e->idx[e->verts[i].v] = i;
+    }
+    e->nv = n;
+    pr_vtable *vt = &e->sm.vert;
+    vt->n = n;
+    vt->gid = malloc((n ? n : 1) * sizeof *vt->gid);
+    vt->xyz = malloc((n ? 3 * (size_t)n : 1) * sizeof *vt->xyz);
+    vt->flags = calloc(n ? n : 1, sizeof *vt->flags);
+    if (!vt->gid || !vt->xyz || !vt->flags)
+        return PDR_ENOMEM;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t v = e->verts[i].v;
+        vt->gid[i] = e->verts[i].gid;
+        for (int c = 0; c < 3; c++) {
+            double x = v == TM_VINF ? 0.0 : tm_xyz(m, v)[c];
+            if (!isfinite(x))
+                return PDR_EINVAL;
+            vt->xyz[3 * (size_t)i + c] = x;
+        }
+    }
+    return 0;
+}
+
+/* The tetrahedron table and the interface faces. */
+static int enc_tets(enc *e, const par_wire_src *src)
+{
+    const tm_mesh *m = &src->r->m;
+    const plc *p = src->r->p;
+    pr_ttable *tt = &e->sm.tet;
+    size_t nt = src->nt;
+    tt->n = src->nt;
+    tt->v = malloc((nt ? 4 * nt : 1) * sizeof *tt->v);
+    tt->marker = malloc((nt ? 4 * nt : 1) * sizeof *tt->marker);
+    tt->subseg = malloc(nt ? nt : 1);
+    if (!tt->v || !tt->marker || !tt->subseg)
+        return PDR_ENOMEM;
+    uint32_t nif = 0;
+    for (size_t k = 0; k < nt; k++) {
+        uint32_t t = src->tets[k];
+        for (int i = 0; i < 4; i++) {
+            tt->v[4 * k + (size_t)i] = e->idx[m->tets[t].v[i]];
+            int32_t mk = m->marker ? tm_face_marker(m, t, i) : 0;
+            if (mk < 0 || (size_t)mk > p->nfacet)
+                return PDR_EINVAL;
+            tt->marker[4 * k + (size_t)i] = mk ? mk - 1 : PR_MARKER_NONE;
+            uint32_t pe = src->face_pe[4 * k + (size_t)i];
+            if (pe != PAR_PE_NONE) {
+                if (pe >= src->size || pe == src->rank)
+                    return PDR_EINVAL;
+                nif++;
+            }
+        }
+        tt->subseg[k] = (uint8_t)((m->flags[t] & TM_F_SUBSEGS) / TM_F_SUBSEG0);
+    }
+    pr_iftable *f = &e->sm.iface;
+    f->n = nif;
+    f->face = malloc((nif ? nif : 1) * sizeof *f->face);
+    f->remote = malloc((nif ? nif : 1) * sizeof *f->remote);
+    if (!f->face || !f->remote)
+        return PDR_ENOMEM;
+    nif = 0;
+    for (size_t j = 0; j < 4 * nt; j++)
+        if (src->face_pe[j] != PAR_PE_NONE) {
+            f->face[nif] = (uint32_t)j;
+            f->remote[nif++] = src->face_pe[j];
+        }
+    return 0;
+}
+
+/* The subsegments on marked edges and subfacets on marked faces of the
+ * tetrahedra, each once. */
+static int enc_bd(enc *e, const par_wire_src *src)
+{
+    const tm_mesh *m = &src->r->m;
+    const bd_set *bd = &src->r->bd;
+    e->seen_seg = calloc(bd->nsegs ? bd->nsegs : 1, 1);
+    e->seen_fac = calloc(bd->nfacs ? bd->nfacs : 1, 1);
+    size_t cs = bd->live_segs, cf = bd->live_facs;
+    e->segs = malloc((cs ? cs : 1) * sizeof *e->segs);
+    e->facs = malloc((cf ? cf : 1) * sizeof *e->facs);
+    if (!e->seen_seg || !e->seen_fac || !e->segs || !e->facs)
+        return PDR_ENOMEM;
+    for (uint32_t k = 0; k < src->nt; k++) {
+        uint32_t t = src->tets[k];
+        uint16_t fl = m->flags[t];
+        const uint32_t *v = m->tets[t].v;
+        for (int ed = 0; ed < 6 && (fl & TM_F_SUBSEGS); ed++) {
+            if (!(fl & TM_F_SUBSEG(ed)))
+                continue;
+            uint32_t id = bd_find_subseg(bd, v[tm_edge_vtx[ed][0]], v[tm_edge_vtx[ed][1]]);
+            if (id == BD_NONE)
+                return PDR_ETOPOLOGY;
+            if (e->seen_seg[id])
+                continue;
+            if (e->nseg >= cs)
+                return PDR_ETOPOLOGY; /* the table's counts disagree */
+            e->seen_seg[id] = 1;
+            e->segs[e->nseg++] = id;
+        }
+        for (int i = 0; i < 4 && (fl & TM_F_FACEMARKS); i++) {
+            if (!(fl & TM_F_FACEMARK(i)))
+                continue;
+            uint32_t id = bd_find_subfac(bd, v[tm_face_vtx[i][0]], v[tm_face_vtx[i][1]],
+                                         v[tm_face_vtx[i][2]]);
+            if (id == BD_NONE)
+                return PDR_ETOPOLOGY;
+            if (e->seen_fac[id])
+                continue;
+            if (e->nfac >= cf)
+                return PDR_ETOPOLOGY;
+            e->seen_fac[id] = 1;
+            e->facs[e->nfac++] = id;
+        }
+    }
+    return 0;
+}
+
+static void put_ext(pr_buf *b, const enc *e, const par_wire_src *src)
+{
+    const ref_mesher *r = src->r;
+    const bd_set *bd = &r->bd;
+    pr_put_u32(b, e->nv);
+    for (uint32_t i = 0; i < e->nv; i++)
+        pr_put_u8(b, bd->vkind[e->verts[i].v]);
+    for (uint32_t i = 0; i < e->nv; i++)
+        pr_put_u32(b, bd->vfeat[e->verts[i].v]);
+    for (uint32_t i = 0; i < e->nv; i++)
+        pr_put_u32(b, f32_bits(bd->vrins[e->verts[i].v]));
+    pr_put_u32(b, src->nt);
+    for (uint32_t k = 0; k < src->nt; k++)
+        pr_put_u16(b, r->m.flags[src->tets[k]] & PAR_WIRE_TFLAGS);
+    for (uint32_t k = 0; k < src->nt; k++)
+        pr_put_u16(b, r->region ? r->region[src->tets[k]] : 0);
+    pr_put_u32(b, e->nseg);
+    for (int c = 0; c < 2; c++)
+        for (uint32_t j = 0; j < e->nseg; j++)
+            pr_put_u32(b, e->idx[bd->segs[e->segs[j]].v[c]]);
+    for (uint32_t j = 0; j < e->nseg; j++)
+        pr_put_u32(b, bd->segs[e->segs[j]].seg);
+    for (uint32_t j = 0; j < e->nseg; j++)
+        pr_put_u16(b, bd->segs[e->segs[j]].flags & PAR_WIRE_BDFLAGS);
+    pr_put_u32(b, e->nfac);
+    for (uint32_t j = 0; j < e->nfac; j++)
+        for (int c = 0; c < 3; c++)
+            pr_put_u32(b, e->idx[bd->facs[e->facs[j]].v[c]]);
+    for (uint32_t j = 0; j < e->nfac; j++)
+        pr_put_u32(b, bd->facs[e->facs[j]].facet);
+    for (uint32_t j = 0; j < e->nfac; j++)
+        pr_put_u16(b, bd->facs[e->facs[j]].flags & PAR_WIRE_BDFLAGS);
+}
+
+int par_wire_encode(pr_buf *b, const par_wire_src *src)
+{
+    if (b->err)
+        return from_pr(b->err, PDR_EINVAL);
+    const ref_mesher *r = src->r;
+    const tm_mesh *m = &r->m;
+    if (src->nt > PR_MAX_TETS)
+        return PDR_ELIMIT;
+    if (src->size == 0 || src->rank >= src->size || !src->gid)
+        return PDR_EINVAL;
+    for (uint32_t k = 0; k < src->nt; k++)
+        if (src->tets[k] >= m->nslots || tm_is_dead(m, src->tets[k]))
+            return PDR_EINVAL;
+    enc e;
+    memset(&e, 0, sizeof e);
+    e.sm.part = src->part;
+    e.sm.rank = src->rank;
+    e.sm.size = src->size;
+    e.sm.n_facets = (uint32_t)r->p->nfacet;
+    int rc = enc_vertices(&e, src);
+    if (!rc)
+        rc = enc_tets(&e, src);
+    if (!rc)
+        rc = enc_bd(&e, src);
+    if (rc) {
+        enc_free(&e);
+        return rc;
+    }
+    size_t start = b->len;
+    pr_put_u32(b, PAR_WIRE_MAGIC);
+    pr_put_u32(b, PAR_WIRE_VERSION);
+    pr_put_u64(b, src->next_seq);
+    size_t at = b->len;
+    pr_put_u32(b, 0); /* sublen, filled in below */
+    pr_submesh_put(b, &e.sm);
+    if (!b->err) {
+        size_t sub = b->len - at - 4;
+        if (sub > UINT32_MAX)
+            rc = PDR_ELIMIT;
+        else
+            pr_store_u32(b->data + at, (uint32_t)sub);
+    }
+    if (!rc)
+        put_ext(b, &e, src);
+    if (!rc && b->err)
+        rc = from_pr(b->err, PDR_EINVAL);
+    if (rc && b->len >= start)
+        b->len = start;
+    enc_free(&e);
+    return rc;
+}
+
+int par_wire_encode_sub(pr_buf *b, const par_sub *s)
+{
+    const tm_mesh *m = &s->r.m;
+    size_t n = m->nlive;
+    uint32_t *tets = malloc((n ? n : 1) * sizeof *tets);
+    uint32_t *pe = malloc((n ? 4 * n : 1) * sizeof *pe);
+    if (!tets || !pe) {
+        free(tets);
+        free(pe);
+        return PDR_ENOMEM;
+    }
+    int rc = 0;
+    uint32_t k = 0;
+    for (uint32_t t = 0; t < m->nslots && !rc; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        if (k >= n) {
+            rc = PDR_EINVAL; /* nlive is wrong */
+            break;
+        }
+        for (int i = 0; i < 4; i++) {
+            tm_link l = m->tets[t].n[i];
+            uint32_t q = PAR_PE_NONE;
+            if (l >= TM_LINK_SPECIAL && l < TM_LINK_UNSET) {
+                uint32_t j = l - TM_LINK_SPECIAL;
+                if (j >= s->nifc || s->ifc[j].pe == PAR_PE_NONE)
+                    rc = PDR_EINVAL;
+                else
+                    q = s->ifc[j].pe;
+            }
+            pe[4 * (size_t)k + (size_t)i] = q;
+        }
+        tets[k++] = t;
+    }
+    if (!rc) {
+        par_wire_src src = {&s->r, m->gid, tets, k, pe, s->rank, s->rank, s->size, s->next_seq};
+        rc = par_wire_encode(b, &src);
+    }
+    free(tets);
+    free(pe);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- decode */
+
+void par_wire_clear(par_wire *w)
+{
+    pr_submesh_free(&w->sm);
+    free(w->vkind);
+    free(w->vfeat);
+    free(w->vrins);
+    free(w->tflags);
+    free(w->region);
+    free(w->seg_v);
+    free(w->seg_id);
+    free(w->seg_flags);
+    free(w->fac_v);
+    free(w->fac_id);
+    free(w->fac_flags);
+    memset(w, 0, sizeof *w);
+}
+
+/* The feature index a vertex of this kind may have. */
+static int vfeat_ok(const plc *p, uint8_t kind, uint32_t feat)
+{
+    switch (kind) {
+    case BD_V_VOLUME:
+        return 1;
+    case BD_V_INPUT:
+        return feat < p->nv;
+    case BD_V_SEGMENT:
+        return feat < p->nseg;
+    case BD_V_FACET:
+        return feat < p->nfacet;
+    default:
+        return 0;
+    }
+}
+
+static int dec_vertices(pr_reader *rd, const plc *p, par_wire *w)
+{
+    uint32_t n = w->sm->vert.n, c;
+    const uint8_t *kind, *feat, *rins;
+    if (pr_get_u32(rd, &c) || c != n)
+        return PDR_EPARSE;
+    if (pr_get_view(rd, &kind, n) || pr_get_view(rd, &feat, 4 * (size_t)n) ||
+        pr_get_view(rd, &rins, 4 * (size_t)n))
+        return PDR_EPARSE;
+    w->vkind = malloc(n ? n : 1);
+    w->vfeat = malloc((n ? n : 1) * sizeof *w->vfeat);
+    w->vrins = malloc((n ? n : 1) * sizeof *w->vrins);
+    if (!w->vkind || !w->vfeat || !w->vrins)
+        return PDR_ENOMEM;
+    uint32_t rank = w->sm->rank;
+    for (uint32_t i = 0; i < n; i++) {
+        w->vkind[i] = kind[i];
+        w->vfeat[i] = pr_load_u32(feat + 4 * (size_t)i);
+        w->vrins[i] = f32_of(pr_load_u32(rins + 4 * (size_t)i));
+        if (!vfeat_ok(p, w->vkind[i], w->vfeat[i]) || !(w->vrins[i] >= 0))
+            return PDR_EPARSE;
+        /* The infinite vertex is the smallest gid, so vertex 0 if sent. */
+        uint64_t g = w->sm->vert.gid[i];
+        if (g == PAR_GID_INF && i != 0)
+            return PDR_EPARSE;
+        /* A vertex this PE made must be below its counter, or the PE
+         * would make that gid again. */
+        if (g != PAR_GID_INF && pr_gid_rank(g) == rank && pr_gid_seq(g) >= w->next_seq)
+            return PDR_EPARSE;
+    }
+    return 0;
+}
+
+static int dec_tets(pr_reader *rd, const plc *p, par_wire *w)
+{
+    uint32_t n = w->sm->tet.n, c;
+    const uint8_t *fl, *rg;
+    if (pr_get_u32(rd, &c) || c != n)
+        return PDR_EPARSE;
+    if (pr_get_view(rd, &fl, 2 * (size_t)n) || pr_get_view(rd, &rg, 2 * (size_t)n))
+        return PDR_EPARSE;
+    w->tflags = malloc((n ? n : 1) * sizeof *w->tflags);
+    w->region = malloc((n ? n : 1) * sizeof *w->region);
+    if (!w->tflags || !w->region)
+        return PDR_ENOMEM;
+    for (uint32_t k = 0; k < n; k++) {
+        w->tflags[k] = pr_load_u16(fl + 2 * (size_t)k);
+        w->region[k] = pr_load_u16(rg + 2 * (size_t)k);
+        if ((w->tflags[k] & ~PAR_WIRE_TFLAGS) || w->region[k] > p->nregion)
+            return PDR_EPARSE;
+    }
+    return 0;
+}
+
+/* True if vertex index i of the table is a real vertex. */
+static int real_index(const par_wire *w, uint32_t i)
+{
+    return i < w->sm->vert.n && w->sm->vert.gid[i] != PAR_GID_INF;
+}
+
+static int dec_segs(pr_reader *rd, const plc *p, par_wire *w)
+{
+    uint32_t n;
+    const uint8_t *a, *b, *id, *fl;
+    if (pr_get_count(rd, MAX_SEGS, SEG_ELEM, &n))
+        return PDR_EPARSE;
+    if (pr_get_view(rd, &a, 4 * (size_t)n) || pr_get_view(rd, &b, 4 * (size_t)n) ||
+        pr_get_view(rd, &id, 4 * (size_t)n) || pr_get_view(rd, &fl, 2 * (size_t)n))
+        return PDR_EPARSE;
+    w->nseg = n;
+    w->seg_v = malloc((n ? 2 * (size_t)n : 1) * sizeof *w->seg_v);
+    w->seg_id = malloc((n ? n : 1) * sizeof *w->seg_id);
+    w->seg_flags = malloc((n ? n : 1) * sizeof *w->seg_flags);
+    if (!w->seg_v || !w->seg_id || !w->seg_flags)
+        return PDR_ENOMEM;
+    for (uint32_t j = 0; j < n; j++) {
+        uint32_t x = pr_load_u32(a + 4 * (size_t)j), y = pr_load_u32(b + 4 * (size_t)j);
+        w->seg_v[2 * (size_t)j] = x;
+        w->seg_v[2 * (size_t)j + 1] = y;
+        w->seg_id[j] = pr_load_u32(id + 4 * (size_t)j);
+        w->seg_flags[j] = pr_load_u16(fl + 2 * (size_t)j);
+        if (!real_index(w, x) || !real_index(w, y) || x == y || w->seg_id[j] >= p->nseg ||
+            (w->seg_flags[j] & ~PAR_WIRE_BDFLAGS))
+            return PDR_EPARSE;
+    }
+    return 0;
+}
+
+static int dec_facs(pr_reader *rd, const plc *p, par_wire *w)
+{
+    uint32_t n;
+    const uint8_t *v, *id, *fl;
+    if (pr_get_count(rd, MAX_FACS, FAC_ELEM, &n))
+        return PDR_EPARSE;
+    if (pr_get_view(rd, &v, 12 * (size_t)n) || pr_get_view(rd, &id, 4 * (size_t)n) ||
+        pr_get_view(rd, &fl, 2 * (size_t)n))
+        return PDR_EPARSE;
+    w->nfac = n;
+    w->fac_v = malloc((n ? 3 * (size_t)n : 1) * sizeof *w->fac_v);
+    w->fac_id = malloc((n ? n : 1) * sizeof *w->fac_id);
+    w->fac_flags = malloc((n ? n : 1) * sizeof *w->fac_flags);
+    if (!w->fac_v || !w->fac_id || !w->fac_flags)
+        return PDR_ENOMEM;
+    for (uint32_t j = 0; j < n; j++) {
+        uint32_t *x = w->fac_v + 3 * (size_t)j;
+        for (int c = 0; c < 3; c++) {
+            x[c] = pr_load_u32(v + 12 * (size_t)j + 4 * (size_t)c);
+            if (!real_index(w, x[c]))
+                return PDR_EPARSE;
+        }
+        w->fac_id[j] = pr_load_u32(id + 4 * (size_t)j);
+        w->fac_flags[j] = pr_load_u16(fl + 2 * (size_t)j);
+        if (x[0] == x[1] || x[1] == x[2] || x[0] == x[2] || w->fac_id[j] >= p->nfacet ||
+            (w->fac_flags[j] & ~PAR_WIRE_BDFLAGS))
+            return PDR_EPARSE;
+    }
+    return 0;
+}
+
+int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out)
+{
+    memset(out, 0, sizeof *out);
+    pr_reader rd;
+    pr_reader_init(&rd, msg, len);
+    uint32_t magic = 0, version = 0, sublen = 0;
+    const uint8_t *sub;
+    pr_get_u32(&rd, &magic);
+    pr_get_u32(&rd, &version);
+    pr_get_u64(&rd, &out->next_seq);
+    pr_get_u32(&rd, &sublen);
+    if (rd.err || magic != PAR_WIRE_MAGIC || version != PAR_WIRE_VERSION ||
+        out->next_seq == 0 || out->next_seq > PR_GID_SEQ_MAX + 1 ||
+        pr_get_view(&rd, &sub, sublen))
+        return PDR_EPARSE;
+    int rc = from_pr(pr_submesh_decode(sub, sublen, &out->sm), PDR_EPARSE);
+    if (!rc && out->sm->n_facets != p->nfacet)
+        rc = PDR_EPARSE;
+    if (!rc)
+        rc = dec_vertices(&rd, p, out);
+    if (!rc)
+        rc = dec_tets(&rd, p, out);
+    if (!rc)
+        rc = dec_segs(&rd, p, out);
+    if (!rc)
+        rc = dec_facs(&rd, p, out);
+    if (!rc && pr_reader_finish(&rd))
+        rc = PDR_EPARSE;
+    if (rc)
+        par_wire_clear(out);
+    return rc;
+}
+
+/* ----------------------------------------------------------------- build */
+
+/* 1 if the triangles x and y (vertex triples) are the same face seen from
+ * its two sides: y is an odd permutation of x. */
+static int face_opposed(const uint32_t x[3], const uint32_t y[3])
+{
+    for (int k = 0; k < 3; k++)
+        if (y[0] == x[k])
+            return y[1] == x[(k + 2) % 3] && y[2] == x[(k + 1) % 3];
+    return 0;
+}
+
+static void face_of(const tm_mesh *m, uint32_t t, int i, uint32_t f[3])
+{
+    for (int c = 0; c < 3; c++)
+        f[c] = m->tets[t].v[tm_face_vtx[i][c]];
+}
+
+/* Every local link joins two opposed faces with the same marker. */
+static int links_agree(const tm_mesh *m)
+{
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        for (int i = 0; i < 4; i++) {
+            tm_link l = m->tets[t].n[i];
+            if (tm_is_special(l))
+                continue;
+            uint32_t u = tm_ltet(l), x[3], y[3];
+            int j = tm_lface(l);
+            face_of(m, t, i, x);
+            face_of(m, u, j, y);
+            if (!face_opposed(x, y) || tm_face_marker(m, t, i) != tm_face_marker(m, u, j))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+static int build_tets(const par_wire *w, const uint32_t *loc, par_sub *s)
+{
+    const pr_submesh *sm = w->sm;
+    tm_mesh *m = &s->r.m;
+    int rc = tm_room(m, sm->tet.n);
+    if (!rc)
+        rc = ref_region_room(&s->r);
+    if (rc)
+        return rc;
+    for (uint32_t k = 0; k < sm->tet.n; k++) {
+        /* A fresh mesh hands out slots 0, 1, ...: slot k is tetrahedron k
+         * of the message, as the interface faces' names assume. */
+        uint32_t t = tm_alloc_tet(m);
+        if (t != k)
+            return PDR_EINVAL;
+        uint16_t fl = w->tflags[k];
+        for (int i = 0; i < 4; i++) {
+            size_t j = 4 * (size_t)k + (size_t)i;
+            m->tets[t].v[i] = loc[sm->tet.v[j]];
+            m->tets[t].n[i] = TM_LINK_UNSET;
+            int32_t mk = sm->tet.marker[j];
+            m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
+            if (mk != PR_MARKER_NONE)
+                fl |= TM_F_FACEMARK(i);
+        }
+        fl |= (uint16_t)((sm->tet.subseg[k] & PR_SUBSEG_MASK) * TM_F_SUBSEG0);
+        m->flags[t] = fl;
+        m->nghost += (uint32_t)tm_is_ghost(m, t);
+        if (s->r.region)
+            s->r.region[t] = w->region[k];
+        else if (w->region[k])
+            return PDR_EPARSE; /* unreachable: the decoder checked nregion */
+    }
+    return 0;
+}
+
+static int build_bd(const par_wire *w, const uint32_t *loc, par_sub *s)
+{
+    bd_set *bd = &s->r.bd;
+    for (uint32_t j = 0; j < w->nseg; j++) {
+        uint32_t a = loc[w->seg_v[2 * (size_t)j]], b = loc[w->seg_v[2 * (size_t)j + 1]], id;
+        if (bd_find_subseg(bd, a, b) != BD_NONE)
+            return PDR_ETOPOLOGY;
+        int rc = bd_add_subseg(bd, a, b, w->seg_id[j], &id);
+        if (rc)
+            return rc;
+        bd->segs[id].flags = w->seg_flags[j];
+    }
+    for (uint32_t j = 0; j < w->nfac; j++) {
+        const uint32_t *x = w->fac_v + 3 * (size_t)j;
+        uint32_t a = loc[x[0]], b = loc[x[1]], c = loc[x[2]], id;
+        if (bd_find_subfac(bd, a, b, c) != BD_NONE)
+            return PDR_ETOPOLOGY;
+        int rc = bd_add_subfac(bd, a, b, c, w->fac_id[j], &id);
+        if (rc)
+            return rc;
+        bd->facs[id].flags = w->fac_flags[j];
+    }
+    return 0;
+}
+
+static int build(const par_wire *w, par_sub *s)
+{
+    const pr_submesh *sm = w->sm;
+    tm_mesh *m = &s->r.m;
+    s->next_seq = w->next_seq;
+    int rc = par_wire_seg_acute(&s->r);
+    if (!rc)
+        rc = tm_reserve(m, (size_t)sm->vert.n + 1, sm->tet.n);
+    if (rc)
+        return rc;
+    uint32_t *loc = malloc(((size_t)sm->vert.n ? sm->vert.n : 1) * sizeof *loc);
+    if (!loc)
+        return PDR_ENOMEM;
+    for (uint32_t i = 0; i < sm->vert.n && !rc; i++) {
+        if (sm->vert.gid[i] == PAR_GID_INF)
+            loc[i] = TM_VINF;
+        else
+            rc = par_sub_vertex(s, sm->vert.gid[i], sm->vert.xyz + 3 * (size_t)i, w->vkind[i],
+                                w->vfeat[i], w->vrins[i], &loc[i]);
+    }
+    if (!rc)
+        rc = build_tets(w, loc, s);
+    size_t nonmanifold = 0;
+    if (!rc)
+        rc = tm_link_faces(m, &nonmanifold);
+    if (!rc && nonmanifold)
+        rc = PDR_ETOPOLOGY;
+    for (uint32_t j = 0; j < sm->iface.n && !rc; j++) {
+        uint32_t t = sm->iface.face[j] >> 2;
+        int i = (int)(sm->iface.face[j] & 3);
+        if (m->tets[t].n[i] != TM_LINK_NONE)
+            rc = PDR_ETOPOLOGY; /* the neighbour is here after all */
+        else
+            rc = par_sub_add_iface(s, t, i, sm->iface.remote[j]);
+    }
+    if (!rc && !links_agree(m))
+        rc = PDR_ETOPOLOGY;
+    if (!rc)
+        rc = build_bd(w, loc, s);
+    free(loc);
+    if (rc)
+        return rc;
+    tm_rebuild_hints(m);
+    s->r.classified = 1;
+    return 0;
+}
+
+int par_wire_build(const par_wire *w, const plc *p, const ref_opts *o, par_sub *out)
+{
+    int rc = par_sub_init(out, p, o, w->sm->rank, w->sm->size);
+    if (rc)
+        return rc;
+    rc = build(w, out);
+    if (rc)
+        par_sub_free(out);
+    return rc;
+}
+
+int par_wire_load(const void *msg, size_t len, const plc *p, const ref_opts *o, par_sub *out)
+{
+    par_wire w;
+    int rc = par_wire_decode(msg, len, p, &w);
+    if (rc) {
+        memset(out, 0, sizeof *out);
+        return rc;
+    }
+    rc = par_wire_build(&w, p, o, out);
+    par_wire_clear(&w);
+    return rc;
+}
+
+int par_wire_seg_acute(ref_mesher *r)
+{
+    const plc *p = r->p;
+    free(r->seg_acute);
+    r->seg_acute = calloc(p->nv ? p->nv : 1, sizeof *r->seg_acute);
+    if (!r->seg_acute)
+        return PDR_ENOMEM;
+    for (size_t v = 0; v < p->nv; v++) {
+        size_t lo = p->v_sstart[v], hi = p->v_sstart[v + 1];
+        for (size_t i = lo; i < hi && !r->seg_acute[v]; i++)
+            for (size_t j = i + 1; j < hi; j++) {
+                const uint32_t *a = p->segs[p->v_segs[i]].v, *b = p->segs[p->v_segs[j]].v;
+                uint32_t oa = a[0] == v ? a[1] : a[0], ob = b[0] == v ? b[1] : b[0];
+                double u[3], x[3];
+                v3_sub(p->xyz[oa], p->xyz[v], u);
+                v3_sub(p->xyz[ob], p->xyz[v], x);
+                if (v3_dot(u, x) > 0) {
+                    r->seg_acute[v] = 1;
+                    break;
+                }
+            }
+    }
+    return 0;
+}

@@ -1,0 +1,134 @@
+/*
+ * par/par_wire.h -- the wire form of a submesh as the parallel refinement
+ * needs it (prefix par_wire_): proto's submesh message (pr_submesh: the
+ * vertices with gids and coordinates, the tetrahedra with vertex indices,
+ * face markers and subsegment bits, the interface faces) followed by what
+ * the refinement keeps beside the tetrahedralization: per vertex its bd
+ * data, per tetrahedron its flags and region, and the subsegments and
+ * subfacets lying on the tetrahedra sent.
+ *
+ * ----------------------------------------------------------------- format
+ * All integers little-endian, written field by field (proto/pr.h):
+ *
+ *   u32 magic PAR_WIRE_MAGIC ("PDRW"), u32 version PAR_WIRE_VERSION
+ *   u64 next_seq         counter the receiving PE continues its gids from
+ *   u32 sublen, then sublen bytes: a pr_submesh message (type 0x03)
+ *   u32 nv  (== the submesh's vertex count)
+ *       u8  vkind[nv]    BD_V_* (<= BD_V_FACET)
+ *       u32 vfeat[nv]    PLC vertex / plc.segs / facet index by kind
+ *                        (checked for BD_V_INPUT, _SEGMENT, _FACET)
+ *       u32 vrins[nv]    float bits of the insertion radius, >= 0 or +inf
+ *   u32 nt  (== the submesh's tetrahedron count)
+ *       u16 tflags[nt]   only PAR_WIRE_TFLAGS bits
+ *       u16 region[nt]   region index + 1, 0 for none; <= plc.nregion
+ *   u32 nseg, then u32 a[nseg], u32 b[nseg], u32 seg[nseg], u16 flags[nseg]
+ *                        vertex indices (distinct, not the infinite
+ *                        vertex), input segment < plc.nseg, flags only
+ *                        PAR_WIRE_BDFLAGS
+ *   u32 nfac, then u32 v[3 nfac] (three per subfacet, in the bd table's
+ *                        orientation), u32 facet[nfac] (< plc.nfacet),
+ *                        u16 flags[nfac]
+ *
+ * The submesh's face markers are -1 or the facet index (the mesh's marker
+ * minus one) and its n_facets is plc.nfacet. The infinite vertex travels
+ * as gid PAR_GID_INF (0) with coordinates 0 (proto wants finite ones); as
+ * the smallest gid it is vertex 0 of the table whenever a ghost is sent.
+ * Vertex flags of the vertex table are 0 (reserved). A face whose
+ * neighbour is neither sent with it nor named as an interface face
+ * arrives with no neighbour (TM_LINK_NONE).
+ *
+ * Every decoder checks each length and count against the bytes left
+ * before reading (pr_reader), and every index and value against its range;
+ * a malformed message is PDR_EPARSE, never an out-of-bounds access.
+ */
+#ifndef PDR_PAR_WIRE_H
+#define PDR_PAR_WIRE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "par/par_sub.h"
+#include "pr.h"
+#include "refine/refine.h"
+
+#define PAR_WIRE_MAGIC UINT32_C(0x57524450) /* "PDRW" */
+#define PAR_WIRE_VERSION 1u
+/* Tetrahedron flags that travel (the face and edge bits travel as the
+ * submesh's markers and subsegment masks). */
+#define PAR_WIRE_TFLAGS ((uint16_t)(REF_F_EXTERIOR | REF_F_GIVEUP | REF_F_DEGENERATE | TM_F_QUEUED))
+/* Subsegment and subfacet flags that travel (dead ones are not sent). */
+#define PAR_WIRE_BDFLAGS ((uint16_t)(BD_F_MISSING | BD_F_QUEUED | BD_F_TOLERATED))
+
+/* What to send: tetrahedra of a ref_mesher, with the gids of its
+ * vertices and, per face, where its neighbour lives. Borrows everything. */
+typedef struct par_wire_src {
+    const ref_mesher *r;
+    const uint64_t *gid;     /* per vertex of r->m; gid[0] = PAR_GID_INF */
+    const uint32_t *tets;    /* nt live slots of r->m, each once */
+    uint32_t nt;
+    const uint32_t *face_pe; /* [4 nt]: for face i of tets[k], face_pe[4k+i]
+                                is the PE across it, or PAR_PE_NONE when
+                                the neighbour is sent too (or there is none) */
+    uint32_t part, rank, size; /* as in pr_submesh */
+    uint64_t next_seq;       /* the receiver's next vertex counter */
+} par_wire_src;
+
+/* A decoded message. Owns every array (par_wire_clear). */
+typedef struct par_wire {
+    pr_submesh *sm;     /* vertex table, tetrahedron table, interface faces */
+    uint64_t next_seq;
+    uint8_t *vkind;     /* [sm->vert.n] */
+    uint32_t *vfeat;
+    float *vrins;
+    uint16_t *tflags;   /* [sm->tet.n] */
+    uint16_t *region;
+    uint32_t nseg;
+    uint32_t *seg_v;    /* [2 nseg] */
+    uint32_t *seg_id;   /* [nseg] */
+    uint16_t *seg_flags;
+    uint32_t nfac;
+    uint32_t *fac_v;    /* [3 nfac] */
+    uint32_t *fac_id;
+    uint16_t *fac_flags;
+} par_wire;
+
+/* Appends the message for src to b. Returns 0, PDR_EINVAL (a bad slot,
+ * gid or PE), PDR_ETOPOLOGY (a marked edge or face of a sent tetrahedron
+ * has no live subsegment or subfacet in r->bd), PDR_ELIMIT (more than
+ * proto's table limits) or PDR_ENOMEM; b is unchanged on error except
+ * for its error state. */
+int par_wire_encode(pr_buf *b, const par_wire_src *src);
+
+/* Decodes msg[0..len) for PLC p (validated): *out gets the content, which
+ * the caller releases with par_wire_clear (also after an error: out is
+ * then empty). Returns 0, PDR_EPARSE (malformed: truncated, trailing
+ * bytes, a count or value out of range) or PDR_ENOMEM. */
+int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out);
+void par_wire_clear(par_wire *w);
+
+/* Builds the submesh of a decoded message: par_sub_init(out, p, o,
+ * w->sm->rank, w->sm->size), then every vertex (par_sub_vertex) and
+ * tetrahedron, faces linked among them, interface faces
+ * (par_sub_add_iface), markers, flags, regions, subsegments and subfacets,
+ * vertex hints, and r.classified = 1. Returns 0, PDR_ETOPOLOGY (a face of
+ * more than two tetrahedra, an interface face that is also shared
+ * locally, two tetrahedra that disagree on a shared face's marker or
+ * orientation, a subsegment or subfacet given twice), PDR_ENOMEM or
+ * PDR_ELIMIT. On error out is freed (empty). p and o as for par_sub_init. */
+int par_wire_build(const par_wire *w, const plc *p, const ref_opts *o, par_sub *out);
+
+/* par_wire_decode and par_wire_build in one. */
+int par_wire_load(const void *msg, size_t len, const plc *p, const ref_opts *o, par_sub *out);
+
+/* Appends the message of every live tetrahedron of s, with its interface
+ * faces (the PE each TM_LINK_REMOTE face names), s->next_seq, and part =
+ * rank. Returns as par_wire_encode. */
+int par_wire_encode_sub(pr_buf *b, const par_sub *s);
+
+/* Per PLC vertex, 1 where two of its segments meet at less than 90
+ * degrees (ref_mesher.seg_acute, which the sequential mesher computes in
+ * im_build): allocates r->seg_acute (freed by ref_free). Returns 0 or
+ * PDR_ENOMEM. */
+int par_wire_seg_acute(ref_mesher *r);
+
+#endif /* PDR_PAR_WIRE_H */

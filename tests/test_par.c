@@ -1,0 +1,892 @@
+/* Unit tests of the parallel mesher's data path without the network:
+ * Mo is decomposed (METIS) into the submesh messages of P PEs, every PE's
+ * submesh is built from its message in this process and checked, the
+ * submeshes are encoded back and merged, and the merged mesh must be Mo
+ * again, tetrahedron for tetrahedron and in its exported form. The PLC and
+ * options messages round-trip; every decoder refuses every truncation of
+ * a small message and survives corrupted bytes (run under ASan with
+ * ./configure --enable-sanitizers); the merge counts seams that do not
+ * fit. */
+#include "config.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "mesh/vf.h"
+#include "par/par_decomp.h"
+#include "par/par_merge.h"
+#include "par/par_sub.h"
+#include "par/par_verify.h"
+#include "par/par_wire.h"
+#include "plc/dom.h"
+#include "plc/plc.h"
+#include "pr.h"
+#include "refine/im.h"
+#include "refine/refine.h"
+#include "unit.h"
+
+/* ------------------------------------------------------------- fixtures */
+
+static void domain_plc(plc *p, int kind)
+{
+    pdr_diag diag = {0};
+    ck_assert_int_eq(plc_init(p, dom_name(kind)), 0);
+    ck_assert_int_eq(dom_build_default(p, kind, &diag), 0);
+    ck_assert_int_eq(plc_validate(p, &diag), 0);
+    pdr_diag_free(&diag);
+}
+
+/* The unit cube: eight vertices, six square facets. */
+static void unit_cube_plc(plc *p)
+{
+    ck_assert_int_eq(plc_init(p, "unit cube"), 0);
+    for (int i = 0; i < 8; i++) {
+        double x[3] = {i & 1, (i >> 1) & 1, (i >> 2) & 1};
+        ck_assert_int_eq(plc_add_vertex(p, x, 0, NULL), 0);
+    }
+    static const uint32_t f[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                                     {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
+    for (int i = 0; i < 6; i++) {
+        ck_assert_int_eq(plc_begin_facet(p, i + 1, 0), 0);
+        ck_assert_int_eq(plc_add_polygon(p, f[i], 4, 0), 0);
+    }
+    pdr_diag diag = {0};
+    ck_assert_int_eq(plc_validate(p, &diag), 0);
+    pdr_diag_free(&diag);
+}
+
+/* Mo for p, refined to about ntets interior tetrahedra (0: as built). */
+static void build_mo(const plc *p, const ref_opts *o, size_t ntets, ref_mesher *mo)
+{
+    pdr_diag diag = {0};
+    im_opts io = {0, 0};
+    ck_assert_int_eq(ref_init(mo, p, o), 0);
+    ck_assert_int_eq(im_build(mo, &io, NULL, &diag), 0);
+    if (ntets)
+        ck_assert_int_eq(im_mo_size(mo, ntets), 0);
+    ref_release_work(mo);
+    pdr_diag_free(&diag);
+}
+
+/* The gids the decomposition gives Mo's vertices. */
+static uint64_t *mo_gids(const ref_mesher *mo)
+{
+    uint64_t *g = malloc((size_t)mo->m.nv * sizeof *g);
+    ck_assert_ptr_nonnull(g);
+    g[0] = PAR_GID_INF;
+    for (uint32_t v = 1; v < mo->m.nv; v++)
+        g[v] = pr_gid_make(0, v);
+    return g;
+}
+
+/* --------------------------------------------- comparing two meshes */
+
+typedef struct tet_rec {
+    uint64_t key[4]; /* sorted gids */
+    uint64_t g[4];   /* gids in the tetrahedron's own order */
+    int32_t mk[4];
+    uint16_t flags;
+    uint16_t region;
+} tet_rec;
+
+static int cmp_rec(const void *a, const void *b)
+{
+    return memcmp(((const tet_rec *)a)->key, ((const tet_rec *)b)->key, 4 * sizeof(uint64_t));
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Every live tetrahedron of r by gids, sorted. */
+static tet_rec *tet_records(const ref_mesher *r, const uint64_t *gid, size_t *n)
+{
+    const tm_mesh *m = &r->m;
+    tet_rec *a = calloc(m->nlive ? m->nlive : 1, sizeof *a);
+    ck_assert_ptr_nonnull(a);
+    size_t k = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        ck_assert_uint_lt(k, m->nlive);
+        tet_rec *x = &a[k++];
+        for (int i = 0; i < 4; i++) {
+            x->g[i] = x->key[i] = gid[m->tets[t].v[i]];
+            x->mk[i] = tm_face_marker(m, t, i);
+        }
+        qsort(x->key, 4, sizeof x->key[0], cmp_u64);
+        x->flags = m->flags[t] & (uint16_t)~TM_F_CAVITY;
+        x->region = r->region ? r->region[t] : 0;
+    }
+    ck_assert_uint_eq(k, m->nlive);
+    qsort(a, k, sizeof *a, cmp_rec);
+    *n = k;
+    return a;
+}
+
+/* The merged mesh holds exactly Mo's tetrahedra, vertices and boundary. */
+static void same_as_mo(const ref_mesher *mo, const ref_mesher *mg)
+{
+    ck_assert_uint_eq(mg->m.nlive, mo->m.nlive);
+    ck_assert_uint_eq(mg->m.nghost, mo->m.nghost);
+    uint64_t *g = mo_gids(mo);
+    size_t na, nb;
+    tet_rec *a = tet_records(mo, g, &na), *b = tet_records(mg, mg->m.gid, &nb);
+    ck_assert_uint_eq(na, nb);
+    for (size_t k = 0; k < na; k++)
+        ck_assert(!memcmp(&a[k], &b[k], sizeof a[k]));
+    free(a);
+    free(b);
+    /* every vertex used is Mo's vertex of the same number (gids are
+     * numbered in order), with its coordinates and history */
+    ck_assert_uint_le(mg->m.nv, mo->m.nv);
+    for (uint32_t v = 1; v < mg->m.nv; v++) {
+        uint64_t x = mg->m.gid[v];
+        ck_assert_uint_eq(pr_gid_rank(x), 0);
+        uint32_t w = (uint32_t)pr_gid_seq(x);
+        ck_assert_uint_lt(w, mo->m.nv);
+        ck_assert(!memcmp(tm_xyz(&mg->m, v), tm_xyz(&mo->m, w), 3 * sizeof(double)));
+        ck_assert_uint_eq(mg->bd.vkind[v], mo->bd.vkind[w]);
+        ck_assert_uint_eq(mg->bd.vfeat[v], mo->bd.vfeat[w]);
+        ck_assert(!memcmp(&mg->bd.vrins[v], &mo->bd.vrins[w], sizeof(float)));
+    }
+    /* the same live subsegments and subfacets, by gids */
+    ck_assert_uint_eq(mg->bd.live_segs, mo->bd.live_segs);
+    ck_assert_uint_eq(mg->bd.live_facs, mo->bd.live_facs);
+    for (uint32_t i = 0; i < mg->bd.nsegs; i++) {
+        const bd_subseg *s = &mg->bd.segs[i];
+        if (s->flags & BD_F_DEAD)
+            continue;
+        uint32_t a0 = (uint32_t)pr_gid_seq(mg->m.gid[s->v[0]]),
+                 a1 = (uint32_t)pr_gid_seq(mg->m.gid[s->v[1]]);
+        uint32_t id = bd_find_subseg(&mo->bd, a0, a1);
+        ck_assert_uint_ne(id, BD_NONE);
+        ck_assert_uint_eq(mo->bd.segs[id].seg, s->seg);
+        ck_assert_uint_eq(mo->bd.segs[id].flags & PAR_WIRE_BDFLAGS, s->flags);
+    }
+    for (uint32_t i = 0; i < mg->bd.nfacs; i++) {
+        const bd_subfac *s = &mg->bd.facs[i];
+        if (s->flags & BD_F_DEAD)
+            continue;
+        uint32_t x[3];
+        for (int c = 0; c < 3; c++)
+            x[c] = (uint32_t)pr_gid_seq(mg->m.gid[s->v[c]]);
+        uint32_t id = bd_find_subfac(&mo->bd, x[0], x[1], x[2]);
+        ck_assert_uint_ne(id, BD_NONE);
+        ck_assert_uint_eq(mo->bd.facs[id].facet, s->facet);
+        ck_assert(!memcmp(mo->bd.facs[id].v, x, sizeof x));
+    }
+    free(g);
+}
+
+/* A tetrahedron or triangle of an export by its corners' coordinates. */
+typedef struct geo_rec {
+    double c[12];
+    int tag; /* region attribute or facet marker */
+} geo_rec;
+
+static int cmp_pt(const void *a, const void *b)
+{
+    const double *x = a, *y = b;
+    for (int k = 0; k < 3; k++)
+        if (x[k] != y[k])
+            return x[k] < y[k] ? -1 : 1;
+    return 0;
+}
+
+static int cmp_geo(const void *a, const void *b)
+{
+    const geo_rec *x = a, *y = b;
+    for (int k = 0; k < 12; k++)
+        if (x->c[k] != y->c[k])
+            return x->c[k] < y->c[k] ? -1 : 1;
+    return (x->tag > y->tag) - (x->tag < y->tag);
+}
+
+static geo_rec *geo_records(const mesh_export *e, int tets)
+{
+    size_t n = tets ? e->nt : e->nf;
+    int nc = tets ? 4 : 3;
+    geo_rec *a = calloc(n ? n : 1, sizeof *a);
+    ck_assert_ptr_nonnull(a);
+    for (size_t k = 0; k < n; k++) {
+        for (int c = 0; c < nc; c++) {
+            uint32_t v = tets ? e->tet[k][c] : e->tri[k][c];
+            memcpy(a[k].c + 3 * c, e->xyz[v], 3 * sizeof(double));
+        }
+        qsort(a[k].c, (size_t)nc, 3 * sizeof(double), cmp_pt);
+        a[k].tag = tets ? (e->tet_region ? e->tet_region[k] : 0)
+                        : (e->tri_marker ? e->tri_marker[k] : 0);
+    }
+    qsort(a, n, sizeof *a, cmp_geo);
+    return a;
+}
+
+/* ref_export of both gives the same mesh; so do the quality figures. */
+static void same_export(ref_mesher *mo, ref_mesher *mg)
+{
+    ref_output a, b;
+    ck_assert_int_eq(ref_export(mo, &a), 0);
+    ck_assert_int_eq(ref_export(mg, &b), 0);
+    ck_assert_uint_eq(a.view.nt, b.view.nt);
+    ck_assert_uint_eq(a.view.nv, b.view.nv);
+    ck_assert_uint_eq(a.view.nf, b.view.nf);
+    for (int tets = 0; tets < 2; tets++) {
+        geo_rec *x = geo_records(&a.view, tets), *y = geo_records(&b.view, tets);
+        size_t n = tets ? a.view.nt : a.view.nf;
+        for (size_t k = 0; k < n; k++)
+            ck_assert(!cmp_geo(&x[k], &y[k]));
+        free(x);
+        free(y);
+    }
+    ref_quality qa, qb;
+    ref_quality_range(&a.view, &qa);
+    ref_quality_range(&b.view, &qb);
+    ck_assert(!memcmp(&qa, &qb, sizeof qa));
+    ref_count_bad(mo);
+    ref_count_bad(mg);
+    ck_assert_uint_eq(mo->st.left_ratio, mg->st.left_ratio);
+    ck_assert_uint_eq(mo->st.left_size, mg->st.left_size);
+    ck_assert_uint_eq(mo->st.left_sliver, mg->st.left_sliver);
+    ref_output_free(&a);
+    ref_output_free(&b);
+}
+
+/* ------------------------------------------------------- round trip */
+
+/* Decomposes mo for P PEs into N parts, builds and checks every PE's
+ * submesh, merges them back and compares with Mo. */
+static void round_trip(ref_mesher *mo, uint32_t P, uint32_t N, int full_checks)
+{
+    const plc *p = mo->p;
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(mo, P, N, 7, &d), 0);
+    par_sub *subs = calloc(P, sizeof *subs);
+    pr_buf *back = calloc(P, sizeof *back);
+    ck_assert_ptr_nonnull(subs);
+    ck_assert_ptr_nonnull(back);
+    size_t total = 0, ghosts = 0;
+    for (uint32_t k = 0; k < P; k++) {
+        ck_assert_int_eq(par_wire_load(d.msg[k].data, d.msg[k].len, p, &mo->o, &subs[k]), 0);
+        par_sub *s = &subs[k];
+        ck_assert_uint_eq(s->rank, k);
+        ck_assert_uint_eq(s->size, P);
+        ck_assert_uint_eq(s->next_seq, k == 0 ? mo->m.nv : 1);
+        ck_assert_uint_eq(s->r.m.nlive, d.tets[k]);
+        ck_assert_uint_eq(s->live_ifc, d.ifaces[k]);
+        ck_assert_int_eq(s->r.classified, 1);
+        if (N >= P)
+            ck_assert_uint_gt(s->r.m.nlive, 0);
+        /* the marks agree with the bd tables on every PE */
+        ck_assert_uint_eq(ref_consistency(&s->r, stderr, 1), 0);
+        total += s->r.m.nlive;
+        ghosts += s->r.m.nghost;
+        if (P == 1)
+            ck_assert_uint_eq(s->live_ifc, 0);
+    }
+    ck_assert_uint_eq(total, mo->m.nlive);
+    ck_assert_uint_eq(ghosts, mo->m.nghost);
+    par_verify_report vr;
+    memset(&vr, 0, sizeof vr);
+    ck_assert_uint_eq(par_verify_all(subs, P, &vr), 0);
+    /* a PE's next vertex gid is new everywhere */
+    for (uint32_t k = 0; k < P; k++) {
+        uint64_t g = par_sub_new_gid(&subs[k]);
+        for (uint32_t j = 0; j < P; j++)
+            ck_assert_uint_eq(par_sub_find_vertex(&subs[j], g), TM_NONE);
+    }
+    for (uint32_t k = 0; k < P; k++)
+        ck_assert_int_eq(par_merge_encode(&back[k], &subs[k]), 0);
+    const void **msg = calloc(P, sizeof *msg);
+    size_t *len = calloc(P, sizeof *len);
+    for (uint32_t k = 0; k < P; k++) {
+        msg[k] = back[k].data;
+        len[k] = back[k].len;
+    }
+    ref_mesher mg;
+    par_merge_report rep;
+    int rc = par_merge_build(msg, len, P, p, &mo->o, &mg, &rep);
+    ck_assert_uint_eq(par_merge_problems(&rep), 0);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_uint_eq(rep.tets, mo->m.nlive);
+    ck_assert_int_eq(mg.classified, 1);
+    same_as_mo(mo, &mg);
+    ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
+    same_export(mo, &mg);
+    if (full_checks) {
+        vf_report vf;
+        memset(&vf, 0, sizeof vf);
+        ck_assert_int_eq(vf_check(&mg.m, VF_ALL, &vf), 0);
+        if (vf_defects(&vf))
+            vf_print(&vf, stderr);
+        ck_assert_uint_eq(vf_defects(&vf), 0);
+    }
+    ref_free(&mg);
+    for (uint32_t k = 0; k < P; k++) {
+        par_sub_free(&subs[k]);
+        pr_buf_free(&back[k]);
+    }
+    free(subs);
+    free(back);
+    free(msg);
+    free(len);
+    par_decomp_free(&d);
+}
+
+static void round_trips(int kind, size_t ntets)
+{
+    plc p;
+    domain_plc(&p, kind);
+    ref_opts o;
+    ref_default_opts(&o);
+    ref_mesher mo;
+    build_mo(&p, &o, ntets, &mo);
+    size_t interior = ref_interior_tets(&mo);
+    ck_assert_uint_ge(interior, ntets / 2);
+    ck_assert_uint_le(interior, 2 * ntets);
+    static const uint32_t pes[] = {1, 2, 4, 7};
+    for (size_t i = 0; i < sizeof pes / sizeof pes[0]; i++) {
+        round_trip(&mo, pes[i], pes[i], i == 3);
+        round_trip(&mo, pes[i], 4 * pes[i], 0);
+    }
+    ref_free(&mo);
+    plc_free(&p);
+}
+
+START_TEST(round_trip_cube_in_cube)
+{
+    round_trips(DOM_CUBE_IN_CUBE, 10000);
+}
+END_TEST
+
+START_TEST(round_trip_tee)
+{
+    round_trips(DOM_TEE, 8000);
+}
+END_TEST
+
+/* The partition: parts as asked, ghosts with their hull neighbour, the
+ * cut counted, a fixed seed repeatable. */
+START_TEST(partition_properties)
+{
+    plc p;
+    domain_plc(&p, DOM_CUBE_IN_CUBE);
+    ref_mesher mo;
+    build_mo(&p, NULL, 5000, &mo);
+    const tm_mesh *m = &mo.m;
+    uint32_t *a = malloc(m->nslots * sizeof *a), *b = malloc(m->nslots * sizeof *b);
+    size_t cut = 0, cut2 = 0;
+    ck_assert_int_eq(par_decomp_partition(&mo, 9, 3, a, &cut), 0);
+    ck_assert_int_eq(par_decomp_partition(&mo, 9, 3, b, &cut2), 0);
+    ck_assert(!memcmp(a, b, m->nslots * sizeof *a));
+    ck_assert_uint_eq(cut, cut2);
+    ck_assert_uint_gt(cut, 0);
+    size_t count[9] = {0}, faces = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t)) {
+            ck_assert_uint_eq(a[t], PAR_PE_NONE);
+            continue;
+        }
+        ck_assert_uint_lt(a[t], 9);
+        count[a[t]]++;
+        int k = tm_ghost_slot(m, t);
+        if (k >= 0) {
+            ck_assert_uint_eq(a[t], a[tm_ltet(m->tets[t].n[k])]);
+            continue;
+        }
+        for (int i = 0; i < 4; i++) {
+            uint32_t u = tm_ltet(m->tets[t].n[i]);
+            faces += !tm_is_ghost(m, u) && u > t && a[u] != a[t];
+        }
+    }
+    ck_assert_uint_eq(faces, cut);
+    for (int q = 0; q < 9; q++)
+        ck_assert_uint_gt(count[q], m->nlive / 30);
+    /* one part: no METIS, no cut */
+    ck_assert_int_eq(par_decomp_partition(&mo, 1, 3, a, &cut), 0);
+    ck_assert_uint_eq(cut, 0);
+    ck_assert_int_eq(par_decomp_partition(&mo, 0, 3, a, &cut), PDR_EINVAL);
+    free(a);
+    free(b);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+/* ----------------------------------------------------- PLC and options */
+
+/* A box with a chimney: the box's top is an annulus (a facet hole), a
+ * free segment inside, vertex attributes and markers, a region. */
+static const char chimney_poly[] =
+    "18 3 1 1\n"
+    "1 0 0 0 0.5 1\n2 2 0 0 0.5 1\n3 2 2 0 0.5 1\n4 0 2 0 0.5 1\n"
+    "5 0 0 2 1.5 2\n6 2 0 2 1.5 2\n7 2 2 2 1.5 2\n8 0 2 2 1.5 2\n"
+    "9 0.5 0.5 2 2 3\n10 1.5 0.5 2 2 3\n11 1.5 1.5 2 2 3\n12 0.5 1.5 2 2 3\n"
+    "13 0.5 0.5 3 3 4\n14 1.5 0.5 3 3 4\n15 1.5 1.5 3 3 4\n16 0.5 1.5 3 3 4\n"
+    "17 0.5 0.5 0.5 9 5\n18 1.5 1.5 1 9 5\n"
+    "12 1\n"
+    "1 0 1\n4 1 2 3 4\n"
+    "1 0 2\n4 1 2 6 5\n"
+    "1 0 2\n4 2 3 7 6\n"
+    "1 0 2\n4 3 4 8 7\n"
+    "1 0 2\n4 4 1 5 8\n"
+    "2 1 3\n4 5 6 7 8\n4 9 10 11 12\n1 1 1 2\n"
+    "1 0 4\n4 9 10 14 13\n"
+    "1 0 4\n4 10 11 15 14\n"
+    "1 0 4\n4 11 12 16 15\n"
+    "1 0 4\n4 12 9 13 16\n"
+    "1 0 5\n4 13 14 15 16\n"
+    "1 0 6\n2 17 18\n"
+    "0\n"
+    "1\n1 1.8 1.8 1.8 7 0.25\n";
+
+/* Reads text as a .poly from a fresh temporary directory. */
+static void read_poly(plc *p, const char *text, char *dir, size_t dirsz)
+{
+    snprintf(dir, dirsz, "/tmp/test_par.XXXXXX");
+    ck_assert_ptr_nonnull(mkdtemp(dir));
+    char path[256];
+    snprintf(path, sizeof path, "%s/in.poly", dir);
+    FILE *f = fopen(path, "w");
+    ck_assert_ptr_nonnull(f);
+    fputs(text, f);
+    ck_assert_int_eq(fclose(f), 0);
+    pdr_diag diag = {0};
+    ck_assert_int_eq(plc_init(p, NULL), 0);
+    int rc = plc_read(p, path, &diag);
+    if (!rc)
+        rc = plc_validate(p, &diag);
+    if (rc)
+        pdr_diag_print(&diag, stderr);
+    ck_assert_int_eq(rc, 0);
+    pdr_diag_free(&diag);
+    unlink(path);
+}
+
+static char *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    ck_assert_ptr_nonnull(f);
+    char *s = malloc(1 << 20);
+    ck_assert_ptr_nonnull(s);
+    *n = fread(s, 1, 1 << 20, f);
+    fclose(f);
+    return s;
+}
+
+/* memcmp of n bytes, n may be 0 (then a pointer may be NULL). */
+static int same_bytes(const void *a, const void *b, size_t n)
+{
+    return n == 0 || !memcmp(a, b, n);
+}
+
+/* plc_segment has padding: compare it field by field. */
+static void same_segments(const plc_segment *a, const plc_segment *b, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        ck_assert_uint_eq(a[i].v[0], b[i].v[0]);
+        ck_assert_uint_eq(a[i].v[1], b[i].v[1]);
+        ck_assert_int_eq(a[i].marker, b[i].marker);
+        ck_assert_int_eq(a[i].line, b[i].line);
+    }
+}
+
+/* Writes both as .poly and compares the files; compares the fields. */
+static void same_plc(const plc *a, const plc *b, const char *dir)
+{
+    ck_assert_str_eq(a->path, b->path);
+    ck_assert_str_eq(a->vfile, b->vfile);
+    ck_assert_int_eq(a->base, b->base);
+    ck_assert(a->planar_tol == b->planar_tol);
+    ck_assert_uint_eq(a->nv, b->nv);
+    ck_assert(same_bytes(a->xyz, b->xyz, a->nv * sizeof a->xyz[0]));
+    ck_assert(same_bytes(a->vline, b->vline, a->nv * sizeof a->vline[0]));
+    ck_assert_int_eq(!a->vmarker, !b->vmarker);
+    if (a->vmarker)
+        ck_assert(same_bytes(a->vmarker, b->vmarker, a->nv * sizeof a->vmarker[0]));
+    ck_assert_int_eq(!a->vattr, !b->vattr);
+    if (a->vattr) {
+        ck_assert_uint_eq(a->nvattr, b->nvattr);
+        ck_assert(same_bytes(a->vattr, b->vattr, a->nv * a->nvattr * sizeof a->vattr[0]));
+    }
+    ck_assert_uint_eq(a->ncorner, b->ncorner);
+    ck_assert(same_bytes(a->corners, b->corners, a->ncorner * sizeof a->corners[0]));
+    ck_assert_uint_eq(a->npoly, b->npoly);
+    for (size_t q = 0; q < a->npoly; q++) {
+        ck_assert_uint_eq(a->polys[q].first, b->polys[q].first);
+        ck_assert_uint_eq(a->polys[q].n, b->polys[q].n);
+        ck_assert_int_eq(a->polys[q].line, b->polys[q].line);
+    }
+    ck_assert_uint_eq(a->nfacet, b->nfacet);
+    for (size_t f = 0; f < a->nfacet; f++) {
+        const plc_facet *x = &a->facets[f], *y = &b->facets[f];
+        ck_assert_uint_eq(x->poly_first, y->poly_first);
+        ck_assert_uint_eq(x->npoly, y->npoly);
+        ck_assert_uint_eq(x->hole_first, y->hole_first);
+        ck_assert_uint_eq(x->nhole, y->nhole);
+        ck_assert_int_eq(x->marker, y->marker);
+        ck_assert_int_eq(x->line, y->line);
+        ck_assert(same_bytes(x->normal, y->normal, sizeof x->normal));
+    }
+    ck_assert_uint_eq(a->nfhole, b->nfhole);
+    ck_assert(same_bytes(a->fholes, b->fholes, a->nfhole * sizeof a->fholes[0]));
+    ck_assert_uint_eq(a->nsegin, b->nsegin);
+    same_segments(a->segin, b->segin, a->nsegin);
+    ck_assert_uint_eq(a->nhole, b->nhole);
+    ck_assert(same_bytes(a->holes, b->holes, a->nhole * sizeof a->holes[0]));
+    ck_assert_uint_eq(a->nregion, b->nregion);
+    ck_assert(same_bytes(a->regions, b->regions, a->nregion * sizeof a->regions[0]));
+    ck_assert_int_eq(b->derived, 1);
+    ck_assert_uint_eq(a->nseg, b->nseg);
+    same_segments(a->segs, b->segs, a->nseg);
+    ck_assert(same_bytes(a->ftri_start, b->ftri_start, (a->nfacet + 1) * sizeof a->ftri_start[0]));
+    char pa[256], pb[256];
+    snprintf(pa, sizeof pa, "%s/a.poly", dir);
+    snprintf(pb, sizeof pb, "%s/b.poly", dir);
+    pdr_diag diag = {0};
+    ck_assert_int_eq(plc_write_poly(a, pa, &diag), 0);
+    ck_assert_int_eq(plc_write_poly(b, pb, &diag), 0);
+    size_t na, nb;
+    char *ta = slurp(pa, &na), *tb = slurp(pb, &nb);
+    ck_assert_uint_eq(na, nb);
+    ck_assert(same_bytes(ta, tb, na));
+    free(ta);
+    free(tb);
+    unlink(pa);
+    unlink(pb);
+    pdr_diag_free(&diag);
+}
+
+static void plc_round_trip(const plc *a, const char *dir)
+{
+    pr_buf b = PR_BUF_INIT;
+    ck_assert_int_eq(par_decomp_plc_put(&b, a), 0);
+    plc c;
+    pdr_diag diag = {0};
+    ck_assert_int_eq(par_decomp_plc_decode(b.data, b.len, &c, &diag), 0);
+    same_plc(a, &c, dir);
+    plc_free(&c);
+    pdr_diag_free(&diag);
+    pr_buf_free(&b);
+}
+
+START_TEST(plc_round_trips)
+{
+    char dir[64];
+    plc a;
+    read_poly(&a, chimney_poly, dir, sizeof dir);
+    ck_assert_uint_eq(a.nfhole, 1);
+    ck_assert_uint_eq(a.nsegin, 1);
+    ck_assert_ptr_nonnull(a.vattr);
+    ck_assert_ptr_nonnull(a.vmarker);
+    plc_round_trip(&a, dir);
+    plc_free(&a);
+    for (int kind = 0; kind < DOM_COUNT; kind++) {
+        domain_plc(&a, kind);
+        plc_round_trip(&a, dir);
+        plc_free(&a);
+    }
+    rmdir(dir);
+}
+END_TEST
+
+START_TEST(opts_round_trip)
+{
+    ref_opts o, r;
+    ref_default_opts(&o);
+    o.ratio = 1.4142135623730951;
+    o.maxvol = 1e-3;
+    o.maxedge = 0.25;
+    o.min_dihedral = 12.5;
+    o.seg_maxlen = 0.125;
+    o.fac_maxrad = 0.0625;
+    o.rho = 0.3;
+    o.use_region_maxvol = 0;
+    o.order = REF_ORDER_FIFO;
+    pr_buf b = PR_BUF_INIT;
+    ck_assert_int_eq(par_decomp_opts_put(&b, &o), 0);
+    ck_assert_int_eq(par_decomp_opts_decode(b.data, b.len, &r), 0);
+    ck_assert(!memcmp(&o, &r, sizeof o));
+    for (size_t n = 0; n < b.len; n++)
+        ck_assert_int_eq(par_decomp_opts_decode(b.data, n, &r), PDR_EPARSE);
+    o.order = 7;
+    pr_buf_reset(&b);
+    ck_assert_int_eq(par_decomp_opts_put(&b, &o), PDR_EINVAL);
+    o.order = REF_ORDER_LIFO;
+    o.rho = NAN;
+    ck_assert_int_eq(par_decomp_opts_put(&b, &o), PDR_EINVAL);
+    pr_buf_free(&b);
+}
+END_TEST
+
+/* ------------------------------------------- malformed messages */
+
+/* Decodes (and, when it decodes, builds and checks) msg[0..len); must
+ * never crash. Returns 1 if it decoded. */
+static int try_submesh(const uint8_t *msg, size_t len, const plc *p)
+{
+    par_wire w;
+    int rc = par_wire_decode(msg, len, p, &w);
+    if (rc) {
+        ck_assert(rc == PDR_EPARSE || rc == PDR_ENOMEM);
+        ck_assert_ptr_null(w.sm);
+        return 0;
+    }
+    par_sub s;
+    if (par_wire_build(&w, p, NULL, &s) == 0) {
+        par_verify_report vr;
+        memset(&vr, 0, sizeof vr);
+        par_verify_sub(&s, &vr);
+        ck_assert_uint_eq(vr.bad_remote + vr.stale_ifaces + vr.bad_vertices + vr.bad_counts, 0);
+        pr_buf b = PR_BUF_INIT;
+        par_wire_encode_sub(&b, &s);
+        pr_buf_free(&b);
+        par_sub_free(&s);
+    }
+    par_wire_clear(&w);
+    return 1;
+}
+
+START_TEST(submesh_decoder_refuses_truncation)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_mesher mo;
+    build_mo(&p, NULL, 0, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 1, &d), 0);
+    for (int k = 0; k < 2; k++) {
+        const uint8_t *msg = d.msg[k].data;
+        size_t len = d.msg[k].len;
+        ck_assert_int_eq(try_submesh(msg, len, &p), 1);
+        for (size_t n = 0; n < len; n++) {
+            par_wire w;
+            ck_assert_int_eq(par_wire_decode(msg, n, &p, &w), PDR_EPARSE);
+            ck_assert_ptr_null(w.sm);
+            par_sub s;
+            ck_assert_int_ne(par_wire_load(msg, n, &p, NULL, &s), 0);
+        }
+        /* one byte too many */
+        uint8_t *longer = malloc(len + 1);
+        memcpy(longer, msg, len);
+        longer[len] = 0;
+        par_wire w;
+        ck_assert_int_eq(par_wire_decode(longer, len + 1, &p, &w), PDR_EPARSE);
+        free(longer);
+    }
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+START_TEST(submesh_decoder_survives_corruption)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_mesher mo;
+    build_mo(&p, NULL, 0, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 1, &d), 0);
+    const uint8_t *msg = d.msg[1].data;
+    size_t len = d.msg[1].len;
+    uint8_t *bad = malloc(len);
+    size_t decoded = 0;
+    static const uint8_t flips[] = {0xff, 0x01, 0x80, 0x10};
+    for (size_t i = 0; i < len; i++)
+        for (size_t f = 0; f < sizeof flips; f++) {
+            memcpy(bad, msg, len);
+            bad[i] ^= flips[f];
+            decoded += (size_t)try_submesh(bad, len, &p);
+        }
+    /* random bytes over random stretches */
+    uint64_t x = 88172645463325252ULL;
+    for (int round = 0; round < 3000; round++) {
+        memcpy(bad, msg, len);
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        size_t at = x % len, n = 1 + (x >> 32) % 8;
+        for (size_t j = at; j < at + n && j < len; j++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            bad[j] = (uint8_t)x;
+        }
+        decoded += (size_t)try_submesh(bad, len, &p);
+    }
+    /* coordinates and radii are free to change: some copies decode */
+    ck_assert_uint_gt(decoded, 0);
+    free(bad);
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+START_TEST(plc_decoder_refuses_malformed)
+{
+    plc p;
+    unit_cube_plc(&p);
+    pr_buf b = PR_BUF_INIT;
+    ck_assert_int_eq(par_decomp_plc_put(&b, &p), 0);
+    plc q;
+    pdr_diag diag = {0};
+    for (size_t n = 0; n < b.len; n++) {
+        ck_assert_int_eq(par_decomp_plc_decode(b.data, n, &q, &diag), PDR_EPARSE);
+        plc_free(&q);
+    }
+    uint8_t *bad = malloc(b.len);
+    static const uint8_t flips[] = {0xff, 0x01, 0x80};
+    for (size_t i = 0; i < b.len; i++)
+        for (size_t f = 0; f < sizeof flips; f++) {
+            memcpy(bad, b.data, b.len);
+            bad[i] ^= flips[f];
+            int rc = par_decomp_plc_decode(bad, b.len, &q, &diag);
+            ck_assert(rc == 0 || rc == PDR_EPARSE || rc == PDR_EGEOMETRY);
+            plc_free(&q);
+            pdr_diag_free(&diag);
+        }
+    free(bad);
+    pr_buf_free(&b);
+    plc_free(&p);
+}
+END_TEST
+
+/* ------------------------------------------------- merge mismatches */
+
+/* Builds the submeshes of Mo (the unit cube refined a little) for P PEs. */
+static void subs_of(const ref_mesher *mo, uint32_t P, par_sub *subs)
+{
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(mo, P, P, 1, &d), 0);
+    for (uint32_t k = 0; k < P; k++)
+        ck_assert_int_eq(par_wire_load(d.msg[k].data, d.msg[k].len, mo->p, NULL, &subs[k]), 0);
+    par_decomp_free(&d);
+}
+
+static int merge_subs(const par_sub *subs, const uint32_t *order, uint32_t P, const plc *p,
+                      par_merge_report *rep)
+{
+    pr_buf b[8];
+    const void *msg[8];
+    size_t len[8];
+    for (uint32_t k = 0; k < P; k++) {
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[order ? order[k] : k]), 0);
+        msg[k] = b[k].data;
+        len[k] = b[k].len;
+    }
+    ref_mesher mg;
+    int rc = par_merge_build(msg, len, P, p, NULL, &mg, rep);
+    if (!rc)
+        ref_free(&mg);
+    else
+        ck_assert_ptr_null(mg.m.tets);
+    for (uint32_t k = 0; k < P; k++)
+        pr_buf_free(&b[k]);
+    return rc;
+}
+
+START_TEST(merge_counts_mismatches)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 0.002;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    par_sub subs[3];
+    par_merge_report rep;
+
+    /* the PEs' messages in the wrong order */
+    subs_of(&mo, 3, subs);
+    uint32_t swapped[3] = {1, 0, 2};
+    ck_assert_int_eq(merge_subs(subs, swapped, 3, &p, &rep), PDR_EPARSE);
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), 0);
+
+    /* an interface face of PE 0 names PE 2 where PE 1 is */
+    uint32_t k;
+    for (k = 0; k < subs[0].nifc && subs[0].ifc[k].pe != 1; k++)
+        ;
+    ck_assert_uint_lt(k, subs[0].nifc);
+    subs[0].ifc[k].pe = 2;
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_eq(rep.iface_mismatch, 1);
+    ck_assert_uint_eq(par_merge_problems(&rep), 1);
+    subs[0].ifc[k].pe = 1;
+
+    /* PE 1 loses a tetrahedron at the interface: a hole in the union */
+    tm_mesh *m1 = &subs[1].r.m;
+    uint32_t t = tm_ltet(subs[1].ifc[0].local);
+    tm_delete_tet(m1, t);
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_gt(rep.iface_unmatched + rep.open_faces, 0);
+    ck_assert_uint_eq(rep.nonmanifold + rep.dup_tets + rep.iface_mismatch, 0);
+    for (int c = 0; c < 3; c++)
+        par_sub_free(&subs[c]);
+
+    /* PE 2 holds one tetrahedron twice */
+    subs_of(&mo, 3, subs);
+    tm_mesh *m2 = &subs[2].r.m;
+    ck_assert_int_eq(tm_room(m2, 1), 0);
+    uint32_t u = tm_alloc_tet(m2);
+    for (int i = 0; i < 4; i++) {
+        m2->tets[u].v[i] = m2->tets[0].v[i];
+        m2->tets[u].n[i] = TM_LINK_NONE;
+    }
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_eq(rep.dup_tets, 1);
+    ck_assert_uint_eq(par_merge_problems(&rep), 1);
+
+    /* two PEs disagree on a shared vertex */
+    tm_free_tet(m2, u);
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), 0);
+    /* a vertex of an interface face is on both sides */
+    tm_link l = subs[0].ifc[0].local;
+    const uint32_t *tv = subs[0].r.m.tets[tm_ltet(l)].v;
+    uint32_t v = tv[tm_face_vtx[tm_lface(l)][0]];
+    if (v == TM_VINF)
+        v = tv[tm_face_vtx[tm_lface(l)][1]];
+    subs[0].r.m.xyz[3 * (size_t)v] += 1e-9;
+    ck_assert_int_eq(merge_subs(subs, NULL, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_ge(rep.vertex_conflicts, 1);
+    ck_assert_uint_eq(par_merge_problems(&rep), rep.vertex_conflicts);
+    for (int c = 0; c < 3; c++)
+        par_sub_free(&subs[c]);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+    Suite *s = suite_create("par");
+    TCase *t = tcase_create("roundtrip");
+    tcase_set_timeout(t, 300);
+    tcase_add_test(t, round_trip_cube_in_cube);
+    tcase_add_test(t, round_trip_tee);
+    tcase_add_test(t, partition_properties);
+    suite_add_tcase(s, t);
+    t = tcase_create("setup");
+    tcase_add_test(t, plc_round_trips);
+    tcase_add_test(t, opts_round_trip);
+    suite_add_tcase(s, t);
+    t = tcase_create("malformed");
+    tcase_set_timeout(t, 300);
+    tcase_add_test(t, submesh_decoder_refuses_truncation);
+    tcase_add_test(t, submesh_decoder_survives_corruption);
+    tcase_add_test(t, plc_decoder_refuses_malformed);
+    suite_add_tcase(s, t);
+    t = tcase_create("merge");
+    tcase_set_timeout(t, 120);
+    tcase_add_test(t, merge_counts_mismatches);
+    suite_add_tcase(s, t);
+    return s;
+}
+
+UNIT_MAIN(suite)
