@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli/mesh_par.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
 #include "plc/dom.h"
@@ -59,7 +60,24 @@ static void usage(FILE *f)
             "                       (default 0.354; 0 disables it)\n"
             "      --no-region-volume  ignore the volume bounds of the input's regions\n"
             "      --check          verify the result with exact predicates\n"
-            "  -Q, --quiet          print only errors and warnings\n"
+            "  -Q, --quiet          print only errors and warnings\n\n"
+            "Parallel refinement (Nave, Chrisochoides and Chew; the paper's Table 1):\n"
+            "  -n, --procs P        refine on P local PEs: starts P copies of this command\n"
+            "                       with --parallel, like 'am-run -n P'\n"
+            "      --parallel       this process is one PE of a job started by am-run,\n"
+            "                       'pdr run', mpirun or srun (rank 0 reads the input and\n"
+            "                       writes the merged mesh)\n"
+            "      --parts N        partition the initial mesh into N >= P parts (default\n"
+            "                       P; parts go to PEs round robin)\n"
+            "      --max-threads K  cavity threads per PE (default 8)\n"
+            "      --seed S         seed of the partition and of the back-off (default 1)\n"
+            "      --latency SPEC   with -n: inject latency per message (200us, 100us-1ms)\n"
+            "      --bandwidth SPEC with -n: cap the bandwidth per link (100Mbit)\n"
+            "      --stats DIR      every PE writes DIR/table1-RANK.json (and, with -n,\n"
+            "                       the runtime's DIR/stats-RANK.json)\n"
+            "      --submeshes      every PE also writes its part as BASE.pRANK.node/.ele\n"
+            "The default initial mesh of a parallel run has about 10^5 tetrahedra, fewer\n"
+            "when the size bound makes the final mesh small (--mo-size sets it).\n"
             "  -h, --help           show this help\n\n"
             "Input errors are reported as FILE:LINE: message and nothing is written. Files\n"
             "are written atomically. The summary gives counts, seconds per phase,\n"
@@ -110,7 +128,8 @@ static int parse_double(const char *s, double *out)
 
 /* Long options without a short letter. */
 enum {
-    O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH
+    O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
+    O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_STATS, O_SUBMESHES
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -128,6 +147,15 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"no-region-volume", no_argument, NULL, O_NOREGVOL},
                                           {"check", no_argument, NULL, O_CHECK},
                                           {"quiet", no_argument, NULL, 'Q'},
+                                          {"procs", required_argument, NULL, 'n'},
+                                          {"parallel", no_argument, NULL, O_PARALLEL},
+                                          {"parts", required_argument, NULL, O_PARTS},
+                                          {"max-threads", required_argument, NULL, O_THREADS},
+                                          {"seed", required_argument, NULL, O_SEED},
+                                          {"latency", required_argument, NULL, O_LATENCY},
+                                          {"bandwidth", required_argument, NULL, O_BANDWIDTH},
+                                          {"stats", required_argument, NULL, O_STATS},
+                                          {"submeshes", no_argument, NULL, O_SUBMESHES},
                                           {"help", no_argument, NULL, 'h'},
                                           {NULL, 0, NULL, 0}};
 
@@ -229,6 +257,46 @@ static int parse_word(int c, const char *arg, mp_opts *o)
     }
 }
 
+/* The options of the parallel refinement that take a number. Returns 0
+ * or PDR_EXIT_USAGE after the message. */
+static int parse_par_number(int c, const char *arg, mpar_opts *po)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = strtoull(arg, &end, 10);
+    int bad = errno || end == arg || *end || arg[0] == '-';
+    switch (c) {
+    case 'n':
+        if (bad || v < 1 || v > 4096) {
+            pdr_cli_error("mesh", "-n needs a number of PEs from 1 to 4096, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        po->nprocs = (int)v;
+        return 0;
+    case O_PARTS:
+        if (bad || v < 1 || v > 1000000) {
+            pdr_cli_error("mesh", "--parts needs a positive number of parts, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        po->parts = (uint32_t)v;
+        return 0;
+    case O_THREADS:
+        if (bad || v < 1 || v > 4096) {
+            pdr_cli_error("mesh", "--max-threads needs a number from 1 to 4096, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        po->max_threads = (int)v;
+        return 0;
+    default: /* O_SEED */
+        if (bad) {
+            pdr_cli_error("mesh", "--seed needs a non-negative integer, not '%s'", arg);
+            return PDR_EXIT_USAGE;
+        }
+        po->seed = v;
+        return 0;
+    }
+}
+
 /* The input: one file, or a domain, or by default the cube-in-cube with
  * its own volume bound (unless -a gave one). Returns 0 or PDR_EXIT_USAGE
  * after the message. */
@@ -257,12 +325,13 @@ static int parse_input(int argc, char **argv, int have_a, mp_opts *o)
 /* Parses the command line into *o. Returns RUN_PIPELINE, or the exit
  * status when the command is done already: --help, or a usage error
  * (after its message). */
-static int parse_args(int argc, char **argv, mp_opts *o)
+static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
 {
     int have_a = 0, c, rc = 0;
     mp_default_opts(o);
+    mpar_default_opts(po);
     optind = 1;
-    while (!rc && (c = getopt_long(argc, argv, "q:a:L:o:f:Qh", long_opts, NULL)) != -1) {
+    while (!rc && (c = getopt_long(argc, argv, "q:a:L:o:f:Qhn:", long_opts, NULL)) != -1) {
         switch (c) {
         case 'q':
             rc = parse_quality(optarg, &o->ref);
@@ -299,6 +368,27 @@ static int parse_args(int argc, char **argv, mp_opts *o)
             break;
         case 'Q':
             o->quiet = 1;
+            break;
+        case 'n':
+        case O_PARTS:
+        case O_THREADS:
+        case O_SEED:
+            rc = parse_par_number(c, optarg, po);
+            break;
+        case O_PARALLEL:
+            po->parallel = 1;
+            break;
+        case O_LATENCY:
+            po->latency = optarg;
+            break;
+        case O_BANDWIDTH:
+            po->bandwidth = optarg;
+            break;
+        case O_STATS:
+            po->stats = optarg;
+            break;
+        case O_SUBMESHES:
+            po->submeshes = 1;
             break;
         case 'h':
             usage(stdout);
@@ -342,9 +432,20 @@ static int run_pipeline(mp_ctx *c)
 int pdr_cmd_mesh(int argc, char **argv)
 {
     mp_opts o;
-    int status = parse_args(argc, argv, &o);
+    mpar_opts po;
+    int status = parse_args(argc, argv, &o, &po);
     if (status != RUN_PIPELINE)
         return status;
+    if (po.parts && po.nprocs && po.parts < (uint32_t)po.nprocs) {
+        pdr_cli_error("mesh", "--parts %u is fewer than the %d PEs", po.parts, po.nprocs);
+        return PDR_EXIT_USAGE;
+    }
+    if ((po.latency || po.bandwidth) && !po.nprocs) {
+        pdr_cli_error("mesh", "--latency and --bandwidth go with -n (the launcher injects them)");
+        return PDR_EXIT_USAGE;
+    }
+    if (po.nprocs && !po.parallel)
+        return mpar_launch(argc, argv, &po);
     /* The refinement's debugging aids, turned on from the environment
      * here because the library reads none: PDR_REF_CHECK checks the marks
      * against the subsegment and subfacet tables before every step (slow)
@@ -359,6 +460,8 @@ int pdr_cmd_mesh(int argc, char **argv)
         o.ref.trace = stderr;
         o.ref.trace_every = (size_t)atol(trace);
     }
+    if (po.parallel)
+        return mpar_run(&o, &po);
     mp_ctx c;
     mp_init(&c, &o);
     int rc = run_pipeline(&c);

@@ -1,0 +1,551 @@
+/* cli/mesh_par.c -- the parallel driver of 'pdr mesh' (see cli/mesh_par.h). */
+#include "config.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "am.h"
+#include "base/outfile.h"
+#include "base/pdr_util.h"
+#include "cli/mesh_par.h"
+#include "cli/pdr_cli.h"
+#include "io/face.h"
+#include "io/tg.h"
+#include "par/par_decomp.h"
+#include "par/par_merge.h"
+#include "par/par_run.h"
+#include "par/par_wire.h"
+#include "pr.h"
+#include "refine/im.h"
+
+/* Handler of the job message rank 0 sends every PE (below the parallel
+ * refinement's own ids). */
+#define H_JOB 90
+/* The default Mo: about the paper's 10^5 tetrahedra, but no more than a
+ * tenth of the final mesh when the size bound tells how large that is. */
+#define MO_SIZE_PAPER 100000.0
+
+void mpar_default_opts(mpar_opts *o)
+{
+    memset(o, 0, sizeof *o);
+    o->max_threads = 8;
+    o->seed = 1;
+}
+
+/* --------------------------------------------------------- job message */
+
+/* Body: u8 status (0 go, 1 rank 0 failed), then three length-prefixed
+ * blobs: the PLC, the refinement options, the submesh. */
+typedef struct job {
+    int got;
+    uint8_t status;
+    void *data; /* owned copy of the payload */
+    size_t len;
+} job;
+
+static void on_job(am_ctx_t *am, const am_msg_t *msg, void *arg)
+{
+    (void)am;
+    job *j = arg;
+    if (j->got || msg->len < 1)
+        return;
+    j->data = malloc(msg->len);
+    if (!j->data) {
+        j->got = 1;
+        j->status = 1;
+        return;
+    }
+    memcpy(j->data, msg->data, msg->len);
+    j->len = msg->len;
+    j->status = ((const uint8_t *)msg->data)[0];
+    j->got = 1;
+}
+
+static int put_blob(pr_buf *b, const pr_buf *blob)
+{
+    pr_put_u32(b, (uint32_t)blob->len);
+    pr_put_bytes(b, blob->data, blob->len);
+    return b->err;
+}
+
+static int get_blob(pr_reader *r, const uint8_t **p, size_t *len)
+{
+    uint32_t n;
+    if (pr_get_count(r, UINT32_MAX, 1, &n) || pr_get_view(r, p, n))
+        return PDR_EPARSE;
+    *len = n;
+    return 0;
+}
+
+/* Waits in the loop until the job message is here. */
+static int wait_job(am_ctx_t *am, job *j)
+{
+    while (!j->got) {
+        int rc = am_poll(am);
+        if (rc < 0)
+            return rc;
+        if (!j->got && (rc = am_idle(am, 0.25)) < 0)
+            return rc;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------- Table 1 rows */
+
+/* A row travels as 15 f64 values, then 10 u64 counters, then the
+ * refinement's insertion counts. */
+#define ROW_F64 9
+#define ROW_U64 11
+
+static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
+{
+    double f[ROW_F64] = {t->exec_s,   t->completed_s, t->masked_local_s,
+                         t->masked_dist_s, t->setback_s, t->service_s,
+                         t->poll_s,   t->poll_excess_s, t->idle_s};
+    uint64_t u[ROW_U64] = {t->steps,   t->cav_local, t->cav_dist, t->setbacks,
+                           t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
+                           t->bytes_sent, t->tets_end, 0};
+    pr_put_f64_array(b, f, ROW_F64);
+    pr_put_u64_array(b, u, ROW_U64);
+    uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
+                     st->tolerated, st->gave_up, st->missing_recovered};
+    pr_put_u64_array(b, s, 7);
+}
+
+static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
+{
+    pr_reader r;
+    pr_reader_init(&r, data, len);
+    double f[ROW_F64];
+    uint64_t u[ROW_U64], s[7];
+    pr_get_f64_array(&r, f, ROW_F64);
+    pr_get_u64_array(&r, u, ROW_U64);
+    pr_get_u64_array(&r, s, 7);
+    if (pr_reader_finish(&r))
+        return PDR_EPARSE;
+    memset(t, 0, sizeof *t);
+    t->exec_s = f[0];
+    t->completed_s = f[1];
+    t->masked_local_s = f[2];
+    t->masked_dist_s = f[3];
+    t->setback_s = f[4];
+    t->service_s = f[5];
+    t->poll_s = f[6];
+    t->poll_excess_s = f[7];
+    t->idle_s = f[8];
+    t->steps = u[0];
+    t->cav_local = u[1];
+    t->cav_dist = u[2];
+    t->setbacks = u[3];
+    t->backoffs = u[4];
+    t->tets_in = u[5];
+    t->tets_out = u[6];
+    t->msgs_sent = u[7];
+    t->bytes_sent = u[8];
+    t->tets_end = u[9];
+    st->tet_points += s[0];
+    st->fac_points += s[1];
+    st->seg_points += s[2];
+    st->rejected += s[3];
+    st->tolerated += s[4];
+    st->gave_up += s[5];
+    st->missing_recovered += s[6];
+    return 0;
+}
+
+static int write_row_json(const char *dir, int rank, int size, const par_table1 *t)
+{
+    char path[4096];
+    if (snprintf(path, sizeof path, "%s/table1-%d.json", dir, rank) >= (int)sizeof path)
+        return PDR_EINVAL;
+    if (mkdir(dir, 0777) && errno != EEXIST)
+        return PDR_EIO;
+    outfile of;
+    if (outfile_open(&of, path, NULL))
+        return PDR_EIO;
+    fprintf(of.f,
+            "{\n  \"rank\": %d,\n  \"size\": %d,\n  \"execution_s\": %.9g,\n"
+            "  \"completed_cavity_s\": %.9g,\n  \"masked_local_s\": %.9g,\n"
+            "  \"masked_distributed_s\": %.9g,\n  \"setback_s\": %.9g,\n"
+            "  \"latency_tolerance\": %.6f,\n  \"service_s\": %.9g,\n  \"poll_s\": %.9g,\n"
+            "  \"poll_excess_s\": %.9g,\n  \"idle_s\": %.9g,\n  \"steps\": %llu,\n"
+            "  \"cavities_local\": %llu,\n  \"cavities_distributed\": %llu,\n"
+            "  \"setbacks\": %llu,\n  \"backoffs\": %llu,\n  \"tets_migrated_in\": %llu,\n"
+            "  \"tets_migrated_out\": %llu,\n  \"messages_sent\": %llu,\n"
+            "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu\n}\n",
+            rank, size, t->exec_s, t->completed_s, t->masked_local_s, t->masked_dist_s,
+            t->setback_s, par_table1_tolerance(t), t->service_s, t->poll_s, t->poll_excess_s,
+            t->idle_s, (unsigned long long)t->steps, (unsigned long long)t->cav_local,
+            (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
+            (unsigned long long)t->backoffs, (unsigned long long)t->tets_in,
+            (unsigned long long)t->tets_out, (unsigned long long)t->msgs_sent,
+            (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end);
+    return outfile_commit(&of, NULL) ? PDR_EIO : 0;
+}
+
+static void print_row(const char *label, const par_table1 *t)
+{
+    double masked = t->masked_local_s + t->masked_dist_s;
+    printf("  %-12s %9.3f %10.3f %9.3f (%.3f) %9.3f %8.1f%% %9.3f (%.3f)\n", label, t->exec_s,
+           t->completed_s, t->masked_local_s, t->masked_dist_s, t->setback_s,
+           100.0 * par_table1_tolerance(t), t->poll_s, t->poll_excess_s);
+    (void)masked;
+}
+
+/* The summary lines of the parallel run (rank 0). */
+static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_t mo_tets)
+{
+    par_table1 avg = {0};
+    uint64_t local = 0, dist = 0, setbacks = 0, moved = 0;
+    int worst = 0;
+    for (int k = 0; k < size; k++) {
+        const par_table1 *t = &rows[k];
+        avg.exec_s += t->exec_s / size;
+        avg.completed_s += t->completed_s / size;
+        avg.masked_local_s += t->masked_local_s / size;
+        avg.masked_dist_s += t->masked_dist_s / size;
+        avg.setback_s += t->setback_s / size;
+        avg.poll_s += t->poll_s / size;
+        avg.poll_excess_s += t->poll_excess_s / size;
+        local += t->cav_local;
+        dist += t->cav_dist;
+        setbacks += t->setbacks;
+        moved += t->tets_in;
+        if (par_table1_tolerance(t) < par_table1_tolerance(&rows[worst]))
+            worst = k;
+    }
+    printf("parallel: %d PEs, %u parts, Mo %zu tetrahedra; cavities %llu local, %llu "
+           "distributed, %llu setbacks; %llu tetrahedra migrated\n",
+           size, parts, mo_tets, (unsigned long long)local, (unsigned long long)dist,
+           (unsigned long long)setbacks, (unsigned long long)moved);
+    printf("table 1 (s):    execution  completed  masked local (dist)   setback  tolerance"
+           "  poll (excess)\n");
+    char label[32];
+    snprintf(label, sizeof label, "worst PE %d", worst);
+    print_row(label, &rows[worst]);
+    print_row("average", &avg);
+}
+
+/* --------------------------------------------------------- submeshes */
+
+static int write_submesh(const par_sub *s, const char *base)
+{
+    char stem[4096];
+    if (snprintf(stem, sizeof stem, "%s.p%u", base, s->rank) >= (int)sizeof stem)
+        return PDR_EINVAL;
+    ref_output out;
+    int rc = ref_export(&s->r, &out);
+    if (rc)
+        return rc;
+    char *pn = pdr_path_join(stem, ".node"), *pe = pdr_path_join(stem, ".ele"),
+         *pf = pdr_path_join(stem, ".face");
+    pdr_diag diag = {0};
+    rc = pn && pe && pf ? 0 : PDR_ENOMEM;
+    tg_nodes nodes = {.n = out.view.nv, .first = 1, .xyz = (double *)out.xyz};
+    if (!rc)
+        rc = tg_write_node(pn, &nodes, &diag);
+    if (!rc)
+        rc = tg_write_ele_view(pe, &out.view, out.tet_attr, 1, &diag);
+    if (!rc)
+        rc = face_write(&out.view, pf, 1, &diag);
+    pdr_diag_print(&diag, stderr);
+    pdr_diag_free(&diag);
+    free(pn);
+    free(pe);
+    free(pf);
+    ref_output_free(&out);
+    return rc;
+}
+
+/* ---------------------------------------------------------- the run */
+
+/* Rank 0: the job messages (PLC, options, each PE's submesh), and the
+ * size of Mo. Returns 0 or a code (its message printed). */
+static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets)
+{
+    mp_opts *o = &c->o;
+    int rc = mp_read(c);
+    if (!rc)
+        rc = mp_initial_mesh(c);
+    if (rc)
+        return rc;
+    if (!(o->mo_size > 0)) {
+        /* The paper's 10^5 tetrahedra, or a tenth of the final mesh when
+         * the size bound tells how large that is: a mesh with radius-edge
+         * bound 2 and volume bound V has about 2 vol/V tetrahedra (1.98
+         * on cube-in-cube, 1.97 on the tee at V = 1e-5). */
+        double est = MO_SIZE_PAPER;
+        double vol = im_interior_volume(&c->r);
+        if (o->ref.maxvol > 0 && vol > 0)
+            est = fmin(MO_SIZE_PAPER, 0.2 * vol / o->ref.maxvol);
+        if (est > (double)ref_interior_tets(&c->r) && (rc = im_mo_size(&c->r, (size_t)est))) {
+            fprintf(stderr, "pdr mesh: cannot refine the initial mesh: %s\n", pdr_strerror(rc));
+            return rc;
+        }
+    }
+    *mo_tets = ref_interior_tets(&c->r);
+    uint32_t parts = po->parts ? po->parts : (uint32_t)size;
+    par_decomp d;
+    rc = par_decomp_run(&c->r, (uint32_t)size, parts, (int)po->seed, &d);
+    pr_buf plcb = PR_BUF_INIT, optb = PR_BUF_INIT;
+    if (!rc)
+        rc = par_decomp_plc_put(&plcb, &c->p);
+    if (!rc)
+        rc = par_decomp_opts_put(&optb, &c->o.ref);
+    for (int k = 0; k < size && !rc; k++) {
+        pr_put_u8(&msg[k], 0);
+        put_blob(&msg[k], &plcb);
+        put_blob(&msg[k], &optb);
+        put_blob(&msg[k], &d.msg[k]);
+        if (msg[k].err)
+            rc = PDR_ENOMEM;
+    }
+    pr_buf_free(&plcb);
+    pr_buf_free(&optb);
+    par_decomp_free(&d);
+    if (rc)
+        fprintf(stderr, "pdr mesh: cannot distribute the initial mesh: %s\n", pdr_strerror(rc));
+    return rc;
+}
+
+/* Every PE: the submesh from the job message. */
+static int load(const job *j, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
+{
+    pr_reader r;
+    pr_reader_init(&r, j->data, j->len);
+    uint8_t st;
+    const uint8_t *b[3];
+    size_t n[3];
+    pr_get_u8(&r, &st);
+    for (int k = 0; k < 3; k++)
+        if (get_blob(&r, &b[k], &n[k]))
+            return PDR_EPARSE;
+    if (pr_reader_finish(&r))
+        return PDR_EPARSE;
+    pdr_diag diag = {0};
+    int rc = par_decomp_plc_decode(b[0], n[0], p, &diag);
+    *have_plc = 1;
+    pdr_diag_print(&diag, stderr);
+    pdr_diag_free(&diag);
+    if (!rc)
+        rc = par_decomp_opts_decode(b[1], n[1], ro);
+    if (!rc)
+        rc = par_wire_load(b[2], n[2], p, ro, s);
+    return rc;
+}
+
+int mpar_run(const mp_opts *mo, const mpar_opts *po)
+{
+    am_opts_t ao = AM_OPTS_INIT;
+    /* The refinement's searches keep their stacks on the heap; 256 KiB
+     * leaves room for the sanitizers. */
+    ao.stack_size = 256 * 1024;
+    ao.stats_dir = NULL;
+    am_ctx_t *am = NULL;
+    int rc = am_init(NULL, NULL, &ao, &am);
+    if (rc) {
+        fprintf(stderr, "pdr mesh: cannot start the runtime: %s\n", am_strerror(rc));
+        return PDR_EXIT_FAIL;
+    }
+    int rank = am_rank(am), size = am_size(am);
+    job j = {0};
+    mp_ctx c;
+    mp_init(&c, mo);
+    plc p;
+    memset(&p, 0, sizeof p);
+    int have_plc = 0, have_sub = 0;
+    par_sub s;
+    ref_opts ro = mo->ref;
+    ref_stats sum;
+    memset(&sum, 0, sizeof sum);
+    par_table1 row, *rows = NULL;
+    size_t mo_tets = 0;
+    int status = PDR_EXIT_FAIL;
+    rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
+    if (!rc)
+        rc = am_barrier(am);
+    if (rc)
+        goto done;
+
+    if (rank == 0) {
+        pr_buf *msg = calloc((size_t)size, sizeof *msg);
+        int prc = msg ? prepare(&c, po, size, msg, &mo_tets) : PDR_ENOMEM;
+        for (int k = 1; k < size; k++) {
+            if (prc)
+                am_send(am, k, H_JOB, "\1", 1);
+            else
+                am_send(am, k, H_JOB, msg[k].data, msg[k].len);
+        }
+        if (!prc) {
+            j.got = 1;
+            j.len = msg[0].len;
+            j.data = pr_buf_take(&msg[0], &j.len);
+        }
+        for (int k = 0; msg && k < size; k++)
+            pr_buf_free(&msg[k]);
+        free(msg);
+        if (prc)
+            goto done;
+        /* Mo's memory goes before the submeshes are built. */
+        ref_free(&c.r);
+        c.have_r = 0;
+    } else if ((rc = wait_job(am, &j))) {
+        goto done;
+    }
+    if (j.status)
+        goto done; /* rank 0 said why */
+    if ((rc = load(&j, &p, &ro, &s, &have_plc))) {
+        fprintf(stderr, "pdr mesh: PE %d: cannot build its submesh: %s\n", rank,
+                pdr_strerror(rc));
+        goto done;
+    }
+    have_sub = 1;
+    free(j.data);
+    j.data = NULL;
+
+    /* Refine. */
+    double t0 = pdr_now();
+    rc = ref_queue_all_tets(&s.r);
+    par_run_opts ro_run = {po->max_threads, po->seed, 0};
+    if (!rc)
+        rc = par_run_refine(am, &s, &ro_run, &row);
+    if (rc) {
+        fprintf(stderr, "pdr mesh: PE %d: parallel refinement failed: %s\n", rank,
+                rc < 0 && rc > -100 ? pdr_strerror(rc) : am_strerror(rc));
+        goto done;
+    }
+    double t_refine = pdr_now() - t0;
+    if (po->stats && write_row_json(po->stats, rank, size, &row))
+        fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
+                rank);
+    if (po->submeshes) {
+        const char *base = c.base ? c.base : mo->out ? mo->out : "pdr-mesh";
+        if (write_submesh(&s, base))
+            fprintf(stderr, "pdr mesh: PE %d: cannot write its submesh\n", rank);
+    }
+
+    /* Gather the rows and the submeshes to rank 0. */
+    pr_buf rb = PR_BUF_INIT, mb = PR_BUF_INIT;
+    put_row(&rb, &row, &s.r.st);
+    rc = rb.err ? PDR_ENOMEM : par_merge_encode(&mb, &s);
+    par_sub_free(&s);
+    have_sub = 0;
+    void *all_rows = NULL, *all_mesh = NULL;
+    size_t *row_lens = NULL, *mesh_lens = NULL;
+    if (!rc)
+        rc = am_gather(am, rb.data, rb.len, &all_rows, &row_lens);
+    if (!rc)
+        rc = am_gather(am, mb.data, mb.len, &all_mesh, &mesh_lens);
+    pr_buf_free(&rb);
+    pr_buf_free(&mb);
+    if (rc) {
+        fprintf(stderr, "pdr mesh: PE %d: gathering the mesh failed: %s\n", rank,
+                am_strerror(rc));
+        goto done;
+    }
+    if (rank != 0) {
+        status = PDR_EXIT_OK;
+        goto done;
+    }
+    rows = calloc((size_t)size, sizeof *rows);
+    const void **msgs = calloc((size_t)size, sizeof *msgs);
+    rc = rows && msgs ? 0 : PDR_ENOMEM;
+    const uint8_t *pr = all_rows, *pm = all_mesh;
+    for (int k = 0; k < size && !rc; k++) {
+        rc = get_row(pr, row_lens[k], &rows[k], &sum);
+        pr += row_lens[k];
+        msgs[k] = pm;
+        pm += mesh_lens[k];
+    }
+    par_merge_report rep;
+    double tm = pdr_now();
+    if (!rc)
+        rc = par_merge_build(msgs, mesh_lens, (uint32_t)size, &c.p, &c.o.ref, &c.r, &rep);
+    free(msgs);
+    free(all_rows);
+    free(all_mesh);
+    free(row_lens);
+    free(mesh_lens);
+    if (rc) {
+        fprintf(stderr,
+                "pdr mesh: the submeshes do not fit together (%s): %zu interface faces "
+                "unmatched, %zu mismatched, %zu open faces, %zu non-manifold, %zu duplicate "
+                "tetrahedra\n",
+                pdr_strerror(rc), rep.iface_unmatched, rep.iface_mismatch, rep.open_faces,
+                rep.nonmanifold, rep.dup_tets);
+        goto done;
+    }
+    c.have_r = 1;
+    c.refined = 1;
+    c.r.st = sum;
+    c.sec[MP_REFINE] = t_refine + (pdr_now() - tm);
+    if ((rc = mp_export(&c)) || (rc = mp_write(&c)))
+        goto done;
+    if (!c.o.quiet)
+        print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
+    rc = mp_report(&c);
+    if (!rc && c.o.check)
+        rc = mp_verify(&c);
+    status = rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
+done:
+    free(rows);
+    free(j.data);
+    if (have_sub)
+        par_sub_free(&s);
+    if (have_plc)
+        plc_free(&p);
+    mp_free(&c);
+    int frc = am_finalize(&am);
+    if (frc && status == PDR_EXIT_OK)
+        status = PDR_EXIT_FAIL;
+    return status;
+}
+
+/* ---------------------------------------------------------- launcher */
+
+int mpar_launch(int argc, char **argv, const mpar_opts *po)
+{
+    /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--stats D]
+     * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
+     * options). */
+    char **av = calloc((size_t)argc + 16, sizeof *av);
+    if (!av)
+        return PDR_EXIT_FAIL;
+    char np[32];
+    snprintf(np, sizeof np, "%d", po->nprocs);
+    int n = 0;
+    av[n++] = (char *)"pdr mesh";
+    av[n++] = (char *)"-n";
+    av[n++] = np;
+    if (po->latency) {
+        av[n++] = (char *)"--latency";
+        av[n++] = (char *)po->latency;
+    }
+    if (po->bandwidth) {
+        av[n++] = (char *)"--bandwidth";
+        av[n++] = (char *)po->bandwidth;
+    }
+    av[n++] = (char *)"--";
+    av[n++] = (char *)"/proc/self/exe";
+    av[n++] = (char *)"mesh";
+    av[n++] = (char *)"--parallel";
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "-n") || !strcmp(a, "--latency") || !strcmp(a, "--bandwidth")) {
+            i++;
+            continue;
+        }
+        if (!strncmp(a, "-n", 2) || !strncmp(a, "--latency=", 10) ||
+            !strncmp(a, "--bandwidth=", 12))
+            continue;
+        av[n++] = argv[i];
+    }
+    av[n] = NULL;
+    int rc = am_launch_main(n, av, "pdr mesh");
+    free(av);
+    return rc;
+}

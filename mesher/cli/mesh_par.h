@@ -1,0 +1,57 @@
+/*
+ * cli/mesh_par.h -- the parallel driver of 'pdr mesh' (prefix mpar_): the
+ * pipeline of cli/mesh_pipeline.h with the refinement done by P PEs.
+ *
+ *   rank 0:   mp_read, mp_initial_mesh (Mo, about --mo-size tetrahedra),
+ *             METIS partition into --parts parts (par/par_decomp.h), one
+ *             message per PE with the PLC, the options and its submesh;
+ *   every PE: builds its submesh, queues its bad tetrahedra, runs the
+ *             parallel refinement (par/par_run.h) until libam's
+ *             termination detection ends it, sends its submesh and its
+ *             Table 1 row to rank 0 (and writes its part with
+ *             --submeshes, its row as JSON with --stats);
+ *   rank 0:   merges the submeshes into one mesh, checking that every
+ *             interface face matches (par/par_merge.h), then mp_export,
+ *             mp_write, mp_report, and the Table 1 rows of the worst PE
+ *             and of the average.
+ *
+ * A failure on rank 0 before the refinement (bad input) is sent to every
+ * PE, which then exits 1 without a message of its own; rank 0 has
+ * printed the reason. A PE that dies makes the runtime end every other PE
+ * with an error naming it.
+ *
+ * mpar_launch is 'pdr mesh -n P': it starts P copies of this program with
+ * --parallel, through libam's launcher (the same code as am-run).
+ */
+#ifndef PDR_MESH_PAR_H
+#define PDR_MESH_PAR_H
+
+#include <stdint.h>
+
+#include "cli/mesh_pipeline.h"
+
+typedef struct mpar_opts {
+    int nprocs;           /* -n P: launch P PEs (0: not a launcher) */
+    int parallel;         /* --parallel: this process is one PE */
+    uint32_t parts;       /* --parts N: parts of Mo (0: one per PE) */
+    int max_threads;      /* --max-threads K: cavity threads per PE */
+    uint64_t seed;        /* --seed S */
+    const char *latency;  /* --latency (launcher) */
+    const char *bandwidth;/* --bandwidth (launcher) */
+    const char *stats;    /* --stats DIR: per-PE JSON */
+    int submeshes;        /* --submeshes: each PE writes its part */
+} mpar_opts;
+
+/* Defaults: not parallel, one part per PE, 8 threads, seed 1. */
+void mpar_default_opts(mpar_opts *o);
+
+/* Runs this PE of a parallel 'pdr mesh' (--parallel) with pipeline
+ * options mo. Returns the exit status (0, 1). */
+int mpar_run(const mp_opts *mo, const mpar_opts *po);
+
+/* 'pdr mesh -n P': starts P PEs running argv with --parallel added and
+ * the launcher's own options (-n, --latency, --bandwidth, --stats) given
+ * to the launcher. Returns the exit status. */
+int mpar_launch(int argc, char **argv, const mpar_opts *po);
+
+#endif /* PDR_MESH_PAR_H */
