@@ -750,7 +750,6 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
     int rc = st < 0 ? st : 0;
     if (!rc && st == REPLY_OK)
         rc = add_own_faces(c, 0);
-    uint32_t slot = UINT32_MAX;
     while (!rc && st == REPLY_OK) {
         c->nreq = 0;
         for (size_t i = 0; i < c->nface && !rc; i++) {
@@ -805,14 +804,15 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
         if (rc || c->pending == 0)
             continue;
         cc->st.rounds++;
-        if (slot == UINT32_MAX) {
-            slot = (uint32_t)cc->ncavs;
+        if (c->slot == UINT32_MAX) {
+            uint32_t slot = (uint32_t)cc->ncavs;
             rc = pdr_grow((void **)&cc->cavs, &cc->cap_cavs, cc->ncavs + 1, sizeof *cc->cavs);
             if (!rc)
                 rc = hmap_put(&cc->origin, c->owner, slot);
             if (rc)
                 break;
             cc->cavs[cc->ncavs++] = c;
+            c->slot = slot;
         }
         if (cc->on_block)
             cc->on_block(cc->hook_arg, c);
@@ -831,17 +831,19 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
         else
             rc = add_gathered_faces(c, ngt0);
     }
-    if (slot != UINT32_MAX) {
-        /* Unregister: the slot is the last unless a later attempt of
-         * another thread registered after us; swap it out. */
+    if (c->slot != UINT32_MAX) {
+        /* Unregister: move the last registered attempt into our slot. */
+        uint32_t slot = c->slot;
         hmap_del(&cc->origin, c->owner, slot);
         par_cav *last = cc->cavs[cc->ncavs - 1];
         if (last != c) {
-            hmap_del(&cc->origin, last->owner, (uint32_t)(cc->ncavs - 1));
+            hmap_del(&cc->origin, last->owner, last->slot);
             cc->cavs[slot] = last;
+            last->slot = slot;
             hmap_put(&cc->origin, last->owner, slot);
         }
         cc->ncavs--;
+        c->slot = UINT32_MAX;
     }
     if (!rc && st == REPLY_OK) {
         if (c->ngt)
@@ -981,6 +983,28 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
     par_rec *rec = &cc->recs[idx];
     par_part *pt = &rec->part;
     uint32_t origin = (uint32_t)msg->src;
+    /* The subsegments and subfacets on the cavity, to forget below those
+     * that no tetrahedron of this PE holds any more. */
+    u32list segs = {0}, facs = {0};
+    const bd_set *bd = &s->r.bd;
+    for (size_t i = 0; i < pt->cav.n; i++) {
+        uint32_t t = pt->cav.a[i];
+        const tm_tet *T = &m->tets[t];
+        uint16_t fl = m->flags[t];
+        for (int e = 0; e < 6; e++)
+            if (fl & TM_F_SUBSEG(e)) {
+                uint32_t id = bd_find_subseg(bd, T->v[tm_edge_vtx[e][0]], T->v[tm_edge_vtx[e][1]]);
+                if (id != BD_NONE && !has(&segs, id))
+                    push(&segs, id);
+            }
+        for (int k = 0; k < 4; k++)
+            if (fl & TM_F_FACEMARK(k)) {
+                uint32_t id = bd_find_subfac(bd, T->v[tm_face_vtx[k][0]], T->v[tm_face_vtx[k][1]],
+                                             T->v[tm_face_vtx[k][2]]);
+                if (id != BD_NONE && !has(&facs, id))
+                    push(&facs, id);
+            }
+    }
     for (size_t i = 0; i < pt->cav.n; i++) {
         uint32_t t = pt->cav.a[i];
         for (int k = 0; k < 4; k++) {
@@ -1023,6 +1047,23 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             }
         }
     }
+    /* A piece no local tetrahedron has any more belongs to the PEs that
+     * hold its tetrahedra (the origin has it now); a stale entry here
+     * would look missing to a later split. */
+    for (size_t i = 0; i < segs.n; i++) {
+        const bd_subseg *g = &s->r.bd.segs[segs.a[i]];
+        uint32_t t;
+        if (!(g->flags & BD_F_DEAD) && !ref_find_local(&s->r, g->v[0], g->v[1], TM_NONE, &t))
+            bd_kill_subseg(&s->r.bd, segs.a[i]);
+    }
+    for (size_t i = 0; i < facs.n; i++) {
+        const bd_subfac *g = &s->r.bd.facs[facs.a[i]];
+        uint32_t t;
+        if (!(g->flags & BD_F_DEAD) && !ref_find_local(&s->r, g->v[0], g->v[1], g->v[2], &t))
+            bd_kill_subfac(&s->r.bd, facs.a[i]);
+    }
+    free(segs.a);
+    free(facs.a);
     cc->st.tets_out += pt->cav.n;
     rec_drop(cc, (uint32_t)idx);
     am_time_end(am, cc->cat_service);
@@ -1085,6 +1126,7 @@ void par_cav_init(par_cav *c, par_cav_ctx *cc)
 {
     memset(c, 0, sizeof *c);
     c->cc = cc;
+    c->slot = UINT32_MAX;
     am_future_new(cc->am, &c->fut);
 }
 

@@ -135,6 +135,8 @@ typedef struct par_cav {
     int failed;         /* first setback status a reply gave, 0 none */
     int err;            /* a reply could not be decoded */
     int distributed;    /* the current attempt involved another PE */
+    uint32_t slot;      /* index in par_cav_ctx.cavs while waiting, else
+                           UINT32_MAX */
 } par_cav;
 
 /* Statistics of the protocol on one PE. */

@@ -36,7 +36,13 @@ typedef struct par_run {
     uint64_t rng;
     par_table1 *row;
     int err;            /* first error of a thread */
+    hmap tries;         /* item key -> setbacks in a row (live-lock guard) */
 } par_run;
+
+static uint64_t item_key(int kind, uint32_t id)
+{
+    return ((uint64_t)(unsigned)kind << 32 | id) + 1;
+}
 
 double par_table1_tolerance(const par_table1 *t)
 {
@@ -136,12 +142,17 @@ static int requeue(void *arg, int kind, uint32_t id)
 
 /* ------------------------------------------------------------ threads */
 
+/* Refine(item). A setback puts the item back on the queue and ends the
+ * thread (the paper's L.append), so that the PE goes on with other work,
+ * away from the cavity that blocked it; once the same item has failed
+ * PAR_RUN_BACKOFF_AFTER times in a row, its thread instead pauses for a
+ * random time longer than a round trip and tries again itself. */
 static void refine_thread(am_ctx_t *am, void *arg)
 {
     par_item *it = arg;
     par_run *pr = it->pr;
     par_table1 *row = pr->row;
-    int failures = 0;
+    uint64_t key = item_key(it->kind, it->id);
     for (;;) {
         pr->current = it;
         it->work = it->masked = 0;
@@ -151,6 +162,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
         segment_end(pr, it);
         int dist = it->cav.distributed;
         par_cav_release(&it->cav);
+        uint32_t n = hmap_get(&pr->tries, key);
         if (rc < 0) {
             if (!pr->err)
                 pr->err = rc;
@@ -163,16 +175,27 @@ static void refine_thread(am_ctx_t *am, void *arg)
             else
                 row->masked_local_s += it->masked;
             row->steps++;
+            if (n != HMAP_NONE)
+                hmap_del(&pr->tries, key, n);
             break;
         }
         row->setback_s += it->work;
         row->setbacks++;
-        if (++failures >= PAR_RUN_BACKOFF_AFTER) {
-            row->backoffs++;
-            am_sleep(am, pr->o.backoff_s * (1.0 + 2.0 * rnd(pr)));
-        } else {
-            am_yield(am);
+        if (n != HMAP_NONE)
+            hmap_del(&pr->tries, key, n);
+        n = n == HMAP_NONE ? 1 : n + 1;
+        if (hmap_put(&pr->tries, key, n)) {
+            pr->err = PDR_ENOMEM;
+            break;
         }
+        if (n < PAR_RUN_BACKOFF_AFTER) {
+            rc = ref_requeue(&pr->s->r, it->kind, it->id, it->rmin);
+            if (rc && !pr->err)
+                pr->err = rc;
+            break;
+        }
+        row->backoffs++;
+        am_sleep(am, pr->o.backoff_s * (1.0 + 2.0 * rnd(pr)));
     }
     pr->nthreads--;
     it->next_free = pr->free_items;
@@ -248,6 +271,10 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->hooks.committed = hook_committed;
     pr->hooks.arg = pr;
     s->r.hooks = &pr->hooks;
+    /* Oldest work first: the newest bad tetrahedra all lie around the
+     * last insertions, where concurrent cavities would collide. */
+    int order = s->r.o.order;
+    s->r.o.order = REF_ORDER_FIFO;
 
     am_stats_t a0, a1;
     /* Every PE has its handlers before anyone sends. */
@@ -272,6 +299,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_out = pr->cc.st.tets_out;
     row->tets_end = ref_interior_tets(&s->r);
     s->r.hooks = NULL;
+    s->r.o.order = order;
+    hmap_free(&pr->tries);
     while (pr->free_items) {
         par_item *it = pr->free_items;
         pr->free_items = it->next_free;

@@ -345,6 +345,9 @@ int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin);
 int ref_requeue(ref_mesher *r, int kind, uint32_t id, float rmin);
 /* Queues interior tetrahedron t if it is bad. Returns 0 or PDR_ENOMEM. */
 int ref_check_tet(ref_mesher *r, uint32_t t);
+/* A tetrahedron of the mesh with face abc (edge ab when c is TM_NONE),
+ * found by walks around the vertices' stars: 1 and *t, or 0 if none. */
+int ref_find_local(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t c, uint32_t *t);
 /* Ensures the per-tet region array covers every slot of the mesh (for a
  * caller that adds tetrahedra itself). Returns 0 or PDR_ENOMEM. */
 int ref_region_room(ref_mesher *r);

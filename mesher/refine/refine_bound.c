@@ -408,11 +408,12 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
  * (a breadth-first walk over the faces containing a) until one has b and
  * c too (c == TM_NONE: edge ab). Slow, used where no cavity tells where
  * to look (the initial mesh, rare repairs). */
-static int find_in_star4(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d,
-                         uint32_t *tout)
+static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d,
+                           uint32_t *tout)
 {
     uint32_t start = m->vhint[a];
-    if (start == TM_NONE)
+    if (start == TM_NONE || start >= m->nslots || tm_is_dead(m, start) ||
+        ref__slot_in(&m->tets[start], a) < 0)
         return 0;
     uint32_t stackbuf[256], *stack = stackbuf;
     size_t n = 0, cap = 256, head = 0;
@@ -455,9 +456,36 @@ static int find_in_star4(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, u
     return found;
 }
 
+/* find_in_star_of from a, then from the other vertices: on one PE of the
+ * parallel refinement the star of a vertex may be cut by interface faces
+ * into pieces the walk cannot join, while the star of a vertex inserted
+ * here is whole; alone, the first walk decides and the others run only
+ * for a face that is not there. */
+static int find_in_star4(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d,
+                         uint32_t *tout)
+{
+    const uint32_t v[4] = {a, b, c, d};
+    for (int k = 0; k < 4; k++) {
+        if (v[k] == TM_NONE || v[k] == TM_VINF)
+            continue;
+        uint32_t o[3], n = 0;
+        for (int j = 0; j < 4; j++)
+            if (j != k)
+                o[n++] = v[j];
+        if (find_in_star_of(m, v[k], o[0], o[1], o[2], tout))
+            return 1;
+    }
+    return 0;
+}
+
 int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout)
 {
     return find_in_star4(m, a, b, c, TM_NONE, tout);
+}
+
+int ref_find_local(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t c, uint32_t *t)
+{
+    return find_in_star4(&r->m, a, b, c, TM_NONE, t);
 }
 
 static int set_subseg_bit(const tm_mesh *m, uint32_t t, void *arg)
