@@ -230,6 +230,26 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     print_row("average", &avg);
 }
 
+/* PDR_PAR_TRACE=SECONDS: a line per PE that often on stderr (debugging). */
+static void trace_line(void *arg, const par_sub *s, const par_table1 *t)
+{
+    (void)arg;
+    const ref_mesher *r = &s->r;
+    char line[512];
+    int n = snprintf(line, sizeof line,
+                     "trace PE %u: nv %u live %u | q seg %zu fac %zu tet %zu | pts tet %zu fac %zu "
+                     "seg %zu miss %zu | steps %llu local %llu dist %llu setbacks %llu in %llu "
+                     "out %llu\n",
+                     s->rank, r->m.nv, r->m.nlive, r->segq.n - r->segq.head,
+                     r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.tet_points,
+                     r->st.fac_points, r->st.seg_points, r->st.missing_recovered,
+                     (unsigned long long)t->steps, (unsigned long long)t->cav_local,
+                     (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
+                     (unsigned long long)t->tets_in, (unsigned long long)t->tets_out);
+    if (n > 0)
+        fwrite(line, 1, (size_t)n < sizeof line ? (size_t)n : sizeof line - 1, stderr);
+}
+
 /* --------------------------------------------------------- submeshes */
 
 static int write_submesh(const par_sub *s, const char *base)
@@ -410,7 +430,12 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     /* Refine. */
     double t0 = pdr_now();
     rc = ref_queue_all_tets(&s.r);
-    par_run_opts ro_run = {po->max_threads, po->seed, 0};
+    par_run_opts ro_run = {po->max_threads, po->seed, 0, NULL, NULL, 0};
+    const char *tr = getenv("PDR_PAR_TRACE");
+    if (tr && atof(tr) > 0) {
+        ro_run.progress = trace_line;
+        ro_run.progress_s = atof(tr);
+    }
     if (!rc)
         rc = par_run_refine(am, &s, &ro_run, &row);
     if (rc) {

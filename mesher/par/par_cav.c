@@ -983,28 +983,33 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
     par_rec *rec = &cc->recs[idx];
     par_part *pt = &rec->part;
     uint32_t origin = (uint32_t)msg->src;
-    /* The subsegments and subfacets on the cavity, to forget below those
-     * that no tetrahedron of this PE holds any more. */
-    u32list segs = {0}, facs = {0};
+    /* The subfacets on the cavity that no tetrahedron of this PE will
+     * have any more: a face belongs to two tetrahedra, so one on a cavity
+     * tetrahedron stays here only if the tetrahedron across it is a local
+     * one outside the cavity. Those entries are forgotten below (a stale
+     * one would disturb the facet's 2D cavities here). Subsegment entries
+     * stay: an edge may have tetrahedra here that no walk from the cavity
+     * reaches, and a stale one is harmless (splits happen only where a
+     * local tetrahedron has the edge). */
+    u32list facs = {0};
+    mark_cavity(m, &pt->cav, 1);
     const bd_set *bd = &s->r.bd;
     for (size_t i = 0; i < pt->cav.n; i++) {
         uint32_t t = pt->cav.a[i];
         const tm_tet *T = &m->tets[t];
-        uint16_t fl = m->flags[t];
-        for (int e = 0; e < 6; e++)
-            if (fl & TM_F_SUBSEG(e)) {
-                uint32_t id = bd_find_subseg(bd, T->v[tm_edge_vtx[e][0]], T->v[tm_edge_vtx[e][1]]);
-                if (id != BD_NONE && !has(&segs, id))
-                    push(&segs, id);
-            }
-        for (int k = 0; k < 4; k++)
-            if (fl & TM_F_FACEMARK(k)) {
-                uint32_t id = bd_find_subfac(bd, T->v[tm_face_vtx[k][0]], T->v[tm_face_vtx[k][1]],
-                                             T->v[tm_face_vtx[k][2]]);
-                if (id != BD_NONE && !has(&facs, id))
-                    push(&facs, id);
-            }
+        for (int k = 0; k < 4; k++) {
+            if (!(m->flags[t] & TM_F_FACEMARK(k)))
+                continue;
+            tm_link l = T->n[k];
+            if (!tm_is_special(l) && !(m->flags[tm_ltet(l)] & TM_F_CAVITY))
+                continue;
+            uint32_t id = bd_find_subfac(bd, T->v[tm_face_vtx[k][0]], T->v[tm_face_vtx[k][1]],
+                                         T->v[tm_face_vtx[k][2]]);
+            if (id != BD_NONE && !has(&facs, id))
+                push(&facs, id);
+        }
     }
+    mark_cavity(m, &pt->cav, 0);
     for (size_t i = 0; i < pt->cav.n; i++) {
         uint32_t t = pt->cav.a[i];
         for (int k = 0; k < 4; k++) {
@@ -1047,22 +1052,9 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             }
         }
     }
-    /* A piece no local tetrahedron has any more belongs to the PEs that
-     * hold its tetrahedra (the origin has it now); a stale entry here
-     * would look missing to a later split. */
-    for (size_t i = 0; i < segs.n; i++) {
-        const bd_subseg *g = &s->r.bd.segs[segs.a[i]];
-        uint32_t t;
-        if (!(g->flags & BD_F_DEAD) && !ref_find_local(&s->r, g->v[0], g->v[1], TM_NONE, &t))
-            bd_kill_subseg(&s->r.bd, segs.a[i]);
-    }
-    for (size_t i = 0; i < facs.n; i++) {
-        const bd_subfac *g = &s->r.bd.facs[facs.a[i]];
-        uint32_t t;
-        if (!(g->flags & BD_F_DEAD) && !ref_find_local(&s->r, g->v[0], g->v[1], g->v[2], &t))
+    for (size_t i = 0; i < facs.n; i++)
+        if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
-    }
-    free(segs.a);
     free(facs.a);
     cc->st.tets_out += pt->cav.n;
     rec_drop(cc, (uint32_t)idx);

@@ -37,6 +37,7 @@ typedef struct par_run {
     par_table1 *row;
     int err;            /* first error of a thread */
     hmap tries;         /* item key -> setbacks in a row (live-lock guard) */
+    double next_progress;
 } par_run;
 
 static uint64_t item_key(int kind, uint32_t id)
@@ -208,6 +209,17 @@ static int start_work(am_ctx_t *am, void *arg)
     par_run *pr = arg;
     if (pr->err)
         return pr->err;
+    if (pr->o.progress) {
+        double now = pdr_now();
+        if (now >= pr->next_progress) {
+            pr->next_progress = now + pr->o.progress_s;
+            pr->row->cav_local = pr->cc.st.gathers_local;
+            pr->row->cav_dist = pr->cc.st.gathers_dist;
+            pr->row->tets_in = pr->cc.st.tets_in;
+            pr->row->tets_out = pr->cc.st.tets_out;
+            pr->o.progress(pr->o.progress_arg, pr->s, pr->row);
+        }
+    }
     if (pr->nthreads >= pr->o.max_threads)
         return 0;
     int kind;

@@ -48,6 +48,11 @@ typedef struct par_run_opts {
     int max_threads;  /* cavity threads per PE (>= 1) */
     uint64_t seed;    /* random back-off */
     double backoff_s; /* base pause after repeated setbacks (a round trip) */
+    /* Called about every progress_s seconds while the PE works (NULL:
+     * never), with the row so far. */
+    void (*progress)(void *arg, const par_sub *s, const struct par_table1 *row);
+    void *progress_arg;
+    double progress_s;
 } par_run_opts;
 
 /* One PE's Table 1 row and counts. */

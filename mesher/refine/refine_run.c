@@ -357,9 +357,9 @@ static int add_root(void *arg, uint32_t s)
 /* The cavity search of a new point p. Alone, it walks from vertex a's
  * tetrahedron to p. With the parallel hooks, it starts from a tetrahedron
  * of this PE in conflict with p, found around the piece being split (edge
- * ab, or face abc when c is not TM_NONE) or by a walk that stays on this
- * PE, after the cavity hook made p's cavity local. Returns 0 with r->cav
- * searched, 1 when the piece is not on this PE any more (nothing
+ * ab, or face abc when c is not TM_NONE), after the cavity hook made p's
+ * cavity local; a piece no tetrahedron of this PE has is not split here.
+ * Returns 0 with r->cav searched, 1 when the piece is not on this PE any more (nothing
  * searched: the PE holding it splits it), REF_SETBACK via *setback, or a
  * negative code. */
 static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
@@ -370,13 +370,8 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
     if (!r->hooks)
         return dt_cavity_search(m, p, m->vhint[a], DT_LOCATE, &r->cav);
     uint32_t t = TM_NONE;
-    if (!(ref__find_in_star(m, a, b, c, &t) && dt_conflict(m, t, p) > 0)) {
-        tm_link exit;
-        t = TM_NONE;
-        if (m->vhint[a] == TM_NONE || dt_locate(m, p, m->vhint[a], &t, &exit) != 0 ||
-            dt_conflict(m, t, p) <= 0)
-            return 1;
-    }
+    if (!ref__find_in_star(m, a, b, c, &t) || dt_conflict(m, t, p) <= 0)
+        return 1;
     int rc = r->hooks->cavity(r->hooks->arg, p, t);
     if (rc == REF_SETBACK) {
         *setback = 1;
@@ -409,6 +404,16 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0; /* not on this PE any more */
     if (rc)
         return rc;
+    if (r->hooks) {
+        /* While the hook waited, the table entry may have been dropped
+         * and made again under another index (its tetrahedra left this
+         * PE and came back): find it by its vertices. */
+        id = bd_find_subseg(&r->bd, S.v[0], S.v[1]);
+        if (id == BD_NONE) {
+            dt_cavity_abandon(m, &r->cav);
+            return 0;
+        }
+    }
     if (r->cav.status != DT_OK) {
         dt_cavity_abandon(m, &r->cav);
         r->bd.segs[id].flags |= BD_F_TOLERATED;
@@ -512,6 +517,14 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0; /* not on this PE any more */
     if (rc)
         return rc;
+    if (r->hooks) {
+        /* As in split_subseg. */
+        id = bd_find_subfac(&r->bd, G.v[0], G.v[1], G.v[2]);
+        if (id == BD_NONE) {
+            dt_cavity_abandon(m, &r->cav);
+            return 0;
+        }
+    }
     if (r->cav.status != DT_OK) {
         dt_cavity_abandon(m, &r->cav);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
