@@ -817,7 +817,10 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
         if (cc->on_block)
             cc->on_block(cc->hook_arg, c);
         cc->nblocked_dist++;
+        double tw = pdr_now();
         int wrc = am_wait(cc->am, c->fut);
+        tw = pdr_now() - tw;
+        cc->rtt = cc->rtt > 0 ? 0.9 * cc->rtt + 0.1 * tw : tw;
         cc->nblocked_dist--;
         am_future_reset(c->fut);
         if (cc->on_resume)

@@ -164,6 +164,8 @@ typedef struct par_cav_ctx {
     uint32_t rec_free;
     dt_cavity scratch;   /* searches run by handlers */
     int nblocked_dist;   /* threads blocked waiting for replies */
+    double rtt;          /* moving average of a scatter-gather round's
+                            wait, seconds (0 until measured) */
     int cat_service;     /* am_category of serving remote requests */
     /* Puts an imported piece of work back on this PE's queues: kind 0 a
      * tetrahedron, 1 a subsegment, 2 a subfacet (ids of this PE). */

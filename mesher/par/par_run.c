@@ -195,8 +195,13 @@ static void refine_thread(am_ctx_t *am, void *arg)
                 pr->err = rc;
             break;
         }
+        /* A pause of a few round trips, doubling with each failure in a
+         * row (up to 64 times), randomised so that two PEs fighting for
+         * the same tetrahedra do not come back together. */
         row->backoffs++;
-        am_sleep(am, pr->o.backoff_s * (1.0 + 2.0 * rnd(pr)));
+        double base = fmax(pr->o.backoff_s, 2.0 * pr->cc.rtt);
+        unsigned doublings = n - PAR_RUN_BACKOFF_AFTER < 6 ? n - PAR_RUN_BACKOFF_AFTER : 6;
+        am_sleep(am, base * (double)(1u << doublings) * (0.5 + rnd(pr)));
     }
     pr->nthreads--;
     it->next_free = pr->free_items;

@@ -44,17 +44,6 @@
 /* Handler ids used by the parallel refinement (4 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
-typedef struct par_run_opts {
-    int max_threads;  /* cavity threads per PE (>= 1) */
-    uint64_t seed;    /* random back-off */
-    double backoff_s; /* base pause after repeated setbacks (a round trip) */
-    /* Called about every progress_s seconds while the PE works (NULL:
-     * never), with the row so far. */
-    void (*progress)(void *arg, const par_sub *s, const struct par_table1 *row);
-    void *progress_arg;
-    double progress_s;
-} par_run_opts;
-
 /* One PE's Table 1 row and counts. */
 typedef struct par_table1 {
     double exec_s;
@@ -72,6 +61,17 @@ typedef struct par_table1 {
     uint64_t msgs_sent, bytes_sent;
     uint64_t tets_end;       /* live interior tetrahedra held at the end */
 } par_table1;
+
+typedef struct par_run_opts {
+    int max_threads;  /* cavity threads per PE (>= 1) */
+    uint64_t seed;    /* random back-off */
+    double backoff_s; /* base pause after repeated setbacks (a round trip) */
+    /* Called about every progress_s seconds while the PE works (NULL:
+     * never), with the row so far. */
+    void (*progress)(void *arg, const par_sub *s, const par_table1 *row);
+    void *progress_arg;
+    double progress_s;
+} par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
  * neither happened). */
