@@ -96,3 +96,7 @@ tests_test_par_SOURCES = tests/test_par.c
 tests_test_par_CFLAGS = $(UNIT_CFLAGS) $(METIS_CFLAGS)
 tests_test_par_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ_LIBS) \
 	$(EVENT_LIBS) $(UNIT_LIBS) -lm
+
+# The parallel refinement end to end on local PEs (pdr mesh -n P).
+TESTS += tests/mesh-parallel.sh
+dist_check_SCRIPTS += tests/mesh-parallel.sh

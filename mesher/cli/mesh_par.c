@@ -26,7 +26,7 @@
  * refinement's own ids). */
 #define H_JOB 90
 /* The default Mo: about the paper's 10^5 tetrahedra, but no more than a
- * tenth of the final mesh when the size bound tells how large that is. */
+ * tenth of the final mesh when the volume bound tells how large that is. */
 #define MO_SIZE_PAPER 100000.0
 
 void mpar_default_opts(mpar_opts *o)
@@ -293,15 +293,14 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
         rc = mp_initial_mesh(c);
     if (rc)
         return rc;
-    if (!(o->mo_size > 0)) {
+    if (!(o->mo_size > 0) && o->ref.maxvol > 0) {
         /* The paper's 10^5 tetrahedra, or a tenth of the final mesh when
-         * the size bound tells how large that is: a mesh with radius-edge
-         * bound 2 and volume bound V has about 2 vol/V tetrahedra (1.98
-         * on cube-in-cube, 1.97 on the tee at V = 1e-5). */
-        double est = MO_SIZE_PAPER;
-        double vol = im_interior_volume(&c->r);
-        if (o->ref.maxvol > 0 && vol > 0)
-            est = fmin(MO_SIZE_PAPER, 0.2 * vol / o->ref.maxvol);
+         * that is smaller: a mesh with radius-edge bound 2 and volume
+         * bound V has about 2 vol/V tetrahedra (1.98 on cube-in-cube, 1.97
+         * on the tee at V = 1e-5). Without a volume bound the final size
+         * is unknown and Mo stays the conforming mesh: refining it further
+         * would make the result finer than the sequential one. */
+        double est = fmin(MO_SIZE_PAPER, 0.2 * im_interior_volume(&c->r) / o->ref.maxvol);
         if (est > (double)ref_interior_tets(&c->r) && (rc = im_mo_size(&c->r, (size_t)est))) {
             fprintf(stderr, "pdr mesh: cannot refine the initial mesh: %s\n", pdr_strerror(rc));
             return rc;
@@ -553,6 +552,10 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     if (po->bandwidth) {
         av[n++] = (char *)"--bandwidth";
         av[n++] = (char *)po->bandwidth;
+    }
+    if (po->stats) {
+        av[n++] = (char *)"--stats";
+        av[n++] = (char *)po->stats;
     }
     av[n++] = (char *)"--";
     av[n++] = (char *)"/proc/self/exe";

@@ -1,0 +1,121 @@
+#!/bin/sh
+# pdr mesh -n P: the parallel refinement end to end on local PEs.
+#  - 2 and 4 PEs on cube-in-cube and the tee, and 3 PEs on TetGen's
+#    example.poly (when installed): the merged mesh passes pdr check against
+#    the input with radius-edge bound 2, and has about as many tetrahedra
+#    as the sequential pdr mesh with the same bounds;
+#  - 4 PEs, 32 parts, injected latency 100us-1ms: setbacks and distributed
+#    cavities both happened, and the mesh is still correct;
+#  - a bad input: every PE exits, status 1, file:line message, no file;
+#  - a PE killed mid-refinement: the job ends non-zero within seconds with
+#    a message naming it, and no output file is written.
+set -u
+tmp=$(pwd)/mesh-parallel.$$
+mkdir -p "$tmp" || exit 99
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+"$PDR" domain cube-in-cube -o "$tmp/cic.poly" >/dev/null || exit 99
+"$PDR" domain tee -o "$tmp/tee.poly" >/dev/null || exit 99
+
+tets() { sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$1"; }
+
+# The sequential counts, for the comparison.
+for d in cic tee; do
+    "$PDR" mesh -q 2 -a 1e-4 -f none "$tmp/$d.poly" >"$tmp/seq-$d" 2>&1 ||
+        fail "sequential pdr mesh $d: $(cat "$tmp/seq-$d")"
+done
+
+run() { # NAME DOMAIN ARGS...: a parallel run that must succeed and check
+    name=$1
+    d=$2
+    shift 2
+    timeout 120 "$PDR" mesh "$@" -q 2 -o "$tmp/$name" "$tmp/$d.poly" >"$tmp/$name.out" 2>&1 ||
+        { cat "$tmp/$name.out"; fail "$name: pdr mesh $* exited $?"; }
+    "$PDR" check --plc "$tmp/$d.poly" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1 ||
+        { cat "$tmp/$name.chk"; fail "$name: pdr check found defects"; }
+    grep -q '^left above the bound: 0 tetrahedra' "$tmp/$name.out" ||
+        fail "$name: tetrahedra left above the bound: $(grep '^left' "$tmp/$name.out")"
+    grep -q '^table 1 (s):' "$tmp/$name.out" || fail "$name: no Table 1 rows"
+    grep -q '^  worst PE [0-9]' "$tmp/$name.out" || fail "$name: no worst-PE row"
+    for f in "$tmp"/*.tmp.*; do [ -e "$f" ] && fail "$name: temporary file left: $f"; done
+    return 0
+}
+
+near() { # NAME DOMAIN: within 5% of the sequential count
+    p=$(tets "$tmp/$1.out")
+    s=$(tets "$tmp/seq-$2")
+    [ -n "$p" ] && [ -n "$s" ] || fail "$1: no tetrahedra count"
+    diff=$((p > s ? p - s : s - p))
+    [ $((diff * 100)) -le $((5 * s)) ] || fail "$1: $p tetrahedra, sequential $s"
+    echo "$1: $p tetrahedra (sequential $s)"
+}
+
+for d in cic tee; do
+    for n in 2 4; do
+        run "$d-$n" "$d" -n "$n" -a 1e-4
+        near "$d-$n" "$d"
+    done
+done
+
+ex=${TETGEN_EXAMPLE:-/usr/share/doc/tetgen/examples/example.poly}
+if [ -r "$ex" ]; then
+    cp "$ex" "$tmp/example.poly"
+    run example-3 example -n 3
+    echo "example.poly on 3 PEs: $(tets "$tmp/example-3.out") tetrahedra"
+else
+    echo "note: $ex not found (Debian package tetgen); example.poly case skipped"
+fi
+
+# Over-decomposition with latency: cavities cross PEs and collide.
+run lat cic -n 4 --parts 32 --latency 100us-1ms -a 1e-4 --stats "$tmp/stats"
+line=$(grep '^parallel:' "$tmp/lat.out")
+dist=$(echo "$line" | sed -n 's/.* \([0-9]*\) distributed.*/\1/p')
+setbacks=$(echo "$line" | sed -n 's/.* \([0-9]*\) setbacks.*/\1/p')
+[ "${dist:-0}" -gt 0 ] || fail "no distributed cavity: $line"
+[ "${setbacks:-0}" -gt 0 ] || fail "no setback: $line"
+for r in 0 1 2 3; do
+    [ -s "$tmp/stats/table1-$r.json" ] || fail "no $tmp/stats/table1-$r.json"
+    [ -s "$tmp/stats/stats-$r.json" ] || fail "no runtime stats of PE $r"
+done
+grep -q '"latency_tolerance"' "$tmp/stats/table1-0.json" || fail "table1 JSON fields"
+echo "latency: $line"
+
+# A bad input: every PE ends, nothing written.
+printf '4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 x\n' >"$tmp/bad.poly"
+timeout 60 "$PDR" mesh -n 3 -o "$tmp/bad" "$tmp/bad.poly" >"$tmp/bad.out" 2>&1
+rc=$?
+[ "$rc" -eq 1 ] || { cat "$tmp/bad.out"; fail "bad input: exit $rc, expected 1"; }
+grep -q "bad.poly:5:" "$tmp/bad.out" || { cat "$tmp/bad.out"; fail "bad input: no file:line"; }
+[ ! -e "$tmp/bad.node" ] || fail "bad input: a file was written"
+echo "bad input: exit 1 with $(grep -m1 'bad.poly:5:' "$tmp/bad.out")"
+
+# A PE killed mid-refinement (a run long enough to be caught in it).
+PDR_PAR_TRACE=0.1 timeout 60 "$PDR" mesh -n 4 --latency 1ms-2ms -q 2 -a 2e-6 -o "$tmp/kill" \
+    "$tmp/cic.poly" >"$tmp/kill.out" 2>"$tmp/kill.err" &
+job=$!
+i=0
+while ! grep -q '^trace PE' "$tmp/kill.err" 2>/dev/null; do
+    i=$((i + 1))
+    [ $i -lt 300 ] || { kill $job; fail "the refinement did not start"; }
+    sleep 0.1
+done
+launcher=$(pgrep -P $job | head -n 1)
+[ -n "$launcher" ] || launcher=$job
+victim=$(pgrep -P "$launcher" | sed -n 3p)
+[ -n "$victim" ] || { kill $job; fail "no PE process found"; }
+t0=$(date +%s)
+kill -9 "$victim"
+wait $job
+rc=$?
+t1=$(date +%s)
+[ "$rc" -ne 0 ] || fail "killed PE: the job exited 0"
+[ "$rc" -ne 124 ] || fail "killed PE: the job hung"
+[ $((t1 - t0)) -le 15 ] || fail "killed PE: the job took $((t1 - t0)) s to end"
+grep -q 'killed by signal 9' "$tmp/kill.err" || { cat "$tmp/kill.err" | grep -v '^trace'; fail "no message naming the killed PE"; }
+grep -q 'went away' "$tmp/kill.err" || fail "no PE reported the lost peer"
+for f in "$tmp"/kill.node "$tmp"/kill.ele "$tmp"/kill.face "$tmp"/kill.*.tmp*; do
+    [ -e "$f" ] && fail "killed PE: file left: $f"
+done
+echo "kill: job ended with status $rc after $((t1 - t0)) s: $(grep -m1 'killed by signal' "$tmp/kill.err")"
+echo "ok"
