@@ -565,6 +565,9 @@ int am__latency_init(am_ctx_t *ctx, const char *lat, const char *bw);
 void am__latency_enqueue(am_ctx_t *ctx, am__frame *f);
 void am__latency_free(am_ctx_t *ctx);
 /* Frames waiting in latency queues (for tests and diagnostics). */
+/* Delivers the delayed frames that are due now, outside the event loop
+ * (am_finalize's waits, which do not run libevent's timers). */
+void am__latency_deliver_due(am_ctx_t *ctx);
 size_t am__latency_pending(const am_ctx_t *ctx);
 
 #endif /* AM_INT_H */

@@ -207,6 +207,18 @@ void am__latency_enqueue(am_ctx_t *ctx, am__frame *f)
         arm(ctx, p, now);
 }
 
+void am__latency_deliver_due(am_ctx_t *ctx)
+{
+    if (!ctx->peers)
+        return;
+    double now = am__now();
+    for (int pe = 0; pe < ctx->size; pe++) {
+        am__peer *p = &ctx->peers[pe];
+        while (p->delayq.head && p->delayq.head->due <= now && !ctx->failed)
+            am__arrive(ctx, am__fifo_pop(&p->delayq));
+    }
+}
+
 size_t am__latency_pending(const am_ctx_t *ctx)
 {
     size_t n = 0;

@@ -30,4 +30,12 @@ expect_ok "rtt with --bandwidth 100kB"
 bw=$(rtt)
 [ "$(echo "$bw >= 1120" | bc)" -eq 1 ] ||
     fail "with --bandwidth 100kB the shortest round trip took $bw us (< 1120 us)"
+# A job that only starts and stops: a BYE that reaches a PE still in the
+# final barrier waits in the latency queue, and must not hold am_finalize
+# until its 5 s bound (it used to, on most PEs of such a job).
+job 60 "$AMRUN" -n 8 --latency 100us-2ms -- "$MP" idle
+expect_ok "idle job with --latency 100us-2ms"
+[ "$(echo "$elapsed < 3" | bc)" -eq 1 ] ||
+    fail "an idle 8-PE job with --latency 100us-2ms took $elapsed s (am_finalize waits)"
+
 echo "latency: ok (shortest round trip $base us; with 2ms: $lat us; 1ms-3ms: $rnd us; 100kB/s: $bw us)"

@@ -998,7 +998,9 @@ int main(int argc, char **argv)
     argc = n;
     const char *mode = argc > 1 ? argv[1] : "";
     int arg1 = argc > 2 ? atoi(argv[2]) : 0, arg2 = argc > 3 ? atoi(argv[3]) : 0;
-    if (!strcmp(mode, "storm"))
+    if (!strcmp(mode, "idle"))
+        rc = 0; /* init and finalize only */
+    else if (!strcmp(mode, "storm"))
         rc = run_storm(ctx, arg1 > 0 ? arg1 : 100, arg2 > 0 ? arg2 : 1000);
     else if (!strcmp(mode, "term"))
         rc = run_term(ctx, arg1 > 0 ? arg1 : 4, arg2 > 0 ? arg2 : 6);
@@ -1017,7 +1019,7 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
     else {
-        fprintf(stderr, "usage: am_mp storm|term|rpc|counts|rtt|coll|kill|"
+        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
                         "malformed|stranger [ARGS]\n");
         rc = 2;
     }

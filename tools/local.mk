@@ -12,3 +12,4 @@ EXTRA_DIST += bench/README.md bench/kernel.md bench/runtime.md bench/proto.md
 dist_noinst_SCRIPTS += tools/bench-mesh
 EXTRA_DIST += bench/mesh.md
 dist_noinst_SCRIPTS += tools/check-layers
+dist_noinst_SCRIPTS += tools/bench-parallel
