@@ -285,7 +285,8 @@ static int write_submesh(const par_sub *s, const char *base)
 
 /* Rank 0: the job messages (PLC, options, each PE's submesh), and the
  * size of Mo. Returns 0 or a code (its message printed). */
-static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets)
+static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets,
+                   double *t_mo)
 {
     mp_opts *o = &c->o;
     int rc = mp_read(c);
@@ -293,6 +294,7 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
         rc = mp_initial_mesh(c);
     if (rc)
         return rc;
+    *t_mo = pdr_now();
     if (!(o->mo_size > 0) && o->ref.maxvol > 0) {
         /* The paper's 10^5 tetrahedra, or a tenth of the final mesh when
          * that is smaller: a mesh with radius-edge bound 2 and volume
@@ -384,6 +386,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_table1 row, *rows = NULL;
     size_t mo_tets = 0;
     int status = PDR_EXIT_FAIL;
+    /* Rank 0's clock: Mo done, refinement started and ended, submeshes
+     * gathered (the merge's own time is measured around it). */
+    double t_mo = 0, t_start = 0, t_end = 0, t_gathered = 0;
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
     if (!rc)
         rc = am_barrier(am);
@@ -392,7 +397,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     if (rank == 0) {
         pr_buf *msg = calloc((size_t)size, sizeof *msg);
-        int prc = msg ? prepare(&c, po, size, msg, &mo_tets) : PDR_ENOMEM;
+        int prc = msg ? prepare(&c, po, size, msg, &mo_tets, &t_mo) : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -427,7 +432,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     j.data = NULL;
 
     /* Refine. */
-    double t0 = pdr_now();
+    t_start = pdr_now();
     rc = ref_queue_all_tets(&s.r);
     par_run_opts ro_run = {po->max_threads, po->seed, 0, NULL, NULL, 0};
     const char *tr = getenv("PDR_PAR_TRACE");
@@ -442,7 +447,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                 rc < 0 && rc > -100 ? pdr_strerror(rc) : am_strerror(rc));
         goto done;
     }
-    double t_refine = pdr_now() - t0;
+    t_end = pdr_now();
     if (po->stats && write_row_json(po->stats, rank, size, &row))
         fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
                 rank);
@@ -475,6 +480,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         status = PDR_EXIT_OK;
         goto done;
     }
+    t_gathered = pdr_now();
     rows = calloc((size_t)size, sizeof *rows);
     const void **msgs = calloc((size_t)size, sizeof *msgs);
     rc = rows && msgs ? 0 : PDR_ENOMEM;
@@ -506,11 +512,17 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     c.have_r = 1;
     c.refined = 1;
     c.r.st = sum;
-    c.sec[MP_REFINE] = t_refine + (pdr_now() - tm);
+    double t_merged = pdr_now();
+    /* The parallel stage, for the summary's rate: from Mo to the merged
+     * mesh (distribution, refinement, gathering, merge). */
+    c.sec[MP_REFINE] = t_merged - t_mo;
     if ((rc = mp_export(&c)) || (rc = mp_write(&c)))
         goto done;
-    if (!c.o.quiet)
+    if (!c.o.quiet) {
         print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
+        printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s\n",
+               t_start - t_mo, t_end - t_start, t_gathered - t_end, t_merged - tm);
+    }
     rc = mp_report(&c);
     if (!rc && c.o.check)
         rc = mp_verify(&c);

@@ -735,7 +735,35 @@ static int serve_own(par_cav *c)
     return st;
 }
 
-int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
+/* The origin's own search from start into d (locking cavity and ring
+ * with c's owner, the locks handed to c->own). Returns REPLY_* or a
+ * negative code; *remote says whether the cavity reached an interface. */
+static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *d, int *remote)
+{
+    tm_mesh *m = &c->cc->s->r.m;
+    *remote = 0;
+    d->lock_owner = c->owner;
+    int rc = dt_cavity_search(m, p, start, DT_LOCK, d);
+    for (size_t i = 0; !rc && i < d->nheld; i++)
+        rc = push(&c->own.held, d->held[i]);
+    d->nheld = 0;
+    if (rc < 0) {
+        dt_cavity_abandon(m, d);
+        return rc;
+    }
+    if (d->status == DT_LOCKED)
+        return REPLY_LOCKED;
+    if (d->status != DT_OK)
+        return REPLY_DUPLICATE;
+    for (size_t i = 0; !rc && i < d->ntets; i++)
+        rc = push(&c->own.cav, d->tets[i]);
+    for (size_t i = 0; i < d->nbnd; i++)
+        if (d->bnd[i].reason == DT_BND_REMOTE)
+            *remote = 1;
+    return rc;
+}
+
+int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *search)
 {
     par_cav_ctx *cc = c->cc;
     par_sub *s = cc->s;
@@ -745,8 +773,23 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start)
     c->owner = new_owner(cc);
     memcpy(c->p, p, sizeof c->p);
 
-    int st = serve_from(cc, &c->own, c->owner, p, start, TM_NONE);
-    mark_cavity(m, &c->own.cav, 0);
+    dt_cavity *d = search ? search : &cc->scratch;
+    int remote;
+    int st = own_search(c, p, start, d, &remote);
+    if (st == REPLY_DUPLICATE) {
+        /* p is a vertex of this PE: the caller's own search meets it
+         * too and deals with it as it would alone. */
+        cc->st.gathers_local++;
+        return PAR_CAV_LOCAL;
+    }
+    if (st == REPLY_OK && !remote && search) {
+        /* A local cavity, searched and locked: the caller uses it as it
+         * stands (one search per insertion, not two). */
+        cc->st.gathers_local++;
+        return PAR_CAV_SEARCHED;
+    }
+    if (st >= 0)
+        dt_cavity_abandon(m, d); /* marks off; the locks are c's */
     int rc = st < 0 ? st : 0;
     if (!rc && st == REPLY_OK)
         rc = add_own_faces(c, 0);

@@ -62,6 +62,7 @@
 enum par_cav_status {
     PAR_CAV_LOCAL = 0,   /* the cavity is local and locked: go on */
     PAR_CAV_SETBACK = 1, /* locked elsewhere or stale: try again later */
+    PAR_CAV_SEARCHED = 2, /* local, and the caller's search is done */
 };
 
 /* A gathered tetrahedron, as a participant sent it. */
@@ -192,9 +193,11 @@ void par_cav_free(par_cav *c);
  * local tetrahedron start, which must be in conflict with p (see the top
  * of this file). Releases the locks of the thread's previous attempt
  * first. Returns PAR_CAV_LOCAL (the cavity and its closure are on this
- * PE, locked by c->owner, until par_cav_release), PAR_CAV_SETBACK, or a
- * negative code. */
-int par_cav_gather(par_cav *c, const double p[3], uint32_t start);
+ * PE, locked by c->owner, until par_cav_release), PAR_CAV_SEARCHED (the
+ * same, and the cavity lay on this PE alone: search, if not NULL, holds
+ * its pending search from start, ready to commit or abandon),
+ * PAR_CAV_SETBACK, or a negative code. */
+int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *search);
 
 /* Releases every lock the thread's last attempt holds on this PE. */
 void par_cav_release(par_cav *c);

@@ -247,14 +247,17 @@ typedef struct ref_opts {
  * tetrahedron of this PE in conflict with it (no walk), after the
  * cavity hook has made that cavity local; a piece whose tetrahedra are
  * no longer on this PE is left to the PE that holds them. */
-#define REF_SETBACK 1 /* a step gave up without changing anything */
+#define REF_SETBACK 1  /* a step gave up without changing anything */
+#define REF_SEARCHED 2 /* the cavity hook left the search done in c */
 
 typedef struct ref_hooks {
     /* Called before the cavity of point p is searched, with start a
      * tetrahedron in conflict with p. Returns 0 when the cavity of p and
      * the tetrahedra around it are now all in this mesh (the step goes
-     * on), REF_SETBACK to give the step up, or a negative code. */
-    int (*cavity)(void *arg, const double p[3], uint32_t start);
+     * on and searches it in c), REF_SEARCHED when moreover c holds that
+     * search, pending, REF_SETBACK to give the step up, or a negative
+     * code. */
+    int (*cavity)(void *arg, const double p[3], uint32_t start, dt_cavity *c);
     /* Called after vertex v was committed; c->newtets are the new
      * tetrahedra. Returns 0 or a negative code. */
     int (*committed)(void *arg, uint32_t v, const dt_cavity *c);

@@ -372,11 +372,13 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
     uint32_t t = TM_NONE;
     if (!ref__find_in_star(m, a, b, c, &t) || dt_conflict(m, t, p) <= 0)
         return 1;
-    int rc = r->hooks->cavity(r->hooks->arg, p, t);
+    int rc = r->hooks->cavity(r->hooks->arg, p, t, &r->cav);
     if (rc == REF_SETBACK) {
         *setback = 1;
         return 0;
     }
+    if (rc == REF_SEARCHED)
+        return 0;
     if (rc)
         return rc;
     return dt_cavity_search(m, p, t, 0, &r->cav);
@@ -651,12 +653,10 @@ static int split_tet(ref_mesher *r, uint32_t t)
         give_up(r, t, 1);
         return 0;
     }
-    if (r->hooks) {
-        int h = r->hooks->cavity(r->hooks->arg, cc, t);
-        if (h)
-            return h;
-    }
-    int rc = dt_cavity_search(m, cc, t, 0, &r->cav);
+    int h = r->hooks ? r->hooks->cavity(r->hooks->arg, cc, t, &r->cav) : 0;
+    if (h && h != REF_SEARCHED)
+        return h;
+    int rc = h == REF_SEARCHED ? 0 : dt_cavity_search(m, cc, t, 0, &r->cav);
     if (rc)
         return rc;
     if (r->cav.status != DT_OK) {
