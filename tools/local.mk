@@ -13,3 +13,4 @@ dist_noinst_SCRIPTS += tools/bench-mesh
 EXTRA_DIST += bench/mesh.md
 dist_noinst_SCRIPTS += tools/check-layers
 dist_noinst_SCRIPTS += tools/bench-parallel
+EXTRA_DIST += bench/parallel.md

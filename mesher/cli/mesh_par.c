@@ -99,7 +99,7 @@ static int wait_job(am_ctx_t *am, job *j)
 /* A row travels as 15 f64 values, then 10 u64 counters, then the
  * refinement's insertion counts. */
 #define ROW_F64 9
-#define ROW_U64 11
+#define ROW_U64 12
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
@@ -108,7 +108,7 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
                          t->poll_s,   t->poll_excess_s, t->idle_s};
     uint64_t u[ROW_U64] = {t->steps,   t->cav_local, t->cav_dist, t->setbacks,
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
-                           t->bytes_sent, t->tets_end, 0};
+                           t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -147,6 +147,8 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     t->msgs_sent = u[7];
     t->bytes_sent = u[8];
     t->tets_end = u[9];
+    t->slots_end = u[10];
+    t->peak_rss = u[11];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -176,14 +178,16 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             "  \"cavities_local\": %llu,\n  \"cavities_distributed\": %llu,\n"
             "  \"setbacks\": %llu,\n  \"backoffs\": %llu,\n  \"tets_migrated_in\": %llu,\n"
             "  \"tets_migrated_out\": %llu,\n  \"messages_sent\": %llu,\n"
-            "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu\n}\n",
+            "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu,\n"
+            "  \"tet_slots_at_end\": %llu,\n  \"peak_rss_bytes\": %llu\n}\n",
             rank, size, t->exec_s, t->completed_s, t->masked_local_s, t->masked_dist_s,
             t->setback_s, par_table1_tolerance(t), t->service_s, t->poll_s, t->poll_excess_s,
             t->idle_s, (unsigned long long)t->steps, (unsigned long long)t->cav_local,
             (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
             (unsigned long long)t->backoffs, (unsigned long long)t->tets_in,
             (unsigned long long)t->tets_out, (unsigned long long)t->msgs_sent,
-            (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end);
+            (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end,
+            (unsigned long long)t->slots_end, (unsigned long long)t->peak_rss);
     return outfile_commit(&of, NULL) ? PDR_EIO : 0;
 }
 
@@ -222,6 +226,15 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
            "distributed, %llu setbacks; %llu tetrahedra migrated\n",
            size, parts, mo_tets, (unsigned long long)local, (unsigned long long)dist,
            (unsigned long long)setbacks, (unsigned long long)moved);
+    /* Rank 0's peak also holds the input, Mo and the merged mesh. */
+    uint64_t worst_b = 0, rank0_b = rows[0].tets_end ? rows[0].peak_rss / rows[0].tets_end : 0;
+    for (int k = 1; k < size; k++)
+        if (rows[k].tets_end && rows[k].peak_rss / rows[k].tets_end > worst_b)
+            worst_b = rows[k].peak_rss / rows[k].tets_end;
+    if (size > 1)
+        printf("PE memory: peak RSS per interior tetrahedron held: at most %llu bytes on PEs "
+               "1-%d, %llu on rank 0 (with the input, Mo and the merge)\n",
+               (unsigned long long)worst_b, size - 1, (unsigned long long)rank0_b);
     printf("table 1 (s):    execution  completed  masked local (dist)   setback  tolerance"
            "  poll (excess)\n");
     char label[32];

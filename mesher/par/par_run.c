@@ -319,6 +319,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_in = pr->cc.st.tets_in;
     row->tets_out = pr->cc.st.tets_out;
     row->tets_end = ref_interior_tets(&s->r);
+    row->slots_end = s->r.m.nslots;
+    row->peak_rss = pdr_peak_rss();
     s->r.hooks = NULL;
     s->r.o.order = order;
     hmap_free(&pr->tries);

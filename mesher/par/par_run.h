@@ -60,6 +60,9 @@ typedef struct par_table1 {
     uint64_t tets_in, tets_out; /* tetrahedra migrated in / out */
     uint64_t msgs_sent, bytes_sent;
     uint64_t tets_end;       /* live interior tetrahedra held at the end */
+    uint64_t slots_end;      /* tetrahedron slots of the submesh at the end
+                                (exterior, ghosts and free ones included) */
+    uint64_t peak_rss;       /* the PE's peak resident memory, bytes */
 } par_table1;
 
 typedef struct par_run_opts {
