@@ -16,6 +16,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "base/hdup.h"
 #include "mesh/vf.h"
 #include "par/par_decomp.h"
 #include "par/par_merge.h"
@@ -763,6 +764,142 @@ START_TEST(plc_decoder_refuses_malformed)
 }
 END_TEST
 
+/* ------------------------------------------------------ links on the wire */
+
+/* Where the links of a par_wire message start (see par/par_wire.h), and
+ * its tetrahedron count. */
+static size_t link_offset(const uint8_t *msg, size_t len, uint32_t *nt)
+{
+    ck_assert_uint_ge(len, 20);
+    size_t at = 20 + pr_load_u32(msg + 16); /* after the submesh */
+    uint32_t nv = pr_load_u32(msg + at);
+    at += 4 + 9 * (size_t)nv;
+    *nt = pr_load_u32(msg + at);
+    at += 4 + 4 * (size_t)*nt;
+    ck_assert_uint_le(at + 16 * (size_t)*nt, len);
+    return at;
+}
+
+/* A copy of msg with the link of face x set to c. */
+static uint8_t *with_link(const uint8_t *msg, size_t len, uint32_t x, uint32_t c)
+{
+    uint32_t nt;
+    size_t at = link_offset(msg, len, &nt);
+    ck_assert_uint_lt(x, 4 * nt);
+    uint8_t *b = malloc(len);
+    ck_assert_ptr_nonnull(b);
+    memcpy(b, msg, len);
+    pr_store_u32(b + at + 4 * (size_t)x, c);
+    return b;
+}
+
+static uint32_t link_of(const uint8_t *msg, size_t len, uint32_t x)
+{
+    uint32_t nt;
+    size_t at = link_offset(msg, len, &nt);
+    return pr_load_u32(msg + at + 4 * (size_t)x);
+}
+
+/* The decoder refuses every link it cannot follow; one that does not come
+ * back decodes, and building the submesh refuses it. */
+START_TEST(links_checked)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_mesher mo;
+    build_mo(&p, NULL, 0, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 1, &d), 0);
+    const uint8_t *msg = d.msg[1].data;
+    size_t len = d.msg[1].len;
+    uint32_t nt;
+    link_offset(msg, len, &nt);
+    /* a face linked within the message, one linked to the other PE, and
+     * the face its first one links to */
+    uint32_t in = UINT32_MAX, out = UINT32_MAX;
+    for (uint32_t x = 0; x < 4 * nt; x++) {
+        uint32_t c = link_of(msg, len, x);
+        if (c == PAR_WIRE_LINK_IFACE && out == UINT32_MAX)
+            out = x;
+        else if (c < PAR_WIRE_LINK_IFACE && in == UINT32_MAX)
+            in = x;
+    }
+    ck_assert_uint_ne(in, UINT32_MAX);
+    ck_assert_uint_ne(out, UINT32_MAX);
+    uint32_t peer = link_of(msg, len, in);
+    ck_assert_uint_eq(link_of(msg, len, peer), in);
+    const uint32_t bad[][2] = {
+        {in, 4 * nt},                        /* past the last tetrahedron */
+        {in, UINT32_C(0x7FFFFFFF)},          /* far past it */
+        {in, (in & ~3u) | ((in + 1) & 3u)},  /* its own tetrahedron */
+        {in, PAR_WIRE_LINK_IFACE},           /* not an interface face */
+        {out, PAR_WIRE_LINK_NONE},           /* an interface face without */
+        {out, peer},                         /* an interface face linked */
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        uint8_t *b = with_link(msg, len, bad[k][0], bad[k][1]);
+        par_wire w;
+        ck_assert_int_eq(par_wire_decode(b, len, &p, &w), PDR_EPARSE);
+        ck_assert_ptr_null(w.sm);
+        free(b);
+    }
+    /* in range but not coming back: a face of another tetrahedron */
+    uint32_t other = (in / 4 + 1) % nt * 4;
+    if (other / 4 == peer / 4)
+        other = (other + 4) % (4 * nt);
+    uint8_t *b = with_link(msg, len, in, other);
+    par_wire w;
+    ck_assert_int_eq(par_wire_decode(b, len, &p, &w), 0);
+    par_sub s;
+    ck_assert_int_eq(par_wire_build(&w, &p, NULL, &s), PDR_ETOPOLOGY);
+    par_wire_clear(&w);
+    free(b);
+    /* nothing across a face that has a neighbour */
+    b = with_link(msg, len, in, PAR_WIRE_LINK_NONE);
+    ck_assert_int_eq(par_wire_load(b, len, &p, NULL, &s), PDR_ETOPOLOGY);
+    free(b);
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+/* base/hdup: exactly the repeated values, whatever their partition. */
+START_TEST(hdup_finds_repeats)
+{
+    size_t n = 300000;
+    uint64_t *h = malloc(n * sizeof *h);
+    ck_assert_ptr_nonnull(h);
+    uint64_t x = 88172645463325252ULL;
+    for (size_t i = 0; i < n; i++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        h[i] = x | 1; /* odd: distinct from the planted values below */
+    }
+    /* planted: a pair, a triple, and two zeros (zero marks a free slot) */
+    h[10] = h[200000] = 42;
+    h[7] = h[70] = h[299999] = UINT64_MAX - 1;
+    h[5] = h[6] = 0;
+    hdup_buf buf = {NULL, 0};
+    uint64_t *rep;
+    size_t nrep;
+    ck_assert_int_eq(hdup_find(h, n, &buf, &rep, &nrep), 0);
+    ck_assert_uint_eq(nrep, 3);
+    ck_assert_uint_eq(rep[0], 0);
+    ck_assert_uint_eq(rep[1], 42);
+    ck_assert_uint_eq(rep[2], UINT64_MAX - 1);
+    ck_assert(hdup_has(rep, nrep, 42) && !hdup_has(rep, nrep, 43));
+    free(rep);
+    /* h untouched, buf reused: no repeat among the first 5 */
+    ck_assert_int_eq(hdup_find(h, 5, &buf, &rep, &nrep), 0);
+    ck_assert_uint_eq(nrep, 0);
+    ck_assert_ptr_null(rep);
+    ck_assert_int_eq(hdup_find(h, 0, &buf, &rep, &nrep), 0);
+    ck_assert_uint_eq(nrep, 0);
+    hdup_buf_free(&buf);
+    free(h);
+}
+END_TEST
+
 /* ------------------------------------------------- merge mismatches */
 
 /* Builds the submeshes of Mo (the unit cube refined a little) for P PEs. */
@@ -871,6 +1008,213 @@ START_TEST(merge_counts_mismatches)
 }
 END_TEST
 
+/* The merge of P encoded messages b[0..P), which this edits nothing of. */
+static int merge_bufs(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep)
+{
+    const void *msg[8];
+    size_t len[8];
+    for (uint32_t k = 0; k < P; k++) {
+        msg[k] = b[k].data;
+        len[k] = b[k].len;
+    }
+    ref_mesher mg;
+    int rc = par_merge_build(msg, len, P, p, NULL, &mg, rep);
+    if (!rc)
+        ref_free(&mg);
+    else
+        ck_assert_ptr_null(mg.m.tets);
+    return rc;
+}
+
+/* Links sent by a PE that do not fit, and a tetrahedron or a face too
+ * many across PEs: each counted, and nothing else. */
+START_TEST(merge_counts_link_faults)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 0.002;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    par_sub subs[3];
+    subs_of(&mo, 3, subs);
+    pr_buf b[3];
+    for (uint32_t k = 0; k < 3; k++) {
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
+    }
+    par_merge_report rep;
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), 0);
+    uint8_t *keep = b[1].data;
+    uint32_t nt;
+    link_offset(keep, b[1].len, &nt);
+    /* two pairs linked within PE 1, x-a and y-b, of four tetrahedra */
+    uint32_t x = UINT32_MAX, a = 0, y = UINT32_MAX, c = 0;
+    for (uint32_t f = 0; f < 4 * nt && y == UINT32_MAX; f++) {
+        uint32_t l = link_of(keep, b[1].len, f);
+        if (l >= PAR_WIRE_LINK_IFACE || l < f)
+            continue;
+        if (x == UINT32_MAX) {
+            x = f, a = l;
+        } else if (f / 4 != x / 4 && f / 4 != a / 4 && l / 4 != x / 4 && l / 4 != a / 4) {
+            y = f, c = l;
+        }
+    }
+    ck_assert_uint_ne(y, UINT32_MAX);
+
+    /* x links to y, which does not link back */
+    b[1].data = with_link(keep, b[1].len, x, y);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_ge(rep.bad_links, 1);
+    free(b[1].data);
+
+    /* x-y and a-c: every link comes back, but joins two triangles */
+    b[1].data = with_link(keep, b[1].len, x, y);
+    uint8_t *t1 = b[1].data;
+    b[1].data = with_link(t1, b[1].len, y, x);
+    free(t1);
+    t1 = b[1].data;
+    b[1].data = with_link(t1, b[1].len, a, c);
+    free(t1);
+    t1 = b[1].data;
+    b[1].data = with_link(t1, b[1].len, c, a);
+    free(t1);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_eq(rep.bad_links, 0);
+    ck_assert_uint_ge(rep.misoriented, 1);
+    free(b[1].data);
+    b[1].data = keep;
+    pr_buf_free(&b[1]);
+
+    /* PE 1 holds a tetrahedron of PE 0 as well, linked to nothing: one
+     * duplicate, and nothing else (the later copy is dropped) */
+    const tm_mesh *m0 = &subs[0].r.m;
+    uint32_t t0 = 0;
+    while (tm_is_dead(m0, t0) || tm_is_ghost(m0, t0))
+        t0++;
+    tm_mesh *m1 = &subs[1].r.m;
+    uint32_t lv[4];
+    for (int i = 0; i < 4; i++) {
+        uint32_t v = m0->tets[t0].v[i];
+        const bd_set *bd = &subs[0].r.bd;
+        ck_assert_int_eq(par_sub_vertex(&subs[1], m0->gid[v], tm_xyz(m0, v), bd->vkind[v],
+                                        bd->vfeat[v], bd->vrins[v], &lv[i]),
+                         0);
+    }
+    ck_assert_int_eq(tm_room(m1, 1), 0);
+    uint32_t u = tm_alloc_tet(m1);
+    for (int i = 0; i < 4; i++) {
+        m1->tets[u].v[i] = lv[i];
+        m1->tets[u].n[i] = TM_LINK_NONE;
+    }
+    b[1] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[1], &subs[1]), 0);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_eq(rep.dup_tets, 1);
+    ck_assert_uint_eq(par_merge_problems(&rep), 1);
+
+    /* ... and instead a tetrahedron on a face of PE 1's, with another
+     * apex: that face is in three tetrahedra */
+    pr_buf_free(&b[1]);
+    /* (slot k of PE 1 is its message's tetrahedron k; the apex is not
+     * the one across the face either, or this were a duplicate) */
+    uint32_t t = x / 4, apex = TM_NONE, across = m1->tets[a / 4].v[a % 4];
+    for (uint32_t k = 0; k < m1->nslots && apex == TM_NONE; k++)
+        for (int i = 0; i < 4 && !tm_is_dead(m1, k); i++) {
+            uint32_t v = m1->tets[k].v[i], *tv = m1->tets[t].v;
+            if (v != TM_VINF && v != across && v != tv[0] && v != tv[1] && v != tv[2] &&
+                v != tv[3])
+                apex = v;
+        }
+    ck_assert_uint_ne(apex, TM_NONE);
+    for (int i = 0; i < 4; i++) {
+        m1->tets[u].v[i] = m1->tets[t].v[i];
+        m1->tets[u].n[i] = TM_LINK_NONE;
+    }
+    m1->tets[u].v[x % 4] = apex; /* shares face x % 4 of t */
+    b[1] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[1], &subs[1]), 0);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_ge(rep.nonmanifold, 1);
+    ck_assert_uint_eq(rep.dup_tets + rep.bad_links, 0);
+
+    for (uint32_t k = 0; k < 3; k++) {
+        pr_buf_free(&b[k]);
+        par_sub_free(&subs[k]);
+    }
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
+/* Corrupted merge messages: refused or counted, never a crash (run under
+ * ASan), in the links above all. */
+START_TEST(merge_survives_corruption)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 0.01;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    par_sub subs[2];
+    subs_of(&mo, 2, subs);
+    pr_buf b[2];
+    for (uint32_t k = 0; k < 2; k++) {
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
+    }
+    uint8_t *keep = b[1].data;
+    size_t len = b[1].len;
+    uint32_t nt;
+    size_t at = link_offset(keep, len, &nt);
+    uint8_t *bad = malloc(len);
+    ck_assert_ptr_nonnull(bad);
+    b[1].data = bad;
+    par_merge_report rep;
+    size_t merged = 0, counted = 0;
+    uint64_t r = 88172645463325252ULL;
+    for (int round = 0; round < 4000; round++) {
+        memcpy(bad, keep, len);
+        r ^= r << 13, r ^= r >> 7, r ^= r << 17;
+        if (round % 2) {
+            /* a link: to another face, or a code */
+            uint32_t f = (uint32_t)(r % (4 * (uint64_t)nt));
+            static const uint32_t codes[] = {PAR_WIRE_LINK_NONE, PAR_WIRE_LINK_IFACE};
+            uint32_t c = (r >> 40) % 8 ? (uint32_t)((r >> 20) % (4 * (uint64_t)nt))
+                                       : codes[(r >> 40) % 2];
+            pr_store_u32(bad + at + 4 * (size_t)f, c);
+        } else {
+            /* anywhere: a few random bytes */
+            size_t w = r % len, n = 1 + (r >> 32) % 4;
+            for (size_t j = w; j < w + n && j < len; j++) {
+                r ^= r << 13, r ^= r >> 7, r ^= r << 17;
+                bad[j] = (uint8_t)r;
+            }
+        }
+        int rc = merge_bufs(b, 2, &p, &rep);
+        ck_assert(rc == 0 || rc == PDR_EPARSE || rc == PDR_ETOPOLOGY);
+        merged += rc == 0;
+        counted += rc == PDR_ETOPOLOGY;
+    }
+    /* the links are checked: most of those changes are counted */
+    ck_assert_uint_gt(counted, 1000);
+    b[1].data = keep;
+    free(bad);
+    (void)merged;
+    for (uint32_t k = 0; k < 2; k++) {
+        pr_buf_free(&b[k]);
+        par_sub_free(&subs[k]);
+    }
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("par");
@@ -889,10 +1233,14 @@ static Suite *suite(void)
     tcase_add_test(t, submesh_decoder_refuses_truncation);
     tcase_add_test(t, submesh_decoder_survives_corruption);
     tcase_add_test(t, plc_decoder_refuses_malformed);
+    tcase_add_test(t, links_checked);
     suite_add_tcase(s, t);
     t = tcase_create("merge");
     tcase_set_timeout(t, 120);
     tcase_add_test(t, merge_counts_mismatches);
+    tcase_add_test(t, merge_counts_link_faults);
+    tcase_add_test(t, merge_survives_corruption);
+    tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;
 }

@@ -1,6 +1,8 @@
 # mesher/base: errors, small utilities, number formatting, text input,
-# atomic output, the 3-vector helpers and the hash map. Uses nothing else.
+# atomic output, the 3-vector helpers, the hash map and the search for
+# repeated hashes. Uses nothing else.
 noinst_HEADERS += \
+	mesher/base/hdup.h \
 	mesher/base/hmap.h \
 	mesher/base/nf.h \
 	mesher/base/outfile.h \
@@ -9,6 +11,7 @@ noinst_HEADERS += \
 	mesher/base/textin.h \
 	mesher/base/v3.h
 libpdrmesh_la_SOURCES += \
+	mesher/base/hdup.c \
 	mesher/base/hmap.c \
 	mesher/base/nf.c \
 	mesher/base/outfile.c \

@@ -480,10 +480,13 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     size_t *row_lens = NULL, *mesh_lens = NULL;
     if (!rc)
         rc = am_gather(am, rb.data, rb.len, &all_rows, &row_lens);
+    /* Rank 0's own message stays where it is: through the gather it would
+     * be copied once more, tens of megabytes of fresh memory. */
     if (!rc)
-        rc = am_gather(am, mb.data, mb.len, &all_mesh, &mesh_lens);
+        rc = am_gather(am, rank ? mb.data : NULL, rank ? mb.len : 0, &all_mesh, &mesh_lens);
     pr_buf_free(&rb);
-    pr_buf_free(&mb);
+    if (rc || rank != 0)
+        pr_buf_free(&mb);
     if (rc) {
         fprintf(stderr, "pdr mesh: PE %d: gathering the mesh failed: %s\n", rank,
                 am_strerror(rc));
@@ -501,9 +504,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     for (int k = 0; k < size && !rc; k++) {
         rc = get_row(pr, row_lens[k], &rows[k], &sum);
         pr += row_lens[k];
-        msgs[k] = pm;
+        msgs[k] = k ? (const void *)pm : mb.data;
         pm += mesh_lens[k];
     }
+    mesh_lens[0] = mb.len;
     par_merge_report rep;
     double tm = pdr_now();
     if (!rc)
@@ -511,6 +515,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     free(msgs);
     free(all_rows);
     free(all_mesh);
+    pr_buf_free(&mb);
     free(row_lens);
     free(mesh_lens);
     if (rc) {

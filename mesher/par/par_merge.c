@@ -1,10 +1,43 @@
 /* par/par_merge.c -- the P messages of the PEs back into one ref_mesher,
- * with every seam checked (see par/par_merge.h). */
+ * with every seam checked (see par/par_merge.h).
+ *
+ * In time linear in the mesh and without a sort of all its faces: at 10^6
+ * tetrahedra, linking 4*10^6 faces by their vertices (tm_link_faces) and
+ * hashing every tetrahedron into one table cost the merge over a second,
+ * a third of a whole two-PE run. Each PE now sends its own links, so:
+ *  1. vertices: every message lists its vertices by ascending gid, so a
+ *     k-way merge of the P lists numbers the distinct gids in ascending
+ *     order and meets the copies of one gid one after the other, to be
+ *     compared;
+ *  2. tetrahedra: concatenated, tetrahedron j of message k in slot
+ *     base[k] + j, so that the message's link 4u+j is the mesh link
+ *     tm_mklink(base[k] + u, j), in range (the decoder checked it);
+ *  3. a tetrahedron sent twice (only in the careful run, see
+ *     par_merge_build): the hashes of all tetrahedra searched for repeats
+ *     (base/hdup), those with a repeated hash compared, later copies
+ *     dropped;
+ *  4. every pair linked within a message, from its lower side: it comes
+ *     back, and joins one triangle seen from its two sides with one
+ *     marker;
+ *  5. the faces not linked within their message (interface faces, and
+ *     faces with nothing across) matched by their vertices in a hash
+ *     table, and checked as the seams they are: a few percent of the
+ *     faces;
+ *  6. a face of more than two tetrahedra: each linked pair of step 4 and
+ *     each group of step 5 hashed by its vertices, the hashes searched for
+ *     repeats like the tetrahedra;
+ *  7. the subsegments and subfacets, as sent.
+ * A mesh that fits takes no sort and no hash table of all faces or
+ * tetrahedra: the repeats are searched in cache-sized partitions, and
+ * only a repeat (a fault, or a rare chance) is looked at one by one. */
 #include "config.h"
 
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/hdup.h"
+#include "base/pdr_util.h"
+#include "base/v3.h"
 #include "par/par_merge.h"
 #include "par/par_wire.h"
 
@@ -12,7 +45,7 @@ size_t par_merge_problems(const par_merge_report *r)
 {
     return r->vertex_conflicts + r->dup_tets + r->nonmanifold + r->open_faces +
            r->iface_unmatched + r->iface_mismatch + r->misoriented + r->marker_mismatch +
-           r->bd_conflicts;
+           r->bd_conflicts + r->bad_links;
 }
 
 int par_merge_encode(pr_buf *b, const par_sub *s)
@@ -20,16 +53,42 @@ int par_merge_encode(pr_buf *b, const par_sub *s)
     return par_wire_encode_sub(b, s);
 }
 
+#define NO_FACE UINT32_MAX
+
+/* A hint to load a cache line now (a no-op where the compiler has none). */
+#if defined(__GNUC__)
+#define PREFETCH(p) __builtin_prefetch(p)
+#else
+#define PREFETCH(p) ((void)(p))
+#endif
+#define PREFETCH_AHEAD 16
+
+/* A face not linked within its message (step 5): an interface face, or
+ * one with nothing across. */
+typedef struct loose {
+    uint32_t f;      /* tm_mklink(merged slot, face) */
+    uint32_t pe;     /* the PE its message names across it, or PAR_PE_NONE */
+    uint32_t key[3]; /* its merged vertices, ascending */
+    uint32_t next;   /* next face with the same key, or NO_FACE */
+} loose;
+
 /* State of one merge; every pointer owned, freed by st_free. */
 typedef struct merge {
-    par_wire *w;      /* [n] decoded messages */
+    par_wire *w;     /* [n] decoded messages */
     uint32_t n;
-    uint64_t *gids;   /* distinct real gids, ascending */
-    size_t ngid;
-    uint32_t **loc;   /* [n][vert.n]: merged vertex of each message vertex */
-    uint32_t *src;    /* per merged slot: PE it came from */
-    uint32_t *ipe;    /* per merged face 4t+i: PE named across it, or PAR_PE_NONE */
-    hmap tet_map;     /* hash of the sorted vertices -> slot */
+    uint32_t **loc;  /* [n][vert.n]: merged vertex of each message vertex */
+    uint32_t *base;  /* [n + 1]: slot of each message's first tetrahedron */
+    uint8_t *drop;   /* per slot: 1 on a later copy of a tetrahedron (NULL: none) */
+    loose *lf;       /* the faces of step 5 */
+    size_t nlf, caplf;
+    uint64_t *hash;  /* hashes of tetrahedra (step 3), then of faces (6) */
+    size_t nhash, caphash;
+    uint64_t *big;   /* hashes of step 5's groups of more than two faces */
+    size_t nbig, capbig;
+    hdup_buf scratch; /* of steps 3 and 6 */
+    uint64_t *vk;    /* per merged vertex: its key for the hashes */
+    int careful;     /* step 3 done (the second run, see par_merge_build) */
+    int suspect;     /* two linked tetrahedra with the same vertices */
 } merge;
 
 static void st_free(merge *g)
@@ -42,114 +101,55 @@ static void st_free(merge *g)
             free(g->loc[k]);
     free(g->w);
     free(g->loc);
-    free(g->gids);
-    free(g->src);
-    free(g->ipe);
-    hmap_free(&g->tet_map);
+    free(g->base);
+    free(g->drop);
+    free(g->lf);
+    free(g->hash);
+    free(g->big);
+    hdup_buf_free(&g->scratch);
+    free(g->vk);
 }
 
-static int cmp_u64(const void *a, const void *b)
+/* ---------------------------------------------------------------- hashes */
+
+/* A bijection of 64-bit words that spreads every input bit over the
+ * output: multiplications by odd constants and folds of the high half. */
+static uint64_t mix(uint64_t x)
 {
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return (x > y) - (x < y);
+    x *= UINT64_C(0x9E3779B97F4A7C15);
+    x ^= x >> 32;
+    x *= UINT64_C(0xD6E8FEB86659FD93);
+    x ^= x >> 32;
+    return x;
 }
 
-/* Index + 1 of gid among the distinct gids (they contain it). */
-static uint32_t vertex_of(const merge *g, uint64_t gid)
+/* Hashes of vertex sets: the vertices' keys (g->vk, one mix each, made
+ * once) summed, so that the order in which a tetrahedron or face lists
+ * them does not matter (no sort, and no unpredictable branch per face),
+ * then mixed so that every bit of the result depends on all of them
+ * (base/hdup partitions by the top bits). The offset keeps vertex 0 from
+ * mixing to 0. */
+static uint64_t vkey(uint32_t v)
 {
-    size_t lo = 0, hi = g->ngid;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (g->gids[mid] < gid)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return (uint32_t)lo + 1;
+    return mix((uint64_t)v + UINT64_C(0x2545F4914F6CDD1D));
 }
 
-/* The distinct gids, and each message's vertices in the merged numbering. */
-static int number_vertices(merge *g)
+static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
 {
-    size_t total = 0;
-    for (uint32_t k = 0; k < g->n; k++)
-        total += g->w[k].sm->vert.n;
-    g->gids = malloc((total ? total : 1) * sizeof *g->gids);
-    g->loc = calloc(g->n, sizeof *g->loc);
-    if (!g->gids || !g->loc)
+    return mix(vk[v[0]] + vk[v[1]] + vk[v[2]] + vk[v[3]]);
+}
+
+static uint64_t face_hash(const uint64_t *vk, uint32_t a, uint32_t b, uint32_t c)
+{
+    return mix(vk[a] + vk[b] + vk[c] + 1);
+}
+
+static int add_hash(uint64_t **a, size_t *n, size_t *cap, uint64_t h)
+{
+    if (pdr_grow((void **)a, cap, *n + 1, sizeof **a))
         return PDR_ENOMEM;
-    size_t n = 0;
-    for (uint32_t k = 0; k < g->n; k++) {
-        const pr_vtable *vt = &g->w[k].sm->vert;
-        for (uint32_t i = 0; i < vt->n; i++)
-            if (vt->gid[i] != PAR_GID_INF)
-                g->gids[n++] = vt->gid[i];
-    }
-    qsort(g->gids, n, sizeof *g->gids, cmp_u64);
-    size_t u = 0;
-    for (size_t i = 0; i < n; i++)
-        if (u == 0 || g->gids[i] != g->gids[u - 1])
-            g->gids[u++] = g->gids[i];
-    g->ngid = u;
-    if (u + 1 > TM_MAX_VERTS)
-        return PDR_ELIMIT;
-    for (uint32_t k = 0; k < g->n; k++) {
-        const pr_vtable *vt = &g->w[k].sm->vert;
-        g->loc[k] = malloc(((size_t)vt->n ? vt->n : 1) * sizeof *g->loc[k]);
-        if (!g->loc[k])
-            return PDR_ENOMEM;
-        for (uint32_t i = 0; i < vt->n; i++)
-            g->loc[k][i] = vt->gid[i] == PAR_GID_INF ? TM_VINF : vertex_of(g, vt->gid[i]);
-    }
+    (*a)[(*n)++] = h;
     return 0;
-}
-
-/* The merged vertices with their coordinates, gids and bd data, from the
- * first message holding each; later copies are compared. */
-static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
-{
-    tm_mesh *m = &r->m;
-    size_t nv = g->ngid + 1;
-    int rc = tm_reserve(m, nv, 0);
-    if (!rc)
-        rc = bd_vertex_room(&r->bd, nv);
-    uint8_t *set = calloc(nv, 1);
-    if (rc || !set) {
-        free(set);
-        return rc ? rc : PDR_ENOMEM;
-    }
-    /* tm_add_vertex appends: add them all first, then fill them in */
-    for (size_t v = 1; v < nv && !rc; v++) {
-        const double zero[3] = {0, 0, 0};
-        uint32_t x;
-        rc = tm_add_vertex(m, zero, &x);
-        if (!rc)
-            m->gid[x] = g->gids[v - 1];
-    }
-    for (uint32_t k = 0; k < g->n && !rc; k++) {
-        const par_wire *w = &g->w[k];
-        const pr_vtable *vt = &w->sm->vert;
-        for (uint32_t i = 0; i < vt->n; i++) {
-            uint32_t v = g->loc[k][i];
-            if (v == TM_VINF)
-                continue;
-            const double *x = vt->xyz + 3 * (size_t)i;
-            double *y = m->xyz + 3 * (size_t)v;
-            if (!set[v]) {
-                set[v] = 1;
-                memcpy(y, x, 3 * sizeof *y);
-                r->bd.vkind[v] = w->vkind[i];
-                r->bd.vfeat[v] = w->vfeat[i];
-                r->bd.vrins[v] = w->vrins[i];
-            } else if (memcmp(y, x, 3 * sizeof *y) || r->bd.vkind[v] != w->vkind[i] ||
-                       r->bd.vfeat[v] != w->vfeat[i] ||
-                       memcmp(&r->bd.vrins[v], &w->vrins[i], sizeof(float))) {
-                rep->vertex_conflicts++;
-            }
-        }
-    }
-    free(set);
-    return rc;
 }
 
 static void sort4(const uint32_t *v, uint32_t s[4])
@@ -163,32 +163,170 @@ static void sort4(const uint32_t *v, uint32_t s[4])
         }
 }
 
-static uint64_t tet_hash(const uint32_t s[4])
+static void face_of(const tm_mesh *m, uint32_t t, int i, uint32_t f[3])
 {
-    uint64_t h = (uint64_t)s[0] * 0x9E3779B97F4A7C15ULL;
-    h ^= (h >> 29) ^ (uint64_t)s[1] * 0xC2B2AE3D27D4EB4FULL;
-    h ^= (h >> 31) ^ (uint64_t)s[2] * 0x165667B19E3779F9ULL;
-    h ^= (h >> 27) ^ (uint64_t)s[3] * 0x27D4EB2F165667C5ULL;
-    h ^= h >> 33;
-    return h ? h : 1;
+    for (int c = 0; c < 3; c++)
+        f[c] = m->tets[t].v[tm_face_vtx[i][c]];
 }
 
-struct same_tet {
-    const tm_mesh *m;
-    const uint32_t *s;
-};
-
-static int is_same_tet(void *arg, uint32_t t)
+static void face_key(const tm_mesh *m, uint32_t t, int i, uint32_t s[3])
 {
-    struct same_tet *a = arg;
+    const uint32_t *v = m->tets[t].v;
+    v3_sort3u(v[tm_face_vtx[i][0]], v[tm_face_vtx[i][1]], v[tm_face_vtx[i][2]], s);
+}
+
+/* 1 if the triangles x and y are the same face seen from its two sides: y
+ * is an odd permutation of x. */
+static int face_opposed(const uint32_t x[3], const uint32_t y[3])
+{
+    for (int k = 0; k < 3; k++)
+        if (y[0] == x[k])
+            return y[1] == x[(k + 2) % 3] && y[2] == x[(k + 1) % 3];
+    return 0;
+}
+
+/* An entity whose hash repeats (the slow paths of steps 3 and 6): its
+ * sorted vertices (the fourth 0 for a face) and its slot or face. */
+typedef struct cand {
     uint32_t s[4];
-    sort4(a->m->tets[t].v, s);
-    return !memcmp(s, a->s, sizeof s);
+    uint32_t id;
+} cand;
+
+static int cmp_cand(const void *a, const void *b)
+{
+    const cand *x = a, *y = b;
+    for (int c = 0; c < 4; c++)
+        if (x->s[c] != y->s[c])
+            return x->s[c] < y->s[c] ? -1 : 1;
+    return (x->id > y->id) - (x->id < y->id);
 }
 
-/* Every message's tetrahedra, each once, with flags, markers, subsegment
- * bits, regions, the PE they came from and their interface faces. */
-static int add_tets(merge *g, ref_mesher *r, par_merge_report *rep)
+static int add_cand(cand **a, size_t *n, size_t *cap, const uint32_t s[4], uint32_t id)
+{
+    if (pdr_grow((void **)a, cap, *n + 1, sizeof **a))
+        return PDR_ENOMEM;
+    memcpy((*a)[*n].s, s, sizeof (*a)[*n].s);
+    (*a)[(*n)++].id = id;
+    return 0;
+}
+
+/* -------------------------------------------------------- 1. vertices */
+
+/* The k-way merge's order: message a's next gid before message b's, the
+ * lower message first on a tie (so that a gid's first copy is from the
+ * first message holding it). */
+static int before(const merge *g, const uint32_t *cur, uint32_t a, uint32_t b)
+{
+    uint64_t x = g->w[a].sm->vert.gid[cur[a]], y = g->w[b].sm->vert.gid[cur[b]];
+    return x < y || (x == y && a < b);
+}
+
+static void sift_down(const merge *g, const uint32_t *cur, uint32_t *heap, size_t n, size_t i)
+{
+    for (;;) {
+        size_t l = 2 * i + 1, r = l + 1, m = i;
+        if (l < n && before(g, cur, heap[l], heap[m]))
+            m = l;
+        if (r < n && before(g, cur, heap[r], heap[m]))
+            m = r;
+        if (m == i)
+            return;
+        uint32_t x = heap[i];
+        heap[i] = heap[m];
+        heap[m] = x;
+        i = m;
+    }
+}
+
+/* The distinct gids in ascending order as vertices 1.., with coordinates
+ * and bd data from the first message holding each (later copies are
+ * compared), and each message's vertices in that numbering. */
+static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
+{
+    tm_mesh *m = &r->m;
+    size_t total = 1;
+    for (uint32_t k = 0; k < g->n; k++)
+        total += g->w[k].sm->vert.n;
+    if (total > TM_MAX_VERTS)
+        total = TM_MAX_VERTS; /* tm_add_vertex says whether they fit */
+    int rc = tm_reserve(m, total, 0);
+    if (!rc)
+        rc = bd_vertex_room(&r->bd, total);
+    g->loc = calloc(g->n, sizeof *g->loc);
+    uint32_t *cur = calloc(g->n, sizeof *cur), *heap = malloc(g->n * sizeof *heap);
+    if (!rc && (!g->loc || !cur || !heap))
+        rc = PDR_ENOMEM;
+    size_t nh = 0;
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
+        const pr_vtable *vt = &g->w[k].sm->vert;
+        g->loc[k] = malloc(((size_t)vt->n ? vt->n : 1) * sizeof *g->loc[k]);
+        if (!g->loc[k]) {
+            rc = PDR_ENOMEM;
+            break;
+        }
+        /* The infinite vertex is the smallest gid: vertex 0 if sent. */
+        if (vt->n && vt->gid[0] == PAR_GID_INF) {
+            g->loc[k][0] = TM_VINF;
+            cur[k] = 1;
+        }
+        if (cur[k] < vt->n)
+            heap[nh++] = k;
+    }
+    for (size_t i = nh / 2; i-- > 0 && !rc;)
+        sift_down(g, cur, heap, nh, i);
+    uint64_t last = PAR_GID_INF;
+    uint32_t v = TM_VINF;
+    bd_set *bd = &r->bd;
+    while (nh && !rc) {
+        uint32_t k = heap[0], i = cur[k];
+        const par_wire *w = &g->w[k];
+        uint64_t gid = w->sm->vert.gid[i];
+        const double *x = w->sm->vert.xyz + 3 * (size_t)i;
+        if (gid != last) {
+            if ((rc = tm_add_vertex(m, x, &v)))
+                break;
+            m->gid[v] = gid;
+            bd->vkind[v] = w->vkind[i];
+            bd->vfeat[v] = w->vfeat[i];
+            bd->vrins[v] = w->vrins[i];
+            last = gid;
+        } else if (memcmp(m->xyz + 3 * (size_t)v, x, 3 * sizeof *x) ||
+                   bd->vkind[v] != w->vkind[i] || bd->vfeat[v] != w->vfeat[i] ||
+                   memcmp(&bd->vrins[v], &w->vrins[i], sizeof(float))) {
+            rep->vertex_conflicts++;
+        }
+        g->loc[k][i] = v;
+        if (++cur[k] == w->sm->vert.n)
+            heap[0] = heap[--nh];
+        sift_down(g, cur, heap, nh, 0);
+    }
+    free(cur);
+    free(heap);
+    if (!rc) {
+        g->vk = malloc((size_t)m->nv * sizeof *g->vk);
+        if (!g->vk)
+            return PDR_ENOMEM;
+        for (uint32_t x = 0; x < m->nv; x++)
+            g->vk[x] = vkey(x);
+    }
+    return rc;
+}
+
+/* ----------------------------------------------------- 2. tetrahedra */
+
+static int add_loose(merge *g, uint32_t f, uint32_t pe)
+{
+    if (pdr_grow((void **)&g->lf, &g->caplf, g->nlf + 1, sizeof *g->lf))
+        return PDR_ENOMEM;
+    g->lf[g->nlf].f = f;
+    g->lf[g->nlf++].pe = pe;
+    return 0;
+}
+
+/* Every message's tetrahedra with their links, flags, markers,
+ * subsegment bits and regions; the faces not linked go to g->lf, and when
+ * careful the tetrahedra's hashes to g->hash. */
+static int add_tets(merge *g, ref_mesher *r)
 {
     tm_mesh *m = &r->m;
     size_t total = 0;
@@ -199,111 +337,350 @@ static int add_tets(merge *g, ref_mesher *r, par_merge_report *rep)
     int rc = tm_reserve(m, 0, total);
     if (!rc)
         rc = ref_region_room(r);
-    g->src = malloc((total ? total : 1) * sizeof *g->src);
-    g->ipe = malloc((total ? 4 * total : 1) * sizeof *g->ipe);
-    if (rc || !g->src || !g->ipe)
+    g->base = malloc(((size_t)g->n + 1) * sizeof *g->base);
+    if (!rc && g->careful)
+        rc = pdr_grow((void **)&g->hash, &g->caphash, total ? total : 1, sizeof *g->hash);
+    if (rc || !g->base)
         return rc ? rc : PDR_ENOMEM;
-    uint32_t *slot = NULL;
-    for (uint32_t k = 0; k < g->n && !rc; k++) {
+    for (uint32_t k = 0; k < g->n; k++) {
         const par_wire *w = &g->w[k];
         const pr_submesh *sm = w->sm;
-        free(slot);
-        slot = malloc(((size_t)sm->tet.n ? sm->tet.n : 1) * sizeof *slot);
-        if (!slot) {
-            rc = PDR_ENOMEM;
-            break;
-        }
-        for (uint32_t j = 0; j < sm->tet.n && !rc; j++) {
-            uint32_t v[4], s[4];
-            for (int c = 0; c < 4; c++)
-                v[c] = g->loc[k][sm->tet.v[4 * (size_t)j + (size_t)c]];
-            sort4(v, s);
-            uint64_t h = tet_hash(s);
-            struct same_tet a = {m, s};
-            if (hmap_each(&g->tet_map, h, is_same_tet, &a)) {
-                rep->dup_tets++;
-                slot[j] = TM_NONE;
-                continue;
-            }
+        const uint32_t *loc = g->loc[k];
+        uint32_t b = m->nslots, q = 0;
+        g->base[k] = b;
+        for (uint32_t j = 0; j < sm->tet.n; j++) {
+            /* A fresh mesh hands out slots 0, 1, ... in order, which the
+             * links' offsets assume. */
             uint32_t t = tm_alloc_tet(m);
-            rc = hmap_put(&g->tet_map, h, t);
-            slot[j] = t;
-            uint16_t fl = w->tflags[j];
+            if (t != b + j)
+                return PDR_EINVAL;
+            tm_tet *T = &m->tets[t];
+            uint16_t fl = par_wire_tflags(w, j);
             for (int i = 0; i < 4; i++) {
-                m->tets[t].v[i] = v[i];
-                m->tets[t].n[i] = TM_LINK_UNSET;
-                int32_t mk = sm->tet.marker[4 * (size_t)j + (size_t)i];
+                size_t x = 4 * (size_t)j + (size_t)i;
+                T->v[i] = loc[sm->tet.v[x]];
+                uint32_t c = par_wire_link(w, x);
+                if (c < PAR_WIRE_LINK_IFACE) {
+                    T->n[i] = tm_mklink(b + (c >> 2), (int)(c & 3));
+                } else {
+                    /* IFACE faces are the listed ones, in the same
+                     * ascending order (the decoder checked it). */
+                    uint32_t pe = PAR_PE_NONE;
+                    if (c == PAR_WIRE_LINK_IFACE && q < sm->iface.n)
+                        pe = sm->iface.remote[q++];
+                    T->n[i] = TM_LINK_UNSET;
+                    if ((rc = add_loose(g, tm_mklink(t, i), pe)))
+                        return rc;
+                }
+                int32_t mk = sm->tet.marker[x];
                 m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
                 if (mk != PR_MARKER_NONE)
                     fl |= TM_F_FACEMARK(i);
-                g->ipe[4 * (size_t)t + (size_t)i] = PAR_PE_NONE;
             }
             fl |= (uint16_t)((sm->tet.subseg[j] & PR_SUBSEG_MASK) * TM_F_SUBSEG0);
             m->flags[t] = fl;
             m->nghost += (uint32_t)tm_is_ghost(m, t);
             if (r->region)
-                r->region[t] = w->region[j];
-            g->src[t] = k;
-        }
-        for (uint32_t q = 0; q < sm->iface.n && !rc; q++) {
-            uint32_t t = slot[sm->iface.face[q] >> 2];
-            if (t != TM_NONE)
-                g->ipe[4 * (size_t)t + (sm->iface.face[q] & 3)] = sm->iface.remote[q];
+                r->region[t] = par_wire_region(w, j);
+            if (g->careful)
+                g->hash[t] = tet_hash(g->vk, T->v);
         }
     }
-    free(slot);
-    return rc;
-}
-
-static int face_opposed(const uint32_t x[3], const uint32_t y[3])
-{
-    for (int k = 0; k < 3; k++)
-        if (y[0] == x[k])
-            return y[1] == x[(k + 2) % 3] && y[2] == x[(k + 1) % 3];
+    g->base[g->n] = m->nslots;
+    g->nhash = g->careful ? m->nslots : 0;
     return 0;
 }
 
-static void face_of(const tm_mesh *m, uint32_t t, int i, uint32_t f[3])
+/* The message a slot came from. */
+static uint32_t src_of(const merge *g, uint32_t t)
 {
-    for (int c = 0; c < 3; c++)
-        f[c] = m->tets[t].v[tm_face_vtx[i][c]];
+    uint32_t lo = 0, hi = g->n;
+    while (hi - lo > 1) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (g->base[mid] <= t)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
 }
 
-/* The seams: every face against what the PEs said about it. */
-static void check_faces(const merge *g, const tm_mesh *m, par_merge_report *rep)
+/* ------------------------------------------------ 3. tetrahedra twice */
+
+static int find_dup_tets(merge *g, const tm_mesh *m, par_merge_report *rep)
 {
+    uint64_t *rh = NULL;
+    size_t nr = 0;
+    int rc = hdup_find(g->hash, g->nhash, &g->scratch, &rh, &nr);
+    if (rc || !nr) {
+        free(rh);
+        return rc;
+    }
+    /* Some hash repeats: a tetrahedron sent twice, or (rarely) two
+     * tetrahedra with one hash. Compare those by their vertices. */
+    cand *c = NULL;
+    size_t nc = 0, cap = 0;
+    for (uint32_t t = 0; t < m->nslots && !rc; t++)
+        if (hdup_has(rh, nr, tet_hash(g->vk, m->tets[t].v))) {
+            uint32_t s[4];
+            sort4(m->tets[t].v, s);
+            rc = add_cand(&c, &nc, &cap, s, t);
+        }
+    free(rh);
+    g->drop = rc ? NULL : calloc(m->nslots ? m->nslots : 1, 1);
+    if (!rc && !g->drop)
+        rc = PDR_ENOMEM;
+    if (!rc) {
+        qsort(c, nc, sizeof *c, cmp_cand);
+        for (size_t k = 1; k < nc; k++)
+            if (!memcmp(c[k].s, c[k - 1].s, sizeof c[k].s)) {
+                g->drop[c[k].id] = 1; /* the first (lowest slot) stays */
+                rep->dup_tets++;
+            }
+    }
+    free(c);
+    return rc;
+}
+
+static int dropped(const merge *g, uint32_t t)
+{
+    return g->drop && g->drop[t];
+}
+
+/* -------------------------------------------------- 4. linked faces */
+
+/* Face i of t and face j of u, linked by step 5: one triangle seen from
+ * its two sides, with one marker. */
+static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
+                       par_merge_report *rep)
+{
+    uint32_t x[3], y[3];
+    face_of(m, t, i, x);
+    face_of(m, u, j, y);
+    if (!face_opposed(x, y))
+        rep->misoriented++;
+    if (m->marker[4 * (size_t)t + (size_t)i] != m->marker[4 * (size_t)u + (size_t)j])
+        rep->marker_mismatch++;
+}
+
+/* Every pair linked within a message, checked once from its lower side:
+ * it comes back, joins one triangle seen from its two sides, with one
+ * marker; and its face hashed for step 6. A link into a dropped copy
+ * leaves its face loose. Two tetrahedra with one opposite vertex across
+ * the face have the same vertices: g->suspect (see par_merge_build).
+ *
+ * That links come back is checked from the lower side only, where the
+ * other side is read anyway: the links up (to a higher slot) that come
+ * back are a one-to-one map into the links down, so when there are as
+ * many links down as up, every link down is the partner of one up, which
+ * it points back to.
+ *
+ * The other side is anywhere in a 10^6-slot mesh, a cache and TLB miss:
+ * it is asked for a few tetrahedra ahead, so that the misses overlap
+ * (without, this pass took twice as long). A pass that instead summed a
+ * hash of each side, in slot order, took as long in hashing. */
+static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
+{
+    /* about two linked pairs per tetrahedron, plus the groups of step 5 */
+    g->nhash = 0;
+    size_t want = 2 * (size_t)m->nslots + g->nlf + 1;
+    if (pdr_grow((void **)&g->hash, &g->caphash, want, sizeof *g->hash))
+        return PDR_ENOMEM;
+    size_t up = 0, down = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
+        if (t + PREFETCH_AHEAD < m->nslots)
+            for (int i = 0; i < 4; i++) {
+                tm_link l = m->tets[t + PREFETCH_AHEAD].n[i];
+                if (!tm_is_special(l) && tm_ltet(l) > t + PREFETCH_AHEAD) {
+                    /* both ends: a tm_tet may straddle two lines */
+                    PREFETCH(&m->tets[tm_ltet(l)].v[0]);
+                    PREFETCH(&m->tets[tm_ltet(l)].n[3]);
+                    PREFETCH(&m->marker[4 * (size_t)tm_ltet(l)]);
+                }
+            }
+        if (dropped(g, t))
+            continue;
+        tm_tet *T = &m->tets[t];
         for (int i = 0; i < 4; i++) {
-            tm_link l = m->tets[t].n[i];
-            uint32_t named = g->ipe[4 * (size_t)t + (size_t)i];
-            if (tm_is_special(l)) {
-                if (named != PAR_PE_NONE)
-                    rep->iface_unmatched++;
-                else
-                    rep->open_faces++;
+            tm_link l = T->n[i];
+            if (l == TM_LINK_UNSET)
+                continue; /* loose: step 5 */
+            uint32_t u = tm_ltet(l);
+            if (dropped(g, u)) {
+                T->n[i] = TM_LINK_UNSET;
+                int rc = add_loose(g, tm_mklink(t, i), PAR_PE_NONE);
+                if (rc)
+                    return rc;
                 continue;
             }
-            uint32_t u = tm_ltet(l);
-            int j = tm_lface(l);
-            if (u < t)
-                continue; /* seen from u */
-            uint32_t back = g->ipe[4 * (size_t)u + (size_t)j];
-            if (g->src[t] == g->src[u]) {
-                if (named != PAR_PE_NONE || back != PAR_PE_NONE)
-                    rep->iface_mismatch++;
-            } else if (named != g->src[u] || back != g->src[t]) {
-                rep->iface_mismatch++;
+            if (u < t) {
+                down++; /* checked from u */
+                continue;
             }
+            up++;
+            int j = tm_lface(l);
+            const tm_tet *U = &m->tets[u];
+            if (U->n[j] != tm_mklink(t, i))
+                rep->bad_links++;
             uint32_t x[3], y[3];
             face_of(m, t, i, x);
             face_of(m, u, j, y);
-            if (!face_opposed(x, y))
-                rep->misoriented++;
-            if (tm_face_marker(m, t, i) != tm_face_marker(m, u, j))
-                rep->marker_mismatch++;
+            /* y must be x reversed, in one of its three rotations: tested
+             * without branches, as the rotation is anyone's guess */
+            int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
+                          ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
+                          ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+            rep->misoriented += (size_t)!opposed;
+            rep->marker_mismatch +=
+                m->marker[4 * (size_t)t + (size_t)i] != m->marker[4 * (size_t)u + (size_t)j];
+            g->suspect |= U->v[j] == T->v[i];
+            uint64_t h = face_hash(g->vk, x[0], x[1], x[2]);
+            int rc = add_hash(&g->hash, &g->nhash, &g->caphash, h);
+            if (rc)
+                return rc;
         }
     }
+    rep->bad_links += up > down ? up - down : down - up;
+    return 0;
 }
+
+/* --------------------------------------------------- 5. loose faces */
+
+/* A face alone: an interface face with nothing on the other side, or an
+ * open face. */
+static void loose_alone(tm_mesh *m, const loose *a, par_merge_report *rep)
+{
+    m->tets[tm_ltet(a->f)].n[tm_lface(a->f)] = TM_LINK_NONE;
+    if (a->pe != PAR_PE_NONE)
+        rep->iface_unmatched++;
+    else
+        rep->open_faces++;
+}
+
+/* Two loose faces with the same vertices: linked, and each must name the
+ * other's PE (or neither a PE, within one message); checked as in step
+ * 4, suspect included. */
+static void loose_pair(merge *g, tm_mesh *m, const loose *a, const loose *b,
+                       par_merge_report *rep)
+{
+    uint32_t t = tm_ltet(a->f), u = tm_ltet(b->f);
+    int i = tm_lface(a->f), j = tm_lface(b->f);
+    m->tets[t].n[i] = b->f;
+    m->tets[u].n[j] = a->f;
+    g->suspect |= m->tets[t].v[i] == m->tets[u].v[j];
+    uint32_t st = src_of(g, t), su = src_of(g, u);
+    if (st == su) {
+        if (a->pe != PAR_PE_NONE || b->pe != PAR_PE_NONE)
+            rep->iface_mismatch++;
+    } else if (a->pe != su || b->pe != st) {
+        rep->iface_mismatch++;
+    }
+    check_pair(m, t, i, u, j, rep);
+}
+
+/* The loose faces grouped by their vertices (a hash table of the few
+ * percent of faces that are loose), each group checked; a group's hash
+ * goes to step 6, and also to g->big when it has more than two faces. */
+static int match_loose(merge *g, tm_mesh *m, par_merge_report *rep)
+{
+    size_t n = 0;
+    for (size_t e = 0; e < g->nlf; e++)
+        if (!dropped(g, tm_ltet(g->lf[e].f))) {
+            loose *a = &g->lf[n++];
+            *a = g->lf[e];
+            face_key(m, tm_ltet(a->f), tm_lface(a->f), a->key);
+            a->next = NO_FACE;
+        }
+    g->nlf = n;
+    size_t cap = 2;
+    while (cap < 2 * n)
+        cap *= 2;
+    uint32_t *tab = malloc(cap * sizeof *tab);
+    if (!tab)
+        return PDR_ENOMEM;
+    memset(tab, 0xff, cap * sizeof *tab);
+    size_t mask = cap - 1;
+    for (size_t e = 0; e < n; e++) {
+        loose *a = &g->lf[e];
+        size_t s = (size_t)face_hash(g->vk, a->key[0], a->key[1], a->key[2]) & mask;
+        while (tab[s] != NO_FACE && memcmp(g->lf[tab[s]].key, a->key, sizeof a->key))
+            s = (s + 1) & mask;
+        if (tab[s] == NO_FACE) {
+            tab[s] = (uint32_t)e;
+        } else {
+            a->next = g->lf[tab[s]].next;
+            g->lf[tab[s]].next = (uint32_t)e;
+        }
+    }
+    int rc = 0;
+    for (size_t s = 0; s < cap && !rc; s++) {
+        if (tab[s] == NO_FACE)
+            continue;
+        const loose *a = &g->lf[tab[s]];
+        size_t size = 1;
+        for (uint32_t e = a->next; e != NO_FACE; e = g->lf[e].next)
+            size++;
+        if (size == 2) {
+            loose_pair(g, m, a, &g->lf[a->next], rep);
+        } else {
+            /* alone, or one of more than two: left unlinked */
+            for (uint32_t e = tab[s]; e != NO_FACE; e = g->lf[e].next)
+                loose_alone(m, &g->lf[e], rep);
+        }
+        uint64_t h = face_hash(g->vk, a->key[0], a->key[1], a->key[2]);
+        rc = add_hash(&g->hash, &g->nhash, &g->caphash, h);
+        if (!rc && size > 2)
+            rc = add_hash(&g->big, &g->nbig, &g->capbig, h);
+    }
+    free(tab);
+    return rc;
+}
+
+/* ------------------------------------------------- 6. faces of three */
+
+/* Faces of more than two tetrahedra. Every face of a kept tetrahedron is
+ * in one linked pair of step 4 or one group of step 5, each hashed once:
+ * a face is in more than two tetrahedra exactly when it is a group of
+ * more than two, or when its hash repeats; only then are faces counted
+ * one by one. */
+static int find_nonmanifold(merge *g, const tm_mesh *m, par_merge_report *rep)
+{
+    uint64_t *rh = NULL;
+    size_t nr = 0;
+    int rc = hdup_find(g->hash, g->nhash, &g->scratch, &rh, &nr);
+    if (rc)
+        return rc;
+    for (size_t k = 0; k < g->nbig; k++)
+        if (!hdup_has(rh, nr, g->big[k]))
+            rep->nonmanifold++; /* otherwise counted below */
+    cand *c = NULL;
+    size_t nc = 0, cap = 0;
+    for (uint32_t t = 0; t < m->nslots && nr && !rc; t++) {
+        if (dropped(g, t))
+            continue;
+        for (int i = 0; i < 4 && !rc; i++) {
+            uint32_t s[4] = {0, 0, 0, 0};
+            face_key(m, t, i, s);
+            if (hdup_has(rh, nr, face_hash(g->vk, s[0], s[1], s[2])))
+                rc = add_cand(&c, &nc, &cap, s, tm_mklink(t, i));
+        }
+    }
+    free(rh);
+    if (!rc && nc) {
+        qsort(c, nc, sizeof *c, cmp_cand);
+        for (size_t k = 0; k < nc;) {
+            size_t e = k + 1;
+            while (e < nc && !memcmp(c[e].s, c[k].s, sizeof c[k].s))
+                e++;
+            rep->nonmanifold += e - k > 2;
+            k = e;
+        }
+    }
+    free(c);
+    return rc;
+}
+
+/* --------------------------------------------------- 7. the boundary */
 
 /* 1 if y is x rotated (the same oriented triangle). */
 static int same_rotation(const uint32_t x[3], const uint32_t y[3])
@@ -366,47 +743,64 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
         if (g->w[k].sm->rank != k || g->w[k].sm->size != g->n)
             return PDR_EPARSE;
     }
-    int rc = number_vertices(g);
-    if (!rc)
-        rc = tm_enable(&out->m, TM_FEAT_GIDS);
+    tm_mesh *m = &out->m;
+    int rc = tm_enable(m, TM_FEAT_GIDS);
     if (!rc) {
-        out->m.gid[0] = PAR_GID_INF;
+        m->gid[0] = PAR_GID_INF;
         rc = add_vertices(g, out, rep);
     }
     if (!rc)
-        rc = add_tets(g, out, rep);
-    size_t nonmanifold = 0;
+        rc = add_tets(g, out);
+    if (!rc && g->careful)
+        rc = find_dup_tets(g, m, rep);
     if (!rc)
-        rc = tm_link_faces(&out->m, &nonmanifold);
-    if (rc)
-        return rc;
-    rep->nonmanifold = nonmanifold;
-    check_faces(g, &out->m, rep);
-    rc = add_bd(g, out, rep);
+        rc = check_links(g, m, rep);
+    if (!rc)
+        rc = match_loose(g, m, rep);
+    if (!rc)
+        rc = find_nonmanifold(g, m, rep);
+    if (!rc)
+        rc = add_bd(g, out, rep);
     if (!rc)
         rc = par_wire_seg_acute(out);
     if (rc)
         return rc;
-    tm_rebuild_hints(&out->m);
+    tm_rebuild_hints(m);
     out->classified = 1;
-    rep->vertices = out->m.nv;
-    rep->tets = out->m.nlive;
+    rep->vertices = m->nv;
+    rep->tets = m->nlive;
     return par_merge_problems(rep) ? PDR_ETOPOLOGY : 0;
 }
 
+/* A first run leaves step 3 out: it cannot change a mesh that fits (one
+ * without problems), and a tetrahedron sent twice always shows in that
+ * run, as problems or as a suspect pair. Its two copies have the same
+ * faces: where a copy's face is linked to the other copy's, both sides
+ * have the same vertex opposite (the suspect); where not, the face is in
+ * two linked pairs or groups (a face of more than two tetrahedra), or in
+ * a group of loose faces with it (linked as a suspect, or more than two),
+ * or alone (open or unmatched). Only then does a second, careful run drop
+ * the later copies first and count what is left, as the report says. */
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
                     const ref_opts *o, ref_mesher *out, par_merge_report *rep)
 {
-    memset(rep, 0, sizeof *rep);
-    int rc = ref_init(out, p, o);
-    if (rc)
-        return rc;
-    merge g;
-    memset(&g, 0, sizeof g);
-    g.n = n;
-    rc = n ? merge_all(&g, msg, len, p, out, rep) : PDR_EINVAL;
-    st_free(&g);
-    if (rc)
-        ref_free(out);
+    int rc = 0;
+    for (int careful = 0; careful < 2; careful++) {
+        memset(rep, 0, sizeof *rep);
+        rc = ref_init(out, p, o);
+        if (rc)
+            return rc;
+        merge g;
+        memset(&g, 0, sizeof g);
+        g.n = n;
+        g.careful = careful;
+        rc = n ? merge_all(&g, msg, len, p, out, rep) : PDR_EINVAL;
+        int again = !careful && (rc == PDR_ETOPOLOGY || (!rc && g.suspect));
+        st_free(&g);
+        if (rc || again)
+            ref_free(out);
+        if (!again)
+            break;
+    }
     return rc;
 }

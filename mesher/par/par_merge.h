@@ -19,6 +19,7 @@
  *    on both sides naming each other's PE (or is one within a PE);
  *  - two tetrahedra sharing a face with the same orientation, or with
  *    different markers;
+ *  - a link within a message that does not come back;
  *  - a subsegment or subfacet sent twice with different input feature or
  *    orientation (equal copies are merged, their flags or-ed).
  *
@@ -50,9 +51,11 @@ typedef struct par_merge_report {
     size_t iface_unmatched;  /* interface faces with nothing on the other side */
     size_t iface_mismatch;   /* shared faces not named as interface faces
                                 by both sides, naming each other's PE */
-    size_t misoriented;      /* shared faces seen with the same orientation */
+    size_t misoriented;      /* shared faces seen with the same orientation
+                                (or, linked by their PE, not one triangle) */
     size_t marker_mismatch;  /* shared faces whose two sides differ in marker */
     size_t bd_conflicts;     /* subsegments/subfacets sent twice, differing */
+    size_t bad_links;        /* links within a message that do not come back */
 } par_merge_report;
 
 /* Number of mismatches in rep (everything but the sizes). */

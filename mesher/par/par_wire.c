@@ -11,7 +11,7 @@
 
 /* Bytes per element of the extension's arrays. */
 #define VEXT_ELEM (1 + 4 + 4)
-#define TEXT_ELEM (2 + 2)
+#define TEXT_ELEM (2 + 2 + 16)
 #define SEG_ELEM (4 + 4 + 4 + 2)
 #define FAC_ELEM (12 + 4 + 2)
 /* At most six subsegments and four subfacets per tetrahedron sent. */
@@ -46,10 +46,48 @@ typedef struct gid_vertex {
     uint32_t v;
 } gid_vertex;
 
-static int cmp_gid(const void *a, const void *b)
+/* Bits per pass of sort_gids. */
+#define RADIX_BITS 11
+#define RADIX_BINS (1u << RADIX_BITS)
+
+/* Sorts a[0..n) by gid, least significant digit first, with tmp[0..n) as
+ * scratch. A gid is a rank and a counter (pr_gid_make): most of its 64
+ * bits are the same in every vertex of a PE, and a digit that is the same
+ * in all of them is skipped, so this is about three passes over a table
+ * that qsort took ten times as long for. Returns 0 or PDR_ENOMEM. */
+static int sort_gids(gid_vertex *a, uint32_t n)
 {
-    uint64_t x = ((const gid_vertex *)a)->gid, y = ((const gid_vertex *)b)->gid;
-    return (x > y) - (x < y);
+    gid_vertex *tmp = malloc((n ? n : 1) * sizeof *tmp);
+    size_t *count = malloc(RADIX_BINS * sizeof *count);
+    if (!tmp || !count) {
+        free(tmp);
+        free(count);
+        return PDR_ENOMEM;
+    }
+    gid_vertex *from = a, *to = tmp;
+    for (unsigned shift = 0; shift < 64; shift += RADIX_BITS) {
+        memset(count, 0, RADIX_BINS * sizeof *count);
+        for (uint32_t i = 0; i < n; i++)
+            count[(from[i].gid >> shift) & (RADIX_BINS - 1)]++;
+        if (n == 0 || count[(from[0].gid >> shift) & (RADIX_BINS - 1)] == n)
+            continue; /* one digit everywhere: the order stays */
+        size_t sum = 0;
+        for (unsigned d = 0; d < RADIX_BINS; d++) {
+            size_t c = count[d];
+            count[d] = sum;
+            sum += c;
+        }
+        for (uint32_t i = 0; i < n; i++)
+            to[count[(from[i].gid >> shift) & (RADIX_BINS - 1)]++] = from[i];
+        gid_vertex *x = from;
+        from = to;
+        to = x;
+    }
+    if (from != a)
+        memcpy(a, from, (size_t)n * sizeof *a);
+    free(tmp);
+    free(count);
+    return 0;
 }
 
 /* Scratch of one encoding; every pointer owned, freed by enc_free. */
@@ -57,6 +95,8 @@ typedef struct enc {
     uint32_t *idx;      /* per vertex of the mesh: message index or UINT32_MAX */
     gid_vertex *verts;  /* the vertices sent, sorted by gid */
     uint32_t nv;
+    uint32_t *pos;      /* per slot of the mesh: index in src->tets or UINT32_MAX;
+                           NULL when that is the slot itself (pos_of) */
     pr_submesh sm;      /* arrays below are ours */
     uint8_t *seen_seg, *seen_fac; /* per bd slot: listed already */
     uint32_t *segs, *facs; /* bd indices to send */
@@ -67,6 +107,7 @@ static void enc_free(enc *e)
 {
     free(e->idx);
     free(e->verts);
+    free(e->pos);
     free(e->sm.vert.gid);
     free(e->sm.vert.xyz);
     free(e->sm.vert.flags);
@@ -112,7 +153,8 @@ static int enc_vertices(enc *e, const par_wire_src *src)
     }
     if (n > PR_MAX_VERTICES)
         return PDR_ELIMIT;
-    qsort(e->verts, n, sizeof *e->verts, cmp_gid);
+    if (sort_gids(e->verts, n))
+        return PDR_ENOMEM;
     for (uint32_t i = 0; i < n; i++) {
         if (i > 0 && e->verts[i].gid == e->verts[i - 1].gid)
             return PDR_EINVAL; /* two vertices with one gid */
@@ -139,7 +181,59 @@ static int enc_vertices(enc *e, const par_wire_src *src)
     return 0;
 }
 
-/* The tetrahedron table and the interface faces. */
+/* Where slot u of the mesh is in the message, or UINT32_MAX: e->pos[u],
+ * or without e->pos the identity below nt (the tetrahedra sent are slots
+ * 0..nt-1 in order, as a PE's whole mesh is when it has no free slot: no
+ * map to build then, and no random reads of one). */
+static uint32_t pos_of(const enc *e, const par_wire_src *src, uint32_t u)
+{
+    if (u >= src->r->m.nslots)
+        return UINT32_MAX;
+    return e->pos ? e->pos[u] : u < src->nt ? u : UINT32_MAX;
+}
+
+/* The PE across face i of tets[k] (PAR_PE_NONE for none): from face_pe,
+ * or from the interface table the face's link names. Returns 0 or
+ * PDR_EINVAL (a link to no interface entry). */
+static int face_pe(const par_wire_src *src, size_t k, int i, uint32_t *pe)
+{
+    *pe = PAR_PE_NONE;
+    if (src->face_pe) {
+        *pe = src->face_pe[4 * k + (size_t)i];
+        return 0;
+    }
+    tm_link l = src->r->m.tets[src->tets[k]].n[i];
+    if (l < TM_LINK_SPECIAL || l >= TM_LINK_UNSET)
+        return 0;
+    uint32_t j = l - TM_LINK_SPECIAL;
+    if (!src->ifc || j >= src->nifc || src->ifc[j].pe == PAR_PE_NONE)
+        return PDR_EINVAL;
+    *pe = src->ifc[j].pe;
+    return 0;
+}
+
+/* The link sent for face i of tets[k] (see the header): refuses a face
+ * both linked to a tetrahedron sent and named remote. That the link comes
+ * back is the receiver's check: here it would cost a cache miss per face
+ * of a large mesh. */
+static int enc_link(const enc *e, const par_wire_src *src, size_t k, int i, uint32_t *out)
+{
+    const tm_mesh *m = &src->r->m;
+    uint32_t pe;
+    if (face_pe(src, k, i, &pe))
+        return PDR_EINVAL;
+    tm_link l = m->tets[src->tets[k]].n[i];
+    uint32_t u = tm_is_special(l) ? UINT32_MAX : pos_of(e, src, tm_ltet(l));
+    if (u != UINT32_MAX && pe != PAR_PE_NONE)
+        return PDR_EINVAL;
+    *out = pe != PAR_PE_NONE  ? PAR_WIRE_LINK_IFACE
+           : u != UINT32_MAX ? tm_mklink(u, tm_lface(l))
+                             : PAR_WIRE_LINK_NONE;
+    return 0;
+}
+
+/* The tetrahedron table and the interface faces (the links are written
+ * straight into the message by put_ext). */
 static int enc_tets(enc *e, const par_wire_src *src)
 {
     const tm_mesh *m = &src->r->m;
@@ -152,6 +246,20 @@ static int enc_tets(enc *e, const par_wire_src *src)
     tt->subseg = malloc(nt ? nt : 1);
     if (!tt->v || !tt->marker || !tt->subseg)
         return PDR_ENOMEM;
+    size_t ident = 0;
+    while (ident < nt && src->tets[ident] == ident)
+        ident++;
+    if (ident < nt) {
+        e->pos = malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *e->pos);
+        if (!e->pos)
+            return PDR_ENOMEM;
+        memset(e->pos, 0xff, (size_t)m->nslots * sizeof *e->pos);
+        for (size_t k = 0; k < nt; k++) {
+            if (e->pos[src->tets[k]] != UINT32_MAX)
+                return PDR_EINVAL; /* a slot twice: its links would not come back */
+            e->pos[src->tets[k]] = (uint32_t)k;
+        }
+    }
     uint32_t nif = 0;
     for (size_t k = 0; k < nt; k++) {
         uint32_t t = src->tets[k];
@@ -161,7 +269,9 @@ static int enc_tets(enc *e, const par_wire_src *src)
             if (mk < 0 || (size_t)mk > p->nfacet)
                 return PDR_EINVAL;
             tt->marker[4 * k + (size_t)i] = mk ? mk - 1 : PR_MARKER_NONE;
-            uint32_t pe = src->face_pe[4 * k + (size_t)i];
+            uint32_t pe;
+            if (face_pe(src, k, i, &pe))
+                return PDR_EINVAL;
             if (pe != PAR_PE_NONE) {
                 if (pe >= src->size || pe == src->rank)
                     return PDR_EINVAL;
@@ -177,11 +287,14 @@ static int enc_tets(enc *e, const par_wire_src *src)
     if (!f->face || !f->remote)
         return PDR_ENOMEM;
     nif = 0;
-    for (size_t j = 0; j < 4 * nt; j++)
-        if (src->face_pe[j] != PAR_PE_NONE) {
+    for (size_t j = 0; j < 4 * nt; j++) {
+        uint32_t pe;
+        face_pe(src, j / 4, (int)(j % 4), &pe); /* checked above */
+        if (pe != PAR_PE_NONE) {
             f->face[nif] = (uint32_t)j;
-            f->remote[nif++] = src->face_pe[j];
+            f->remote[nif++] = pe;
         }
+    }
     return 0;
 }
 
@@ -233,38 +346,60 @@ static int enc_bd(enc *e, const par_wire_src *src)
     return 0;
 }
 
-static void put_ext(pr_buf *b, const enc *e, const par_wire_src *src)
+/* The extension, stored straight into b (one reservation, no call per
+ * value: a merge message has millions of them). Returns 0, PDR_EINVAL (a
+ * link enc_link refuses) or PDR_ENOMEM; b->len is then where it was. */
+static int put_ext(pr_buf *b, const enc *e, const par_wire_src *src)
 {
     const ref_mesher *r = src->r;
     const bd_set *bd = &r->bd;
-    pr_put_u32(b, e->nv);
-    for (uint32_t i = 0; i < e->nv; i++)
-        pr_put_u8(b, bd->vkind[e->verts[i].v]);
-    for (uint32_t i = 0; i < e->nv; i++)
-        pr_put_u32(b, bd->vfeat[e->verts[i].v]);
-    for (uint32_t i = 0; i < e->nv; i++)
-        pr_put_u32(b, f32_bits(bd->vrins[e->verts[i].v]));
-    pr_put_u32(b, src->nt);
-    for (uint32_t k = 0; k < src->nt; k++)
-        pr_put_u16(b, r->m.flags[src->tets[k]] & PAR_WIRE_TFLAGS);
-    for (uint32_t k = 0; k < src->nt; k++)
-        pr_put_u16(b, r->region ? r->region[src->tets[k]] : 0);
-    pr_put_u32(b, e->nseg);
+    size_t nv = e->nv, nt = src->nt;
+    size_t n = 4 + nv * VEXT_ELEM + 4 + nt * TEXT_ELEM + 4 + (size_t)e->nseg * SEG_ELEM + 4 +
+               (size_t)e->nfac * FAC_ELEM;
+    if (pr_buf_reserve(b, n))
+        return PDR_ENOMEM;
+    uint8_t *q = b->data + b->len;
+    pr_store_u32(q, e->nv);
+    q += 4;
+    for (size_t i = 0; i < nv; i++)
+        *q++ = bd->vkind[e->verts[i].v];
+    for (size_t i = 0; i < nv; i++, q += 4)
+        pr_store_u32(q, bd->vfeat[e->verts[i].v]);
+    for (size_t i = 0; i < nv; i++, q += 4)
+        pr_store_u32(q, f32_bits(bd->vrins[e->verts[i].v]));
+    pr_store_u32(q, src->nt);
+    q += 4;
+    for (size_t k = 0; k < nt; k++, q += 2)
+        pr_store_u16(q, r->m.flags[src->tets[k]] & PAR_WIRE_TFLAGS);
+    for (size_t k = 0; k < nt; k++, q += 2)
+        pr_store_u16(q, r->region ? r->region[src->tets[k]] : 0);
+    for (size_t k = 0; k < nt; k++)
+        for (int i = 0; i < 4; i++, q += 4) {
+            uint32_t c;
+            if (enc_link(e, src, k, i, &c))
+                return PDR_EINVAL;
+            pr_store_u32(q, c);
+        }
+    pr_store_u32(q, e->nseg);
+    q += 4;
     for (int c = 0; c < 2; c++)
-        for (uint32_t j = 0; j < e->nseg; j++)
-            pr_put_u32(b, e->idx[bd->segs[e->segs[j]].v[c]]);
-    for (uint32_t j = 0; j < e->nseg; j++)
-        pr_put_u32(b, bd->segs[e->segs[j]].seg);
-    for (uint32_t j = 0; j < e->nseg; j++)
-        pr_put_u16(b, bd->segs[e->segs[j]].flags & PAR_WIRE_BDFLAGS);
-    pr_put_u32(b, e->nfac);
+        for (uint32_t j = 0; j < e->nseg; j++, q += 4)
+            pr_store_u32(q, e->idx[bd->segs[e->segs[j]].v[c]]);
+    for (uint32_t j = 0; j < e->nseg; j++, q += 4)
+        pr_store_u32(q, bd->segs[e->segs[j]].seg);
+    for (uint32_t j = 0; j < e->nseg; j++, q += 2)
+        pr_store_u16(q, bd->segs[e->segs[j]].flags & PAR_WIRE_BDFLAGS);
+    pr_store_u32(q, e->nfac);
+    q += 4;
     for (uint32_t j = 0; j < e->nfac; j++)
-        for (int c = 0; c < 3; c++)
-            pr_put_u32(b, e->idx[bd->facs[e->facs[j]].v[c]]);
-    for (uint32_t j = 0; j < e->nfac; j++)
-        pr_put_u32(b, bd->facs[e->facs[j]].facet);
-    for (uint32_t j = 0; j < e->nfac; j++)
-        pr_put_u16(b, bd->facs[e->facs[j]].flags & PAR_WIRE_BDFLAGS);
+        for (int c = 0; c < 3; c++, q += 4)
+            pr_store_u32(q, e->idx[bd->facs[e->facs[j]].v[c]]);
+    for (uint32_t j = 0; j < e->nfac; j++, q += 4)
+        pr_store_u32(q, bd->facs[e->facs[j]].facet);
+    for (uint32_t j = 0; j < e->nfac; j++, q += 2)
+        pr_store_u16(q, bd->facs[e->facs[j]].flags & PAR_WIRE_BDFLAGS);
+    b->len += n;
+    return 0;
 }
 
 int par_wire_encode(pr_buf *b, const par_wire_src *src)
@@ -295,6 +430,14 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src)
         enc_free(&e);
         return rc;
     }
+    /* One allocation for the whole message instead of a doubling series
+     * of copies (a merge message is tens of megabytes): the submesh and
+     * the extension's bytes per vertex, tetrahedron, interface face and
+     * boundary piece, and room for the headers and counts (about 70
+     * bytes). */
+    size_t nv = e.nv, nt = src->nt, nif = e.sm.iface.n;
+    pr_buf_reserve(b, 256 + nv * (8 + 24 + 4 + VEXT_ELEM) + nt * (16 + 16 + 1 + TEXT_ELEM) +
+                          nif * 8 + (size_t)e.nseg * SEG_ELEM + (size_t)e.nfac * FAC_ELEM);
     size_t start = b->len;
     pr_put_u32(b, PAR_WIRE_MAGIC);
     pr_put_u32(b, PAR_WIRE_VERSION);
@@ -309,8 +452,8 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src)
         else
             pr_store_u32(b->data + at, (uint32_t)sub);
     }
-    if (!rc)
-        put_ext(b, &e, src);
+    if (!rc && !b->err)
+        rc = put_ext(b, &e, src);
     if (!rc && b->err)
         rc = from_pr(b->err, PDR_EINVAL);
     if (rc && b->len >= start)
@@ -324,41 +467,26 @@ int par_wire_encode_sub(pr_buf *b, const par_sub *s)
     const tm_mesh *m = &s->r.m;
     size_t n = m->nlive;
     uint32_t *tets = malloc((n ? n : 1) * sizeof *tets);
-    uint32_t *pe = malloc((n ? 4 * n : 1) * sizeof *pe);
-    if (!tets || !pe) {
-        free(tets);
-        free(pe);
+    if (!tets)
         return PDR_ENOMEM;
-    }
     int rc = 0;
     uint32_t k = 0;
     for (uint32_t t = 0; t < m->nslots && !rc; t++) {
         if (tm_is_dead(m, t))
             continue;
-        if (k >= n) {
+        if (k >= n)
             rc = PDR_EINVAL; /* nlive is wrong */
-            break;
-        }
-        for (int i = 0; i < 4; i++) {
-            tm_link l = m->tets[t].n[i];
-            uint32_t q = PAR_PE_NONE;
-            if (l >= TM_LINK_SPECIAL && l < TM_LINK_UNSET) {
-                uint32_t j = l - TM_LINK_SPECIAL;
-                if (j >= s->nifc || s->ifc[j].pe == PAR_PE_NONE)
-                    rc = PDR_EINVAL;
-                else
-                    q = s->ifc[j].pe;
-            }
-            pe[4 * (size_t)k + (size_t)i] = q;
-        }
-        tets[k++] = t;
+        else
+            tets[k++] = t;
     }
     if (!rc) {
-        par_wire_src src = {&s->r, m->gid, tets, k, pe, s->rank, s->rank, s->size, s->next_seq};
+        /* the PEs across faces from s's interface table, not a copy of
+         * them per face: a merge message has millions of faces */
+        par_wire_src src = {&s->r,   m->gid,       tets,   k, NULL, s->rank, s->rank,
+                            s->size, s->next_seq, s->ifc, s->nifc};
         rc = par_wire_encode(b, &src);
     }
     free(tets);
-    free(pe);
     return rc;
 }
 
@@ -370,8 +498,6 @@ void par_wire_clear(par_wire *w)
     free(w->vkind);
     free(w->vfeat);
     free(w->vrins);
-    free(w->tflags);
-    free(w->region);
     free(w->seg_v);
     free(w->seg_id);
     free(w->seg_flags);
@@ -431,25 +557,46 @@ static int dec_vertices(pr_reader *rd, const plc *p, par_wire *w)
     return 0;
 }
 
+/* The links against the decoder's rules (see the header): in range, not
+ * to the same tetrahedron, IFACE exactly on the listed faces. One pass in
+ * order: whether a link comes back would cost a cache miss per face of a
+ * large message, and the receivers read the other side anyway. */
+static int links_ok(const par_wire *w)
+{
+    const pr_iftable *f = &w->sm->iface;
+    size_t nf = 4 * (size_t)w->sm->tet.n;
+    uint32_t q = 0;
+    for (size_t x = 0; x < nf; x++) {
+        uint32_t c = par_wire_link(w, x);
+        /* the interface faces are strictly ascending (proto checked) */
+        int listed = q < f->n && f->face[q] == x;
+        q += (uint32_t)listed;
+        if (c == PAR_WIRE_LINK_IFACE) {
+            if (!listed)
+                return 0;
+        } else if (listed) {
+            return 0;
+        } else if (c != PAR_WIRE_LINK_NONE) {
+            if (c >= nf || c >> 2 == x >> 2)
+                return 0;
+        }
+    }
+    return 1;
+}
+
 static int dec_tets(pr_reader *rd, const plc *p, par_wire *w)
 {
     uint32_t n = w->sm->tet.n, c;
-    const uint8_t *fl, *rg;
     if (pr_get_u32(rd, &c) || c != n)
         return PDR_EPARSE;
-    if (pr_get_view(rd, &fl, 2 * (size_t)n) || pr_get_view(rd, &rg, 2 * (size_t)n))
+    if (pr_get_view(rd, &w->tflags_le, 2 * (size_t)n) ||
+        pr_get_view(rd, &w->region_le, 2 * (size_t)n) ||
+        pr_get_view(rd, &w->link_le, 16 * (size_t)n))
         return PDR_EPARSE;
-    w->tflags = malloc((n ? n : 1) * sizeof *w->tflags);
-    w->region = malloc((n ? n : 1) * sizeof *w->region);
-    if (!w->tflags || !w->region)
-        return PDR_ENOMEM;
-    for (uint32_t k = 0; k < n; k++) {
-        w->tflags[k] = pr_load_u16(fl + 2 * (size_t)k);
-        w->region[k] = pr_load_u16(rg + 2 * (size_t)k);
-        if ((w->tflags[k] & ~PAR_WIRE_TFLAGS) || w->region[k] > p->nregion)
+    for (uint32_t k = 0; k < n; k++)
+        if ((par_wire_tflags(w, k) & ~PAR_WIRE_TFLAGS) || par_wire_region(w, k) > p->nregion)
             return PDR_EPARSE;
-    }
-    return 0;
+    return links_ok(w) ? 0 : PDR_EPARSE;
 }
 
 /* True if vertex index i of the table is a real vertex. */
@@ -589,6 +736,23 @@ static int links_agree(const tm_mesh *m)
     return 1;
 }
 
+/* The links the faces gave (slot k is tetrahedron k of the message) are
+ * the ones the message sent; as tm_link_faces' links come back, so do the
+ * message's then. */
+static int links_sent(const par_wire *w, const tm_mesh *m)
+{
+    for (uint32_t t = 0; t < w->sm->tet.n; t++)
+        for (int i = 0; i < 4; i++) {
+            uint32_t c = par_wire_link(w, 4 * (size_t)t + (size_t)i);
+            tm_link l = m->tets[t].n[i];
+            if (c == PAR_WIRE_LINK_IFACE ? !tm_is_special(l) || l == TM_LINK_NONE
+                : c == PAR_WIRE_LINK_NONE ? l != TM_LINK_NONE
+                                          : l != c)
+                return 0;
+        }
+    return 1;
+}
+
 static int build_tets(const par_wire *w, const uint32_t *loc, par_sub *s)
 {
     const pr_submesh *sm = w->sm;
@@ -604,7 +768,7 @@ static int build_tets(const par_wire *w, const uint32_t *loc, par_sub *s)
         uint32_t t = tm_alloc_tet(m);
         if (t != k)
             return PDR_EINVAL;
-        uint16_t fl = w->tflags[k];
+        uint16_t fl = par_wire_tflags(w, k);
         for (int i = 0; i < 4; i++) {
             size_t j = 4 * (size_t)k + (size_t)i;
             m->tets[t].v[i] = loc[sm->tet.v[j]];
@@ -618,8 +782,8 @@ static int build_tets(const par_wire *w, const uint32_t *loc, par_sub *s)
         m->flags[t] = fl;
         m->nghost += (uint32_t)tm_is_ghost(m, t);
         if (s->r.region)
-            s->r.region[t] = w->region[k];
-        else if (w->region[k])
+            s->r.region[t] = par_wire_region(w, k);
+        else if (par_wire_region(w, k))
             return PDR_EPARSE; /* unreachable: the decoder checked nregion */
     }
     return 0;
@@ -685,7 +849,7 @@ static int build(const par_wire *w, par_sub *s)
         else
             rc = par_sub_add_iface(s, t, i, sm->iface.remote[j]);
     }
-    if (!rc && !links_agree(m))
+    if (!rc && (!links_agree(m) || !links_sent(w, m)))
         rc = PDR_ETOPOLOGY;
     if (!rc)
         rc = build_bd(w, loc, s);

@@ -21,6 +21,7 @@
  *   u32 nt  (== the submesh's tetrahedron count)
  *       u16 tflags[nt]   only PAR_WIRE_TFLAGS bits
  *       u16 region[nt]   region index + 1, 0 for none; <= plc.nregion
+ *       u32 link[4 nt]   per face 4t+i, what is across it (below)
  *   u32 nseg, then u32 a[nseg], u32 b[nseg], u32 seg[nseg], u16 flags[nseg]
  *                        vertex indices (distinct, not the infinite
  *                        vertex), input segment < plc.nseg, flags only
@@ -37,6 +38,22 @@
  * neighbour is neither sent with it nor named as an interface face
  * arrives with no neighbour (TM_LINK_NONE).
  *
+ * Links. link[4t+i] says what lies across face i of tetrahedron t:
+ * 4u+j when it is face j of tetrahedron u of this message, as tm_mesh
+ * links are (tm_mklink); PAR_WIRE_LINK_IFACE when the face is in the
+ * interface table; PAR_WIRE_LINK_NONE when there is nothing. They let a
+ * receiver take the tetrahedra as they are, without matching every face
+ * by its vertices again: the merge at rank 0 only has to match the
+ * interface faces, a few percent of the faces. The decoder refuses (as
+ * PDR_EPARSE) a link to a tetrahedron not in the message, a tetrahedron
+ * linked to itself, and an IFACE code on a face the interface table does
+ * not list, or a listed face without it; so a receiver can follow every
+ * link without a range check. Whether a link comes back (u's link j is
+ * 4t+i) and joins the same triangle seen from its two sides, with one
+ * marker, is the receiver's check (par_wire_build refuses, par_merge_build
+ * counts): it reads the other side of every face, a cache miss each in a
+ * large message, which a receiver pays once for all of these.
+ *
  * Every decoder checks each length and count against the bytes left
  * before reading (pr_reader), and every index and value against its range;
  * a malformed message is PDR_EPARSE, never an out-of-bounds access.
@@ -52,7 +69,11 @@
 #include "refine/refine.h"
 
 #define PAR_WIRE_MAGIC UINT32_C(0x57524450) /* "PDRW" */
-#define PAR_WIRE_VERSION 1u
+/* Version 2 added the links. */
+#define PAR_WIRE_VERSION 2u
+/* link codes that are not a face 4u+j (which is below 4 * PR_MAX_TETS) */
+#define PAR_WIRE_LINK_IFACE UINT32_C(0xFFFFFFFE)
+#define PAR_WIRE_LINK_NONE UINT32_C(0xFFFFFFFF)
 /* Tetrahedron flags that travel (the face and edge bits travel as the
  * submesh's markers and subsegment masks). */
 #define PAR_WIRE_TFLAGS ((uint16_t)(REF_F_EXTERIOR | REF_F_GIVEUP | REF_F_DEGENERATE | TM_F_QUEUED))
@@ -68,20 +89,30 @@ typedef struct par_wire_src {
     uint32_t nt;
     const uint32_t *face_pe; /* [4 nt]: for face i of tets[k], face_pe[4k+i]
                                 is the PE across it, or PAR_PE_NONE when
-                                the neighbour is sent too (or there is none) */
+                                the neighbour is sent too (or there is none);
+                                NULL: see ifc */
     uint32_t part, rank, size; /* as in pr_submesh */
     uint64_t next_seq;       /* the receiver's next vertex counter */
+    const par_iface *ifc;    /* without face_pe: a face linked
+                                TM_LINK_REMOTE(j) has ifc[j].pe across it
+                                (a par_sub's table), any other none */
+    size_t nifc;
 } par_wire_src;
 
-/* A decoded message. Owns every array (par_wire_clear). */
+/* A decoded message. Owns every array (par_wire_clear) but the per-
+ * tetrahedron ones of the extension, which it reads in place in the
+ * message, little-endian (par_wire_tflags, _region, _link): 20 bytes per
+ * tetrahedron, which for a merge message of 10^6 tetrahedra took longer
+ * to copy (into fresh pages) than to read twice. */
 typedef struct par_wire {
     pr_submesh *sm;     /* vertex table, tetrahedron table, interface faces */
     uint64_t next_seq;
     uint8_t *vkind;     /* [sm->vert.n] */
     uint32_t *vfeat;
     float *vrins;
-    uint16_t *tflags;   /* [sm->tet.n] */
-    uint16_t *region;
+    const uint8_t *tflags_le; /* u16 [sm->tet.n], in the message */
+    const uint8_t *region_le; /* u16 [sm->tet.n], in the message */
+    const uint8_t *link_le;   /* u32 [4 sm->tet.n], in the message */
     uint32_t nseg;
     uint32_t *seg_v;    /* [2 nseg] */
     uint32_t *seg_id;   /* [nseg] */
@@ -92,29 +123,54 @@ typedef struct par_wire {
     uint16_t *fac_flags;
 } par_wire;
 
-/* Appends the message for src to b. Returns 0, PDR_EINVAL (a bad slot,
- * gid or PE), PDR_ETOPOLOGY (a marked edge or face of a sent tetrahedron
- * has no live subsegment or subfacet in r->bd), PDR_ELIMIT (more than
- * proto's table limits) or PDR_ENOMEM; b is unchanged on error except
- * for its error state. */
+/* Appends the message for src to b. A face whose neighbour is sent too
+ * gets its link; one with a PE in face_pe gets PAR_WIRE_LINK_IFACE; any
+ * other PAR_WIRE_LINK_NONE. Returns 0, PDR_EINVAL (a bad slot, gid or PE,
+ * a face_pe given for a face whose neighbour is sent too), PDR_ETOPOLOGY
+ * (a marked edge or face of a sent tetrahedron has no live subsegment or
+ * subfacet in r->bd), PDR_ELIMIT (more than proto's table limits) or
+ * PDR_ENOMEM; b is unchanged on error except for its error state. */
 int par_wire_encode(pr_buf *b, const par_wire_src *src);
 
 /* Decodes msg[0..len) for PLC p (validated): *out gets the content, which
  * the caller releases with par_wire_clear (also after an error: out is
- * then empty). Returns 0, PDR_EPARSE (malformed: truncated, trailing
- * bytes, a count or value out of range) or PDR_ENOMEM. */
+ * then empty); msg must outlive *out, which reads parts of it in place.
+ * Returns 0, PDR_EPARSE (malformed: truncated, trailing bytes, a count or
+ * value out of range) or PDR_ENOMEM. */
 int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out);
 void par_wire_clear(par_wire *w);
+
+/* The flags (PAR_WIRE_TFLAGS bits) and region of tetrahedron k < sm->tet.n
+ * and the link of face x < 4 sm->tet.n of a decoded message (each checked
+ * by the decoder). */
+static inline uint16_t par_wire_tflags(const par_wire *w, size_t k)
+{
+    const uint8_t *p = w->tflags_le + 2 * k;
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+static inline uint16_t par_wire_region(const par_wire *w, size_t k)
+{
+    const uint8_t *p = w->region_le + 2 * k;
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+static inline uint32_t par_wire_link(const par_wire *w, size_t x)
+{
+    const uint8_t *p = w->link_le + 4 * x;
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
 
 /* Builds the submesh of a decoded message: par_sub_init(out, p, o,
  * w->sm->rank, w->sm->size), then every vertex (par_sub_vertex) and
  * tetrahedron, faces linked among them, interface faces
  * (par_sub_add_iface), markers, flags, regions, subsegments and subfacets,
- * vertex hints, and r.classified = 1. Returns 0, PDR_ETOPOLOGY (a face of
- * more than two tetrahedra, an interface face that is also shared
- * locally, two tetrahedra that disagree on a shared face's marker or
- * orientation, a subsegment or subfacet given twice), PDR_ENOMEM or
- * PDR_ELIMIT. On error out is freed (empty). p and o as for par_sub_init. */
+ * vertex hints, and r.classified = 1. The faces are linked by their
+ * vertices (tm_link_faces: a scattered submesh is small) and the result
+ * must be the message's links. Returns 0, PDR_ETOPOLOGY (a face of more
+ * than two tetrahedra, an interface face that is also shared locally, two
+ * tetrahedra that disagree on a shared face's marker or orientation, links
+ * that are not the faces', a subsegment or subfacet given twice),
+ * PDR_ENOMEM or PDR_ELIMIT. On error out is freed (empty). p and o as for
+ * par_sub_init. */
 int par_wire_build(const par_wire *w, const plc *p, const ref_opts *o, par_sub *out);
 
 /* par_wire_decode and par_wire_build in one. */
