@@ -495,7 +495,7 @@ static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
                     /* both ends: a tm_tet may straddle two lines */
                     PREFETCH(&m->tets[tm_ltet(l)].v[0]);
                     PREFETCH(&m->tets[tm_ltet(l)].n[3]);
-                    PREFETCH(&m->marker[4 * (size_t)tm_ltet(l)]);
+                    PREFETCH(&m->flags[tm_ltet(l)]);
                 }
             }
         if (dropped(g, t))
@@ -531,8 +531,8 @@ static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
                           ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
                           ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
             rep->misoriented += (size_t)!opposed;
-            rep->marker_mismatch +=
-                m->marker[4 * (size_t)t + (size_t)i] != m->marker[4 * (size_t)u + (size_t)j];
+            /* the flags first: a small array, and markers are rare */
+            rep->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, u, j);
             g->suspect |= U->v[j] == T->v[i];
             uint64_t h = face_hash(g->vk, x[0], x[1], x[2]);
             int rc = add_hash(&g->hash, &g->nhash, &g->caphash, h);

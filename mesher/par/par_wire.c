@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/pdr_util.h"
 #include "base/v3.h"
 #include "par/par_wire.h"
 
@@ -95,8 +96,10 @@ typedef struct enc {
     uint32_t *idx;      /* per vertex of the mesh: message index or UINT32_MAX */
     gid_vertex *verts;  /* the vertices sent, sorted by gid */
     uint32_t nv;
-    uint32_t *pos;      /* per slot of the mesh: index in src->tets or UINT32_MAX;
-                           NULL when that is the slot itself (pos_of) */
+    uint64_t *sent;     /* bit per slot of the mesh: in src->tets (ascending) */
+    uint32_t *below;    /* per 64 slots: how many of the slots before are sent */
+    uint32_t *pos;      /* when src->tets is not ascending: per slot, its
+                           index there or UINT32_MAX */
     pr_submesh sm;      /* arrays below are ours */
     uint8_t *seen_seg, *seen_fac; /* per bd slot: listed already */
     uint32_t *segs, *facs; /* bd indices to send */
@@ -107,6 +110,8 @@ static void enc_free(enc *e)
 {
     free(e->idx);
     free(e->verts);
+    free(e->sent);
+    free(e->below);
     free(e->pos);
     free(e->sm.vert.gid);
     free(e->sm.vert.xyz);
@@ -181,52 +186,104 @@ static int enc_vertices(enc *e, const par_wire_src *src)
     return 0;
 }
 
-/* Where slot u of the mesh is in the message, or UINT32_MAX: e->pos[u],
- * or without e->pos the identity below nt (the tetrahedra sent are slots
- * 0..nt-1 in order, as a PE's whole mesh is when it has no free slot: no
- * map to build then, and no random reads of one). */
+/* Set bits in x (no builtin: C11 has none, and x86-64's baseline lacks
+ * the instruction anyway). */
+static unsigned popcount64(uint64_t x)
+{
+    x -= (x >> 1) & UINT64_C(0x5555555555555555);
+    x = (x & UINT64_C(0x3333333333333333)) + ((x >> 2) & UINT64_C(0x3333333333333333));
+    x = (x + (x >> 4)) & UINT64_C(0x0F0F0F0F0F0F0F0F);
+    return (unsigned)((x * UINT64_C(0x0101010101010101)) >> 56);
+}
+
+/* Where slot u of the mesh is in the message, or UINT32_MAX. When the
+ * tetrahedra sent are slots 0..nt-1 (a PE's whole mesh without a free
+ * slot), u itself. When they are in ascending slot order (a PE's mesh
+ * with free slots, a part of Mo), the number of slots sent below u: a bit
+ * per slot and a count per 64 slots, 1/29 of a map of every slot, which
+ * the links of 10^6 tetrahedra read at random. */
 static uint32_t pos_of(const enc *e, const par_wire_src *src, uint32_t u)
 {
     if (u >= src->r->m.nslots)
         return UINT32_MAX;
-    return e->pos ? e->pos[u] : u < src->nt ? u : UINT32_MAX;
+    if (e->pos)
+        return e->pos[u];
+    if (!e->sent)
+        return u < src->nt ? u : UINT32_MAX;
+    uint64_t w = e->sent[u >> 6], bit = UINT64_C(1) << (u & 63);
+    return w & bit ? e->below[u >> 6] + popcount64(w & (bit - 1)) : UINT32_MAX;
 }
 
-/* The PE across face i of tets[k] (PAR_PE_NONE for none): from face_pe,
- * or from the interface table the face's link names. Returns 0 or
- * PDR_EINVAL (a link to no interface entry). */
-static int face_pe(const par_wire_src *src, size_t k, int i, uint32_t *pe)
+/* The map pos_of reads (see there). Returns 0, PDR_ENOMEM or PDR_EINVAL
+ * (a slot twice). */
+static int enc_positions(enc *e, const par_wire_src *src)
+{
+    size_t ns = src->r->m.nslots, nt = src->nt, ascending = 1, ident = 0;
+    while (ident < nt && src->tets[ident] == ident)
+        ident++;
+    if (ident == nt)
+        return 0;
+    for (size_t k = 1; k < nt && ascending; k++)
+        ascending = src->tets[k] > src->tets[k - 1];
+    if (ascending) {
+        size_t nw = ns / 64 + 1;
+        e->sent = calloc(nw, sizeof *e->sent);
+        e->below = malloc(nw * sizeof *e->below);
+        if (!e->sent || !e->below)
+            return PDR_ENOMEM;
+        for (size_t k = 0; k < nt; k++)
+            e->sent[src->tets[k] >> 6] |= UINT64_C(1) << (src->tets[k] & 63);
+        uint32_t c = 0;
+        for (size_t w = 0; w < nw; w++) {
+            e->below[w] = c;
+            c += popcount64(e->sent[w]);
+        }
+        return 0;
+    }
+    e->pos = malloc((ns ? ns : 1) * sizeof *e->pos);
+    if (!e->pos)
+        return PDR_ENOMEM;
+    memset(e->pos, 0xff, ns * sizeof *e->pos);
+    for (size_t k = 0; k < nt; k++) {
+        if (e->pos[src->tets[k]] != UINT32_MAX)
+            return PDR_EINVAL; /* a slot twice: its links would not come back */
+        e->pos[src->tets[k]] = (uint32_t)k;
+    }
+    return 0;
+}
+
+/* The PE across face i of tets[k], whose link is l (PAR_PE_NONE for
+ * none): from face_pe, or from the interface table the link names.
+ * Returns 0 or PDR_EINVAL (a link to no interface entry, a bad PE). */
+static int face_pe(const par_wire_src *src, size_t k, int i, tm_link l, uint32_t *pe)
 {
     *pe = PAR_PE_NONE;
     if (src->face_pe) {
         *pe = src->face_pe[4 * k + (size_t)i];
-        return 0;
+    } else if (l >= TM_LINK_SPECIAL && l < TM_LINK_UNSET) {
+        uint32_t j = l - TM_LINK_SPECIAL;
+        if (!src->ifc || j >= src->nifc)
+            return PDR_EINVAL;
+        *pe = src->ifc[j].pe;
+        if (*pe == PAR_PE_NONE)
+            return PDR_EINVAL; /* a free entry */
     }
-    tm_link l = src->r->m.tets[src->tets[k]].n[i];
-    if (l < TM_LINK_SPECIAL || l >= TM_LINK_UNSET)
-        return 0;
-    uint32_t j = l - TM_LINK_SPECIAL;
-    if (!src->ifc || j >= src->nifc || src->ifc[j].pe == PAR_PE_NONE)
-        return PDR_EINVAL;
-    *pe = src->ifc[j].pe;
-    return 0;
+    return *pe != PAR_PE_NONE && (*pe >= src->size || *pe == src->rank) ? PDR_EINVAL : 0;
 }
 
-/* The link sent for face i of tets[k] (see the header): refuses a face
- * both linked to a tetrahedron sent and named remote. That the link comes
- * back is the receiver's check: here it would cost a cache miss per face
- * of a large mesh. */
+/* The link sent for face i of tets[k] (see the header), once enc_tets
+ * checked the PEs: refuses a face both linked to a tetrahedron sent and
+ * named remote. That the link comes back is the receiver's check: here
+ * it would cost a cache miss per face of a large mesh. */
 static int enc_link(const enc *e, const par_wire_src *src, size_t k, int i, uint32_t *out)
 {
-    const tm_mesh *m = &src->r->m;
-    uint32_t pe;
-    if (face_pe(src, k, i, &pe))
-        return PDR_EINVAL;
-    tm_link l = m->tets[src->tets[k]].n[i];
+    tm_link l = src->r->m.tets[src->tets[k]].n[i];
+    int remote = src->face_pe ? src->face_pe[4 * k + (size_t)i] != PAR_PE_NONE
+                              : l >= TM_LINK_SPECIAL && l < TM_LINK_UNSET;
     uint32_t u = tm_is_special(l) ? UINT32_MAX : pos_of(e, src, tm_ltet(l));
-    if (u != UINT32_MAX && pe != PAR_PE_NONE)
+    if (u != UINT32_MAX && remote)
         return PDR_EINVAL;
-    *out = pe != PAR_PE_NONE  ? PAR_WIRE_LINK_IFACE
+    *out = remote            ? PAR_WIRE_LINK_IFACE
            : u != UINT32_MAX ? tm_mklink(u, tm_lface(l))
                              : PAR_WIRE_LINK_NONE;
     return 0;
@@ -246,54 +303,32 @@ static int enc_tets(enc *e, const par_wire_src *src)
     tt->subseg = malloc(nt ? nt : 1);
     if (!tt->v || !tt->marker || !tt->subseg)
         return PDR_ENOMEM;
-    size_t ident = 0;
-    while (ident < nt && src->tets[ident] == ident)
-        ident++;
-    if (ident < nt) {
-        e->pos = malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *e->pos);
-        if (!e->pos)
-            return PDR_ENOMEM;
-        memset(e->pos, 0xff, (size_t)m->nslots * sizeof *e->pos);
-        for (size_t k = 0; k < nt; k++) {
-            if (e->pos[src->tets[k]] != UINT32_MAX)
-                return PDR_EINVAL; /* a slot twice: its links would not come back */
-            e->pos[src->tets[k]] = (uint32_t)k;
-        }
-    }
-    uint32_t nif = 0;
+    int rc = enc_positions(e, src);
+    if (rc)
+        return rc;
+    pr_iftable *f = &e->sm.iface;
+    size_t capf = 0, capr = 0;
     for (size_t k = 0; k < nt; k++) {
         uint32_t t = src->tets[k];
+        const tm_tet *T = &m->tets[t];
         for (int i = 0; i < 4; i++) {
-            tt->v[4 * k + (size_t)i] = e->idx[m->tets[t].v[i]];
+            tt->v[4 * k + (size_t)i] = e->idx[T->v[i]];
             int32_t mk = m->marker ? tm_face_marker(m, t, i) : 0;
             if (mk < 0 || (size_t)mk > p->nfacet)
                 return PDR_EINVAL;
             tt->marker[4 * k + (size_t)i] = mk ? mk - 1 : PR_MARKER_NONE;
             uint32_t pe;
-            if (face_pe(src, k, i, &pe))
+            if (face_pe(src, k, i, T->n[i], &pe))
                 return PDR_EINVAL;
-            if (pe != PAR_PE_NONE) {
-                if (pe >= src->size || pe == src->rank)
-                    return PDR_EINVAL;
-                nif++;
-            }
+            if (pe == PAR_PE_NONE)
+                continue;
+            if (pdr_grow((void **)&f->face, &capf, (size_t)f->n + 1, sizeof *f->face) ||
+                pdr_grow((void **)&f->remote, &capr, (size_t)f->n + 1, sizeof *f->remote))
+                return PDR_ENOMEM;
+            f->face[f->n] = (uint32_t)(4 * k + (size_t)i);
+            f->remote[f->n++] = pe;
         }
         tt->subseg[k] = (uint8_t)((m->flags[t] & TM_F_SUBSEGS) / TM_F_SUBSEG0);
-    }
-    pr_iftable *f = &e->sm.iface;
-    f->n = nif;
-    f->face = malloc((nif ? nif : 1) * sizeof *f->face);
-    f->remote = malloc((nif ? nif : 1) * sizeof *f->remote);
-    if (!f->face || !f->remote)
-        return PDR_ENOMEM;
-    nif = 0;
-    for (size_t j = 0; j < 4 * nt; j++) {
-        uint32_t pe;
-        face_pe(src, j / 4, (int)(j % 4), &pe); /* checked above */
-        if (pe != PAR_PE_NONE) {
-            f->face[nif] = (uint32_t)j;
-            f->remote[nif++] = pe;
-        }
     }
     return 0;
 }
