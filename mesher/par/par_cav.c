@@ -421,8 +421,7 @@ struct face_match {
 static int face_match(void *arg, uint32_t i)
 {
     struct face_match *a = arg;
-    const uint64_t *k = a->c->face[i].key;
-    if (k[0] == a->key[0] && k[1] == a->key[1] && k[2] == a->key[2]) {
+    if (par_key_eq(a->c->face[i].key, a->key)) {
         a->found = i;
         return 1;
     }
@@ -472,19 +471,11 @@ static int face_add(par_cav *c, const uint64_t key[3], uint32_t tet, int face, i
 /* The key of face k of gathered tetrahedron g. */
 static void gathered_key(const par_cav *c, const par_gtet *g, int k, uint64_t key[3])
 {
-    uint64_t x[3];
     for (int j = 0; j < 3; j++) {
         uint32_t v = g->v[tm_face_vtx[k][j]];
-        x[j] = v == UINT32_MAX ? PAR_GID_INF : c->gv[v].gid;
+        key[j] = v == UINT32_MAX ? PAR_GID_INF : c->gv[v].gid;
     }
-    uint64_t t;
-    if (x[0] > x[1])
-        t = x[0], x[0] = x[1], x[1] = t;
-    if (x[1] > x[2])
-        t = x[1], x[1] = x[2], x[2] = t;
-    if (x[0] > x[1])
-        t = x[0], x[0] = x[1], x[1] = t;
-    memcpy(key, x, sizeof x);
+    par_key_sort(key);
 }
 
 /* Records the interface faces of own cavity tetrahedra own.cav[from..]

@@ -22,17 +22,9 @@ void par_face_key(const par_sub *s, uint32_t t, int i, uint64_t key[3])
 {
     const tm_mesh *m = &s->r.m;
     const uint32_t *v = m->tets[t].v;
-    uint64_t a = m->gid[v[tm_face_vtx[i][0]]], b = m->gid[v[tm_face_vtx[i][1]]],
-             c = m->gid[v[tm_face_vtx[i][2]]], x;
-    if (a > b)
-        x = a, a = b, b = x;
-    if (b > c)
-        x = b, b = c, c = x;
-    if (a > b)
-        x = a, a = b, b = x;
-    key[0] = a;
-    key[1] = b;
-    key[2] = c;
+    for (int k = 0; k < 3; k++)
+        key[k] = m->gid[v[tm_face_vtx[i][k]]];
+    par_key_sort(key);
 }
 
 int par_sub_init(par_sub *s, const plc *p, const ref_opts *o, uint32_t rank, uint32_t size)
@@ -137,8 +129,7 @@ static int same_key(void *arg, uint32_t k)
 {
     struct find_ifc *a = arg;
     const par_iface *f = &a->s->ifc[k];
-    if (f->pe != PAR_PE_NONE && f->key[0] == a->key[0] && f->key[1] == a->key[1] &&
-        f->key[2] == a->key[2]) {
+    if (f->pe != PAR_PE_NONE && par_key_eq(f->key, a->key)) {
         a->found = k;
         return 1;
     }

@@ -63,6 +63,23 @@ typedef struct par_sub {
     hmap ifc_map;      /* hash of key -> ifc index */
 } par_sub;
 
+/* Sorts three gids into a face key. */
+static inline void par_key_sort(uint64_t key[3])
+{
+    uint64_t x;
+    if (key[0] > key[1])
+        x = key[0], key[0] = key[1], key[1] = x;
+    if (key[1] > key[2])
+        x = key[1], key[1] = key[2], key[2] = x;
+    if (key[0] > key[1])
+        x = key[0], key[0] = key[1], key[1] = x;
+}
+
+static inline int par_key_eq(const uint64_t a[3], const uint64_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
 /* Hash of a face key (never 0, as hmap requires). */
 uint64_t par_key_hash(const uint64_t key[3]);
 /* The key of face i of tetrahedron t (gids sorted). */
