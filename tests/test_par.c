@@ -1026,6 +1026,22 @@ static int merge_bufs(const pr_buf *b, uint32_t P, const plc *p, par_merge_repor
     return rc;
 }
 
+/* 1 if a live tetrahedron of m has the face {a, b, c}. */
+static int has_face(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c)
+{
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        const uint32_t *v = m->tets[t].v;
+        int n = 0;
+        for (int i = 0; i < 4; i++)
+            n += v[i] == a || v[i] == b || v[i] == c;
+        if (n == 3)
+            return 1;
+    }
+    return 0;
+}
+
 /* Links sent by a PE that do not fit, and a tetrahedron or a face too
  * many across PEs: each counted, and nothing else. */
 START_TEST(merge_counts_link_faults)
@@ -1139,6 +1155,46 @@ START_TEST(merge_counts_link_faults)
     ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
     ck_assert_uint_ge(rep.nonmanifold, 1);
     ck_assert_uint_eq(rep.dup_tets + rep.bad_links, 0);
+    pr_buf_free(&b[1]);
+    tm_free_tet(m1, u);
+    b[1] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[1], &subs[1]), 0);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), 0);
+
+    /* PE 2 adds a tetrahedron and its mirror image, glued on all four
+     * faces: every link fits, only the vertices are twice (and no face of
+     * theirs is one of the mesh's, or that would show too) */
+    pr_buf_free(&b[2]);
+    tm_mesh *m2 = &subs[2].r.m;
+    uint32_t v2[4];
+    for (uint32_t seed = 1;; seed++) {
+        ck_assert_uint_lt(seed, 1000);
+        for (int i = 0; i < 4; i++)
+            v2[i] = 1 + (seed * 7919u * (uint32_t)(i + 1) + 31u * (uint32_t)i) % (m2->nv - 1);
+        int ok = v2[0] != v2[1] && v2[0] != v2[2] && v2[0] != v2[3] && v2[1] != v2[2] &&
+                 v2[1] != v2[3] && v2[2] != v2[3];
+        for (int i = 0; i < 4 && ok; i++)
+            ok = !has_face(m2, v2[(i + 1) % 4], v2[(i + 2) % 4], v2[(i + 3) % 4]);
+        if (ok)
+            break;
+    }
+    ck_assert_int_eq(tm_room(m2, 2), 0);
+    uint32_t X = tm_alloc_tet(m2), Y = tm_alloc_tet(m2);
+    static const int mirror[4] = {1, 0, 2, 3}; /* Y = (v1, v0, v2, v3) */
+    for (int i = 0; i < 4; i++) {
+        m2->tets[X].v[i] = v2[i];
+        m2->tets[Y].v[i] = v2[mirror[i]];
+        /* X's face i is opposite v[i], which is at mirror[i] in Y */
+        m2->tets[X].n[i] = tm_mklink(Y, mirror[i]);
+        m2->tets[Y].n[mirror[i]] = tm_mklink(X, i);
+    }
+    b[2] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[2], &subs[2]), 0);
+    ck_assert_int_eq(merge_bufs(b, 3, &p, &rep), PDR_ETOPOLOGY);
+    ck_assert_uint_eq(rep.dup_tets, 1);
+    /* the copy kept has its faces open then: they joined the one dropped */
+    ck_assert_uint_eq(rep.open_faces, 4);
+    ck_assert_uint_eq(par_merge_problems(&rep), 5);
 
     for (uint32_t k = 0; k < 3; k++) {
         pr_buf_free(&b[k]);

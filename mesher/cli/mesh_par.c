@@ -522,9 +522,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         fprintf(stderr,
                 "pdr mesh: the submeshes do not fit together (%s): %zu interface faces "
                 "unmatched, %zu mismatched, %zu open faces, %zu non-manifold, %zu duplicate "
-                "tetrahedra\n",
+                "tetrahedra, %zu links not coming back, %zu faces misoriented, %zu with two "
+                "markers\n",
                 pdr_strerror(rc), rep.iface_unmatched, rep.iface_mismatch, rep.open_faces,
-                rep.nonmanifold, rep.dup_tets);
+                rep.nonmanifold, rep.dup_tets, rep.bad_links, rep.misoriented,
+                rep.marker_mismatch);
         goto done;
     }
     c.have_r = 1;

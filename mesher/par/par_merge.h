@@ -1,11 +1,13 @@
 /*
  * par/par_merge.h -- the merge at the end of the parallel refinement
- * (prefix par_merge_): every PE encodes all its live tetrahedra, with its
- * interface faces, as one message (par_wire); rank 0 takes the P messages
- * and builds ONE ref_mesher holding the whole mesh, exactly as the
- * sequential mesher would hold it (exterior tetrahedra and ghosts
- * included), so that ref_export, ref_count_bad, ref_quality_range and the
- * writers work on it unchanged.
+ * (prefix par_merge_): every PE encodes all its live tetrahedra, with
+ * their links and its interface faces, as one message (par_wire); rank 0
+ * takes the P messages and builds ONE ref_mesher holding the whole mesh,
+ * exactly as the sequential mesher would hold it (exterior tetrahedra and
+ * ghosts included), so that ref_export, ref_count_bad, ref_quality_range
+ * and the writers work on it unchanged. It takes time linear in the mesh:
+ * the PEs' links are kept, only the interface faces are matched (see
+ * par/par_merge.c).
  *
  * The merge CHECKS that the pieces fit, counting every kind of mismatch
  * (par_merge_report) instead of stopping at the first:
@@ -22,6 +24,9 @@
  *  - a link within a message that does not come back;
  *  - a subsegment or subfacet sent twice with different input feature or
  *    orientation (equal copies are merged, their flags or-ed).
+ * When something does not fit, the counts beyond the duplicates depend on
+ * which copy was kept and on what the PEs linked: they say what kind of
+ * fault there is and about how many, not which face to blame.
  *
  * The merged mesh: vertex 0 is the infinite vertex, vertices 1.. are the
  * distinct gids in ascending order (so a mesh that went out from rank 0
