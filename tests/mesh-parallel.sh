@@ -91,13 +91,17 @@ grep -q "bad.poly:5:" "$tmp/bad.out" || { cat "$tmp/bad.out"; fail "bad input: n
 echo "bad input: exit 1 with $(grep -m1 'bad.poly:5:' "$tmp/bad.out")"
 
 # A PE killed mid-refinement (a run long enough to be caught in it).
-PDR_PAR_TRACE=0.1 timeout 60 "$PDR" mesh -n 4 --latency 1ms-2ms -q 2 -a 2e-6 -o "$tmp/kill" \
+# A small Mo keeps the start-up short under the sanitizers and a loaded
+# machine; the refinement to 2e-6 with 1-2 ms latency then runs for many
+# seconds.
+PDR_PAR_TRACE=0.1 timeout 120 "$PDR" mesh -n 4 --latency 1ms-2ms -q 2 -a 2e-6 --mo-size 20000 \
+    -o "$tmp/kill" \
     "$tmp/cic.poly" >"$tmp/kill.out" 2>"$tmp/kill.err" &
 job=$!
 i=0
 while ! grep -q '^trace PE' "$tmp/kill.err" 2>/dev/null; do
     i=$((i + 1))
-    [ $i -lt 300 ] || { kill $job; fail "the refinement did not start"; }
+    [ $i -lt 900 ] || { kill $job; fail "the refinement did not start in 90 s"; }
     sleep 0.1
 done
 launcher=$(pgrep -P $job | head -n 1)
