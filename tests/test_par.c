@@ -284,8 +284,10 @@ static void round_trip(ref_mesher *mo, uint32_t P, uint32_t N, int full_checks)
         ck_assert_int_eq(s->r.classified, 1);
         if (N >= P)
             ck_assert_uint_gt(s->r.m.nlive, 0);
-        /* the marks agree with the bd tables on every PE */
+        /* the marks agree with the bd tables on every PE, and every
+         * facet triangulation is whole where the PE holds it */
         ck_assert_uint_eq(ref_consistency(&s->r, stderr, 1), 0);
+        ck_assert_uint_eq(par_verify_facets(s, stderr), 0);
         total += s->r.m.nlive;
         ghosts += s->r.m.nghost;
         if (P == 1)
@@ -864,6 +866,52 @@ START_TEST(links_checked)
 }
 END_TEST
 
+/* par_verify_facets finds the hole a forgotten subfacet leaves, and
+ * nothing where a subfacet's neighbour is on another PE. */
+START_TEST(facet_gaps_found)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_mesher mo;
+    build_mo(&p, NULL, 2000, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 1, &d), 0);
+    par_sub s;
+    ck_assert_int_eq(par_wire_load(d.msg[0].data, d.msg[0].len, &p, NULL, &s), 0);
+    ck_assert_uint_eq(par_verify_facets(&s, NULL), 0);
+    /* a subfacet none of whose edges is a subsegment, on a face whose
+     * tetrahedron has no interface face */
+    bd_set *bd = &s.r.bd;
+    uint32_t victim = BD_NONE;
+    for (uint32_t i = 0; i < bd->nfacs && victim == BD_NONE; i++) {
+        const bd_subfac *f = &bd->facs[i];
+        if (f->flags & (BD_F_DEAD | BD_F_MISSING))
+            continue;
+        int inner = 1;
+        for (int k = 0; k < 3; k++)
+            if (bd_find_subseg(bd, f->v[k], f->v[(k + 1) % 3]) != BD_NONE ||
+                bd_subfac_across(bd, i, k) == BD_NONE)
+                inner = 0;
+        uint32_t t;
+        if (inner && ref_find_local(&s.r, f->v[0], f->v[1], f->v[2], &t)) {
+            int remote = 0;
+            for (int k = 0; k < 4; k++)
+                remote |= tm_is_special(s.r.m.tets[t].n[k]) && s.r.m.tets[t].n[k] != TM_LINK_NONE;
+            if (!remote)
+                victim = i;
+        }
+    }
+    ck_assert_uint_ne(victim, BD_NONE);
+    bd_kill_subfac(bd, victim);
+    /* each of its three neighbours now has an edge with nothing across */
+    ck_assert_uint_ge(par_verify_facets(&s, NULL), 3);
+    par_sub_free(&s);
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 /* base/hdup: exactly the repeated values, whatever their partition. */
 START_TEST(hdup_finds_repeats)
 {
@@ -1290,6 +1338,7 @@ static Suite *suite(void)
     tcase_add_test(t, submesh_decoder_survives_corruption);
     tcase_add_test(t, plc_decoder_refuses_malformed);
     tcase_add_test(t, links_checked);
+    tcase_add_test(t, facet_gaps_found);
     suite_add_tcase(s, t);
     t = tcase_create("merge");
     tcase_set_timeout(t, 120);

@@ -771,6 +771,8 @@ static Suite *suite(void)
     tcase_add_test(t, split_point_shells);
     suite_add_tcase(s, t);
     t = tcase_create("numfmt");
+    /* 120,000 conversions: seconds under the sanitizers on a busy machine */
+    tcase_set_timeout(t, 60);
     tcase_add_test(t, double17_matches_printf);
     suite_add_tcase(s, t);
     t = tcase_create("plc");

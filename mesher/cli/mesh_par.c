@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include "am.h"
@@ -99,7 +100,7 @@ static int wait_job(am_ctx_t *am, job *j)
 /* A row travels as 15 f64 values, then 10 u64 counters, then the
  * refinement's insertion counts. */
 #define ROW_F64 9
-#define ROW_U64 12
+#define ROW_U64 14
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
@@ -108,7 +109,8 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
                          t->poll_s,   t->poll_excess_s, t->idle_s};
     uint64_t u[ROW_U64] = {t->steps,   t->cav_local, t->cav_dist, t->setbacks,
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
-                           t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss};
+                           t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss,
+                           t->missing_segs, t->missing_facs};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -149,6 +151,8 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     t->tets_end = u[9];
     t->slots_end = u[10];
     t->peak_rss = u[11];
+    t->missing_segs = u[12];
+    t->missing_facs = u[13];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -441,13 +445,19 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
     }
     have_sub = 1;
+    /* This PE's own debugging aids (its environment, not rank 0's). */
+    s.r.o.check_each_step = mo->ref.check_each_step;
+    s.r.o.log = mo->ref.log;
     free(j.data);
     j.data = NULL;
 
     /* Refine. */
     t_start = pdr_now();
     rc = ref_queue_all_tets(&s.r);
-    par_run_opts ro_run = {po->max_threads, po->seed, 0, NULL, NULL, 0};
+    par_run_opts ro_run;
+    memset(&ro_run, 0, sizeof ro_run);
+    ro_run.max_threads = po->max_threads;
+    ro_run.seed = po->seed;
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;
@@ -458,7 +468,12 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (rc) {
         fprintf(stderr, "pdr mesh: PE %d: parallel refinement failed: %s\n", rank,
                 rc < 0 && rc > -100 ? pdr_strerror(rc) : am_strerror(rc));
-        goto done;
+        /* Cavity threads may still be blocked, their handlers registered
+         * (par_run.h): end this PE now; the others see it go away and
+         * end too. No output file exists yet. */
+        fflush(stdout);
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL);
     }
     t_end = pdr_now();
     if (po->stats && write_row_json(po->stats, rank, size, &row))
@@ -508,7 +523,28 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         pm += mesh_lens[k];
     }
     mesh_lens[0] = mb.len;
+    /* A subsegment or subfacet still missing on some PE is a hole in the
+     * boundary of the merged mesh: say so and write nothing. */
+    uint64_t miss_s = 0, miss_f = 0;
+    for (int k = 0; k < size && !rc; k++) {
+        miss_s += rows[k].missing_segs;
+        miss_f += rows[k].missing_facs;
+    }
+    if (!rc && (miss_s || miss_f)) {
+        fprintf(stderr,
+                "pdr mesh: the parallel refinement ended with %llu subsegments and %llu "
+                "subfacets missing from the mesh: it does not conform to the input; "
+                "nothing written\n",
+                (unsigned long long)miss_s, (unsigned long long)miss_f);
+        for (int k = 0; k < size; k++)
+            if (rows[k].missing_segs || rows[k].missing_facs)
+                fprintf(stderr, "pdr mesh: PE %d: %llu subsegments, %llu subfacets missing\n", k,
+                        (unsigned long long)rows[k].missing_segs,
+                        (unsigned long long)rows[k].missing_facs);
+        rc = PDR_ETOPOLOGY;
+    }
     par_merge_report rep;
+    memset(&rep, 0, sizeof rep);
     double tm = pdr_now();
     if (!rc)
         rc = par_merge_build(msgs, mesh_lens, (uint32_t)size, &c.p, &c.o.ref, &c.r, &rep);
@@ -518,7 +554,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     pr_buf_free(&mb);
     free(row_lens);
     free(mesh_lens);
-    if (rc) {
+    if (rc == PDR_ETOPOLOGY && (miss_s || miss_f)) {
+        goto done;
+    } else if (rc) {
         fprintf(stderr,
                 "pdr mesh: the submeshes do not fit together (%s): %zu interface faces "
                 "unmatched, %zu mismatched, %zu open faces, %zu non-manifold, %zu duplicate "

@@ -9,6 +9,7 @@
 #include "base/pdr_util.h"
 #include "mesh/dt.h"
 #include "par/par_cav.h"
+#include "par/par_verify.h"
 #include "pr.h"
 
 /* Message types (proto reserves 0x10..0x1f for the cavity messages; the
@@ -548,6 +549,11 @@ static void send_all(par_cav_ctx *cc, const u32list *parts, int type, uint32_t o
 /* Makes the gathered tetrahedra local tetrahedra of this PE, linked to the
  * origin's own cavity, to its closure and, by new interface faces, to the
  * closure on other PEs. */
+static size_t dbg_problems(par_sub *s, FILE *log)
+{
+    return ref_consistency(&s->r, log, 0) + par_verify_facets(s, log);
+}
+
 static int import(par_cav *c)
 {
     par_cav_ctx *cc = c->cc;
@@ -557,6 +563,7 @@ static int import(par_cav *c)
     uint32_t *loc = malloc((c->ngv ? c->ngv : 1) * sizeof *loc);
     uint32_t *newt = malloc((c->ngt ? c->ngt : 1) * sizeof *newt);
     int rc = loc && newt ? 0 : PDR_ENOMEM;
+    size_t gaps0 = r->o.check_each_step ? dbg_problems(s, NULL) : 0;
     for (size_t i = 0; i < c->ngv && !rc; i++) {
         const par_gvert *g = &c->gv[i];
         rc = par_sub_vertex(s, g->gid, g->xyz, g->kind, g->feat, g->rins, &loc[i]);
@@ -669,6 +676,10 @@ static int import(par_cav *c)
         if ((c->gt[i].flags & TM_F_QUEUED) && cc->requeue)
             rc = cc->requeue(cc->requeue_arg, 0, newt[i]);
     cc->st.tets_in += c->ngt;
+    if (r->o.check_each_step && dbg_problems(s, NULL) > gaps0) {
+        fprintf(stderr, "PE %u: import of %u opened a facet gap (%zu tets)\n", s->rank, c->owner, c->ngt);
+        dbg_problems(s, stderr);
+    }
 out:
     free(loc);
     free(newt);
@@ -1020,6 +1031,7 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
     par_rec *rec = &cc->recs[idx];
     par_part *pt = &rec->part;
     uint32_t origin = (uint32_t)msg->src;
+    size_t gaps0 = s->r.o.check_each_step ? dbg_problems(s, NULL) : 0;
     /* The subfacets on the cavity that no tetrahedron of this PE will
      * have any more: a face belongs to two tetrahedra, so one on a cavity
      * tetrahedron stays here only if the tetrahedron across it is a local
@@ -1093,6 +1105,10 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
         if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
     free(facs.a);
+    if (s->r.o.check_each_step && dbg_problems(s, NULL) > gaps0) {
+        fprintf(stderr, "PE %u: MIGRATE of %u from PE %u opened a facet gap (%zu tets)\n", s->rank, owner, origin, pt->cav.n);
+        dbg_problems(s, stderr);
+    }
     cc->st.tets_out += pt->cav.n;
     rec_drop(cc, (uint32_t)idx);
     am_time_end(am, cc->cat_service);

@@ -9,6 +9,7 @@
 
 #include "base/pdr_util.h"
 #include "par/par_run.h"
+#include "par/par_verify.h"
 
 /* One cavity thread: the item it refines and its insertion state. */
 typedef struct par_item {
@@ -141,6 +142,27 @@ static int requeue(void *arg, int kind, uint32_t id)
     return ref_requeue(r, kind == 1 ? REF_SUBSEG : REF_SUBFACET, id, rmin);
 }
 
+/* The refinement's debugging aid (ref_opts.check_each_step) in parallel:
+ * the marks against the tables, the facet triangulations and the
+ * submesh's links, after every step and before starting new work (which
+ * catches what handlers changed). Slow; stops at the first problem. */
+static int check_sub(par_run *pr, const char *when)
+{
+    ref_mesher *r = &pr->s->r;
+    if (!r->o.check_each_step)
+        return 0;
+    par_verify_report rep;
+    memset(&rep, 0, sizeof rep);
+    size_t bad = ref_consistency(r, r->o.log, 0) + par_verify_facets(pr->s, r->o.log) +
+                 par_verify_sub(pr->s, &rep);
+    if (!bad)
+        return 0;
+    if (r->o.log)
+        fprintf(r->o.log, "PE %u: %zu problems %s (step %llu)\n", pr->s->rank, bad, when,
+                (unsigned long long)pr->row->steps);
+    return PDR_ETOPOLOGY;
+}
+
 /* ------------------------------------------------------------ threads */
 
 /* Refine(item). A setback puts the item back on the queue and ends the
@@ -165,6 +187,12 @@ static void refine_thread(am_ctx_t *am, void *arg)
         par_cav_release(&it->cav);
         uint32_t n = hmap_get(&pr->tries, key);
         if (rc < 0) {
+            if (!pr->err)
+                pr->err = rc;
+            break;
+        }
+        if (rc >= 0 && check_sub(pr, rc == REF_SETBACK ? "after a setback" : "after a step")) {
+            rc = PDR_ETOPOLOGY;
             if (!pr->err)
                 pr->err = rc;
             break;
@@ -214,6 +242,8 @@ static int start_work(am_ctx_t *am, void *arg)
     par_run *pr = arg;
     if (pr->err)
         return pr->err;
+    if (check_sub(pr, "between steps"))
+        return pr->err = PDR_ETOPOLOGY;
     if (pr->o.progress) {
         double now = pdr_now();
         if (now >= pr->next_progress) {
@@ -307,6 +337,11 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     if (!rc && pr->err)
         rc = pr->err;
     row->exec_s = pdr_now() - t0;
+    const bd_set *bd = &s->r.bd;
+    for (size_t i = 0; i < bd->nsegs; i++)
+        row->missing_segs += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+    for (size_t i = 0; i < bd->nfacs; i++)
+        row->missing_facs += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
     am_stats_get(am, &a1);
     row->poll_s = a1.poll_s - a0.poll_s;
     row->poll_excess_s = a1.poll_excess_s - a0.poll_excess_s;
@@ -321,6 +356,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_end = ref_interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
+    if (rc && pr->nthreads > 0)
+        return rc; /* see par_run.h: the state stays for the handlers */
     s->r.hooks = NULL;
     s->r.o.order = order;
     hmap_free(&pr->tries);

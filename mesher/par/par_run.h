@@ -63,6 +63,8 @@ typedef struct par_table1 {
     uint64_t slots_end;      /* tetrahedron slots of the submesh at the end
                                 (exterior, ghosts and free ones included) */
     uint64_t peak_rss;       /* the PE's peak resident memory, bytes */
+    uint64_t missing_segs, missing_facs; /* pieces still missing at the end
+                                (0 unless the mesh fails to conform) */
 } par_table1;
 
 typedef struct par_run_opts {
@@ -84,7 +86,12 @@ double par_table1_tolerance(const par_table1 *t);
  * Collective: every PE of am calls it once, after registering nothing
  * else under the handler ids PAR_RUN_HANDLER_BASE..+3. The submesh must
  * have its work queued (ref_queue_all_tets, ref_queue_boundary). Fills
- * *row. Returns 0 or a negative code (PDR_E* or AM_E*). */
+ * *row. Returns 0 or a negative code (PDR_E* or AM_E*). After a failure
+ * cavity threads may still be blocked and the protocol's handlers stay
+ * registered: their state is then left allocated (not freed) so that a
+ * message arriving before the process ends finds it, and the caller must
+ * end the process without am_finalize (which needs every thread ended)
+ * and without freeing s; the other PEs see this PE go away. */
 int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *row);
 
 #endif /* PDR_PAR_RUN_H */

@@ -25,6 +25,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "par/par_sub.h"
 
@@ -48,5 +49,12 @@ size_t par_verify_sub(const par_sub *s, par_verify_report *rep);
 /* Checks subs[0..n-1], subs[k] being PE k's submesh, alone and together,
  * adding to *rep. Returns the number of problems found. */
 size_t par_verify_all(const par_sub *subs, uint32_t n, par_verify_report *rep);
+
+/* The facet triangulations of s: every present subfacet has, across each
+ * of its edges, a subfacet of the same facet, unless that edge is a
+ * subsegment or some tetrahedron around it lies on another PE (where
+ * the neighbour may be). A gap means part of a facet has no subfacets.
+ * Writes one line per gap to log (if not NULL); returns the count. */
+size_t par_verify_facets(const par_sub *s, FILE *log);
 
 #endif /* PDR_PAR_VERIFY_H */

@@ -358,19 +358,40 @@ static int add_root(void *arg, uint32_t s)
  * tetrahedron to p. With the parallel hooks, it starts from a tetrahedron
  * of this PE in conflict with p, found around the piece being split (edge
  * ab, or face abc when c is not TM_NONE), after the cavity hook made p's
- * cavity local; a piece no tetrahedron of this PE has is not split here.
+ * cavity local; a present piece no tetrahedron of this PE has is not
+ * split here, and a missing one (no face or edge) is found by walking to
+ * p from the star of one of its vertices.
  * Returns 0 with r->cav searched, 1 when the piece is not on this PE any more (nothing
  * searched: the PE holding it splits it), REF_SETBACK via *setback, or a
  * negative code. */
 static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
-                        int *setback)
+                        int missing, int *setback)
 {
     tm_mesh *m = &r->m;
     *setback = 0;
     if (!r->hooks)
         return dt_cavity_search(m, p, m->vhint[a], DT_LOCATE, &r->cav);
     uint32_t t = TM_NONE;
-    if (!ref__find_in_star(m, a, b, c, &t) || dt_conflict(m, t, p) <= 0)
+    int found = ref__find_in_star(m, a, b, c, &t);
+    if (!found && missing) {
+        /* A missing piece is no face or edge to start from: walk to p
+         * from the star of one of its vertices, without leaving this PE
+         * (a walk that meets another PE's face stops on the last
+         * tetrahedron here, which will do if it is in conflict). */
+        const uint32_t v[3] = {a, b, c};
+        for (int k = 0; k < 3 && !found; k++) {
+            uint32_t x = v[k], h = x == TM_NONE ? TM_NONE : m->vhint[x];
+            if (h == TM_NONE || h >= m->nslots || tm_is_dead(m, h) ||
+                ref__slot_in(&m->tets[h], x) < 0)
+                continue;
+            tm_link exit_link;
+            int rc = dt_locate(m, p, h, &t, &exit_link);
+            if (rc < 0)
+                return rc;
+            found = 1;
+        }
+    }
+    if (!found || dt_conflict(m, t, p) <= 0)
         return 1;
     int rc = r->hooks->cavity(r->hooks->arg, p, t, &r->cav);
     if (rc == REF_SETBACK) {
@@ -399,7 +420,7 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     double p[3];
     ref__split_point(r, S.v[0], S.v[1], p);
     int setback;
-    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
+    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing, &setback);
     if (setback)
         return REF_SETBACK;
     if (rc > 0)
@@ -512,7 +533,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0;
     }
     int setback;
-    int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], &setback);
+    int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], missing, &setback);
     if (setback)
         return REF_SETBACK;
     if (rc > 0)
