@@ -458,6 +458,12 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     memset(&ro_run, 0, sizeof ro_run);
     ro_run.max_threads = po->max_threads;
     ro_run.seed = po->seed;
+    /* PDR_PAR_ORDER=fifo|lifo|local: the order of the bad tetrahedra, for
+     * comparisons (default local: see REF_ORDER_LOCAL_FIRST). */
+    const char *order = getenv("PDR_PAR_ORDER");
+    ro_run.order = !order || !strcmp(order, "local") ? REF_ORDER_LOCAL_FIRST
+                   : !strcmp(order, "lifo")          ? REF_ORDER_LIFO
+                                                     : REF_ORDER_FIFO;
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;

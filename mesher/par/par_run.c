@@ -318,14 +318,18 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->hooks.committed = hook_committed;
     pr->hooks.arg = pr;
     s->r.hooks = &pr->hooks;
-    /* Oldest work first. Newest first (the sequential default, for the
-     * cache) makes a PE next to an interface follow it: each insertion
-     * there pulls tetrahedra across, whose bad neighbours are then the
-     * newest work, and cavities collide and migrate back and forth
-     * (measured: 8x the distributed cavities, 25x the setbacks, 7x the
-     * time on 2 PEs at 10^6 tetrahedra). */
+    /* The order of the bad tetrahedra (o->order). Newest first
+     * everywhere (the sequential default, for the cache) makes a PE next
+     * to an interface follow it: each insertion there pulls tetrahedra
+     * across, whose bad neighbours are then the newest work, and cavities
+     * collide and migrate back and forth (measured: 8x the distributed
+     * cavities, 25x the setbacks, 7x the time on 2 PEs at 10^6
+     * tetrahedra). Oldest first everywhere avoids that but loses the
+     * cache. REF_ORDER_LOCAL_FIRST takes the new work of a step whose
+     * cavity stayed here newest first, and everything else oldest first:
+     * the chase stops at the first distributed cavity. */
     int order = s->r.o.order;
-    s->r.o.order = REF_ORDER_FIFO;
+    s->r.o.order = o->order;
 
     am_stats_t a0, a1;
     /* Every PE has its handlers before anyone sends. */

@@ -71,6 +71,9 @@ typedef struct par_run_opts {
     int max_threads;  /* cavity threads per PE (>= 1) */
     uint64_t seed;    /* random back-off */
     double backoff_s; /* base pause after repeated setbacks (a round trip) */
+    int order;        /* enum ref_order of the bad tetrahedra (see
+                         refine.h: REF_ORDER_LOCAL_FIRST is the default
+                         of pdr mesh) */
     /* Called about every progress_s seconds while the PE works (NULL:
      * never), with the row so far. */
     void (*progress)(void *arg, const par_sub *s, const par_table1 *row);

@@ -72,6 +72,7 @@ void ref_release_work(ref_mesher *r)
     ref__queue_free(&r->segq);
     ref__queue_free(&r->facq);
     ref__queue_free(&r->tetq);
+    ref__queue_free(&r->tetq_local);
 }
 
 int ref_region_room(ref_mesher *r)

@@ -234,13 +234,30 @@ static int queue_new_tets(ref_mesher *r)
         if ((m->flags[n] & REF_F_EXTERIOR) || tm_is_ghost(m, n))
             continue;
         double cc[3];
-        if (ref__tet_bad(r, n, cc, NULL)) {
-            int rc = queue_tet(r, n);
-            if (rc)
-                return rc;
+        if (!ref__tet_bad(r, n, cc, NULL))
+            continue;
+        int rc;
+        if (r->o.order == REF_ORDER_LOCAL_FIRST && !r->step_remote &&
+            !(m->flags[n] & TM_F_QUEUED)) {
+            m->flags[n] |= TM_F_QUEUED;
+            rc = q_push(&r->tetq_local, n, 0.0f);
+        } else {
+            rc = queue_tet(r, n);
         }
+        if (rc)
+            return rc;
     }
     return 0;
+}
+
+/* The parallel cavity hook (see ref_hooks), noting whether the cavity
+ * came from other PEs (for REF_ORDER_LOCAL_FIRST). */
+static int cavity_hook(ref_mesher *r, const double p[3], uint32_t start)
+{
+    int h = r->hooks->cavity(r->hooks->arg, p, start, &r->cav);
+    if (h == 0)
+        r->step_remote = 1;
+    return h;
 }
 
 /* ---------------------------------------------------------- commit */
@@ -393,7 +410,7 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
     }
     if (!found || dt_conflict(m, t, p) <= 0)
         return 1;
-    int rc = r->hooks->cavity(r->hooks->arg, p, t, &r->cav);
+    int rc = cavity_hook(r, p, t);
     if (rc == REF_SETBACK) {
         *setback = 1;
         return 0;
@@ -674,7 +691,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
         give_up(r, t, 1);
         return 0;
     }
-    int h = r->hooks ? r->hooks->cavity(r->hooks->arg, cc, t, &r->cav) : 0;
+    int h = r->hooks ? cavity_hook(r, cc, t) : 0;
     if (h && h != REF_SEARCHED)
         return h;
     int rc = h == REF_SEARCHED ? 0 : dt_cavity_search(m, cc, t, 0, &r->cav);
@@ -777,6 +794,7 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
 int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin)
 {
     tm_mesh *m = &r->m;
+    r->step_remote = 0;
     switch (kind) {
     case REF_SUBSEG:
         return id < r->bd.nsegs ? process_seg(r, id, rmin) : PDR_EINVAL;
@@ -809,8 +827,11 @@ int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin)
     if (!r->classified)
         return 0;
     int lifo = r->o.order == REF_ORDER_LIFO;
-    while (!q_empty(&r->tetq)) {
-        uint32_t t = q_pop(&r->tetq, lifo, NULL);
+    for (;;) {
+        int local = !q_empty(&r->tetq_local);
+        if (!local && q_empty(&r->tetq))
+            break;
+        uint32_t t = local ? q_pop(&r->tetq_local, 1, NULL) : q_pop(&r->tetq, lifo, NULL);
         if (tm_is_dead(m, t) || !(m->flags[t] & TM_F_QUEUED))
             continue;
         m->flags[t] &= (uint16_t)~TM_F_QUEUED;
