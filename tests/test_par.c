@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "base/hdup.h"
+#include "par/par_cav.h"
 #include "mesh/vf.h"
 #include "par/par_decomp.h"
 #include "par/par_merge.h"
@@ -912,6 +913,151 @@ START_TEST(facet_gaps_found)
 }
 END_TEST
 
+/* ---------------------------------------------- cavity replies */
+
+/* Decodes b[0..len) into a fresh cavity record; returns the decoder's
+ * code, and on success checks that every index it made is in range. */
+static int try_cavity_tets(const uint8_t *b, size_t len)
+{
+    par_cav_ctx cc;
+    memset(&cc, 0, sizeof cc);
+    par_cav c;
+    par_cav_init(&c, &cc);
+    int rc = par_cav_decode_tets(&c, b, len, 1);
+    if (!rc) {
+        for (size_t i = 0; i < c.ngt; i++)
+            for (int k = 0; k < 4; k++)
+                ck_assert(c.gt[i].v[k] == UINT32_MAX || c.gt[i].v[k] < c.ngv);
+        for (size_t i = 0; i < c.ngp; i++)
+            for (int k = 0; k < c.gp[i].nv; k++)
+                ck_assert_uint_lt(c.gp[i].v[k], c.ngv);
+    }
+    par_cav_free(&c);
+    return rc;
+}
+
+/* The tetrahedra of a REPLY: a round trip keeps every vertex, marker and
+ * region and brings each subsegment and subfacet once; a cut anywhere or
+ * a byte too many is refused; damaged bytes never crash the decoder. */
+START_TEST(cavity_reply_tets)
+{
+    plc p;
+    domain_plc(&p, DOM_CUBE_IN_CUBE);
+    ref_mesher mo;
+    build_mo(&p, NULL, 3000, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 3, &d), 0);
+    par_sub s;
+    ck_assert_int_eq(par_wire_load(d.msg[0].data, d.msg[0].len, &p, &mo.o, &s), 0);
+    const tm_mesh *m = &s.r.m;
+    /* 200 live tetrahedra, ghosts and boundary ones among them */
+    uint32_t tets[200];
+    size_t n = 0;
+    size_t marked = 0, ghosts = 0;
+    for (uint32_t t = 0; t < m->nslots && n < 200; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        tets[n++] = t;
+        ghosts += tm_is_ghost(m, t);
+        marked += (m->flags[t] & TM_F_FACEMARKS) != 0;
+    }
+    ck_assert_uint_eq(n, 200);
+    ck_assert_uint_gt(marked, 0);
+    pr_buf b = PR_BUF_INIT;
+    ck_assert_int_eq(par_cav_encode_tets(&s, tets, n, &b), 0);
+    ck_assert_int_eq(b.err, 0);
+
+    par_cav_ctx cc;
+    memset(&cc, 0, sizeof cc);
+    par_cav c;
+    par_cav_init(&c, &cc);
+    ck_assert_int_eq(par_cav_decode_tets(&c, b.data, b.len, 1), 0);
+    ck_assert_uint_eq(c.ngt, n);
+    size_t nseg = 0, nfac = 0;
+    for (size_t i = 0; i < n; i++) {
+        const tm_tet *T = &m->tets[tets[i]];
+        const par_gtet *g = &c.gt[i];
+        ck_assert_uint_eq(g->src, 1);
+        for (int k = 0; k < 4; k++) {
+            if (T->v[k] == TM_VINF) {
+                ck_assert_uint_eq(g->v[k], UINT32_MAX);
+                continue;
+            }
+            const par_gvert *v = &c.gv[g->v[k]];
+            ck_assert_uint_eq(v->gid, m->gid[T->v[k]]);
+            ck_assert(!memcmp(v->xyz, tm_xyz(m, T->v[k]), sizeof v->xyz));
+            ck_assert_uint_eq(v->kind, s.r.bd.vkind[T->v[k]]);
+            ck_assert_int_eq(g->marker[k], tm_face_marker(m, tets[i], k));
+        }
+        ck_assert_uint_eq(g->region, s.r.region ? s.r.region[tets[i]] : 0);
+    }
+    for (size_t i = 0; i < c.ngp; i++) {
+        nseg += c.gp[i].nv == 2;
+        nfac += c.gp[i].nv == 3;
+    }
+    /* each piece once: the distinct subsegments and subfacets marked on
+     * those tetrahedra */
+    hmap seen = {0};
+    size_t want_seg = 0, want_fac = 0;
+    for (size_t i = 0; i < n; i++) {
+        const tm_tet *T = &m->tets[tets[i]];
+        for (int e = 0; e < 6; e++) {
+            if (!(m->flags[tets[i]] & TM_F_SUBSEG(e)))
+                continue;
+            uint32_t id = bd_find_subseg(&s.r.bd, T->v[tm_edge_vtx[e][0]], T->v[tm_edge_vtx[e][1]]);
+            if (id != BD_NONE && hmap_get(&seen, 2 * (uint64_t)id + 1) == HMAP_NONE) {
+                ck_assert_int_eq(hmap_put(&seen, 2 * (uint64_t)id + 1, 1), 0);
+                want_seg++;
+            }
+        }
+        for (int k = 0; k < 4; k++) {
+            if (!(m->flags[tets[i]] & TM_F_FACEMARK(k)))
+                continue;
+            uint32_t id = bd_find_subfac(&s.r.bd, T->v[tm_face_vtx[k][0]],
+                                         T->v[tm_face_vtx[k][1]], T->v[tm_face_vtx[k][2]]);
+            if (id != BD_NONE && hmap_get(&seen, 2 * (uint64_t)id + 2) == HMAP_NONE) {
+                ck_assert_int_eq(hmap_put(&seen, 2 * (uint64_t)id + 2, 1), 0);
+                want_fac++;
+            }
+        }
+    }
+    hmap_free(&seen);
+    ck_assert_uint_eq(nseg, want_seg);
+    ck_assert_uint_eq(nfac, want_fac);
+    ck_assert_uint_gt(nfac, 0);
+    par_cav_free(&c);
+
+    /* every cut is refused, and so is a byte too many */
+    for (size_t len = 0; len < b.len; len++)
+        ck_assert_int_eq(try_cavity_tets(b.data, len), PDR_EPARSE);
+    uint8_t *bad = malloc(b.len + 1);
+    ck_assert_ptr_nonnull(bad);
+    memcpy(bad, b.data, b.len);
+    bad[b.len] = 0;
+    ck_assert_int_eq(try_cavity_tets(bad, b.len + 1), PDR_EPARSE);
+    /* random bytes over random stretches: refused or in range */
+    uint64_t x = 0x9E3779B97F4A7C15ULL;
+    size_t refused = 0;
+    for (int round = 0; round < 3000; round++) {
+        memcpy(bad, b.data, b.len);
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        size_t at = x % b.len, k = 1 + (x >> 32) % 8;
+        for (size_t j = at; j < at + k && j < b.len; j++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            bad[j] = (uint8_t)x;
+        }
+        refused += try_cavity_tets(bad, b.len) == PDR_EPARSE;
+    }
+    ck_assert_uint_gt(refused, 0);
+    free(bad);
+    pr_buf_free(&b);
+    par_sub_free(&s);
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 /* base/hdup: exactly the repeated values, whatever their partition. */
 START_TEST(hdup_finds_repeats)
 {
@@ -1339,6 +1485,7 @@ static Suite *suite(void)
     tcase_add_test(t, plc_decoder_refuses_malformed);
     tcase_add_test(t, links_checked);
     tcase_add_test(t, facet_gaps_found);
+    tcase_add_test(t, cavity_reply_tets);
     suite_add_tcase(s, t);
     t = tcase_create("merge");
     tcase_set_timeout(t, 120);

@@ -190,9 +190,11 @@ static void rec_drop(par_cav_ctx *cc, uint32_t i)
 
 /* Appends the tetrahedra cav[from..] of this PE, with their vertices and
  * the subsegments and subfacets on them, to a reply. */
-static int put_tets(par_cav_ctx *cc, const u32list *cav, size_t from, pr_buf *b)
+static int put_tets(const par_sub *s, const uint32_t *tets, size_t ntets, pr_buf *b)
 {
-    par_sub *s = cc->s;
+    const u32list cavl = {(uint32_t *)(uintptr_t)tets, ntets, ntets};
+    const u32list *cav = &cavl;
+    const size_t from = 0;
     const tm_mesh *m = &s->r.m;
     const bd_set *bd = &s->r.bd;
     hmap vidx = {0};   /* local vertex + 1 -> reply index */
@@ -677,7 +679,8 @@ static int import(par_cav *c)
             rc = cc->requeue(cc->requeue_arg, 0, newt[i]);
     cc->st.tets_in += c->ngt;
     if (r->o.check_each_step && dbg_problems(s, NULL) > gaps0) {
-        fprintf(stderr, "PE %u: import of %u opened a facet gap (%zu tets)\n", s->rank, c->owner, c->ngt);
+        fprintf(stderr, "PE %u: import of %u opened a facet gap (%zu tets)\n", s->rank, c->owner,
+                c->ngt);
         dbg_problems(s, stderr);
     }
 out:
@@ -977,7 +980,8 @@ static void on_gather(am_ctx_t *am, const am_msg_t *msg, void *arg)
     pr_msg_begin(&b, MSG_REPLY);
     pr_put_u32(&b, owner);
     pr_put_u8(&b, (uint8_t)st);
-    if (st == REPLY_OK && put_tets(cc, &cc->recs[ri].part.cav, from, &b))
+    if (st == REPLY_OK && put_tets(cc->s, cc->recs[ri].part.cav.a + from,
+                                     cc->recs[ri].part.cav.n - from, &b))
         b.err = PR_ENOMEM;
     if (!b.err)
         am_send(am, msg->src, cc->h_reply, b.data, b.len);
@@ -1106,7 +1110,8 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             bd_kill_subfac(&s->r.bd, facs.a[i]);
     free(facs.a);
     if (s->r.o.check_each_step && dbg_problems(s, NULL) > gaps0) {
-        fprintf(stderr, "PE %u: MIGRATE of %u from PE %u opened a facet gap (%zu tets)\n", s->rank, owner, origin, pt->cav.n);
+        fprintf(stderr, "PE %u: MIGRATE of %u from PE %u opened a facet gap (%zu tets)\n",
+                s->rank, owner, origin, pt->cav.n);
         dbg_problems(s, stderr);
     }
     cc->st.tets_out += pt->cav.n;
@@ -1172,7 +1177,23 @@ void par_cav_init(par_cav *c, par_cav_ctx *cc)
     memset(c, 0, sizeof *c);
     c->cc = cc;
     c->slot = UINT32_MAX;
-    am_future_new(cc->am, &c->fut);
+    if (cc->am)
+        am_future_new(cc->am, &c->fut);
+}
+
+int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf *b)
+{
+    return put_tets(s, tets, n, b);
+}
+
+int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src)
+{
+    pr_reader rd;
+    pr_reader_init(&rd, data, len);
+    int rc = get_tets(c, &rd, src);
+    if (!rc && pr_reader_finish(&rd))
+        rc = PDR_EPARSE;
+    return rc;
 }
 
 void par_cav_free(par_cav *c)

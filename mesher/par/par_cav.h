@@ -57,6 +57,7 @@
 #include "am.h"
 #include "base/hmap.h"
 #include "par/par_sub.h"
+#include "pr.h"
 
 /* Outcome of par_cav_gather (besides negative error codes). */
 enum par_cav_status {
@@ -201,5 +202,15 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
 
 /* Releases every lock the thread's last attempt holds on this PE. */
 void par_cav_release(par_cav *c);
+
+/* The tetrahedra part of a REPLY (proto/PROTOCOL.md, after the owner and
+ * status), on its own for tests: encode appends tetrahedra tets[0..n-1]
+ * of s with their vertices, subsegments and subfacets to b (0 or
+ * PDR_ENOMEM); decode adds exactly those bytes to c's gathered lists as
+ * sent by PE src (0, PDR_EPARSE on anything malformed or trailing, or
+ * PDR_ENOMEM). A par_cav for decoding alone may be initialised with a
+ * par_cav_ctx whose am is NULL. */
+int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf *b);
+int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src);
 
 #endif /* PDR_PAR_CAV_H */

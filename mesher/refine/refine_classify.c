@@ -212,7 +212,8 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
             if (id == BD_NONE || (bd->facs[id].flags & BD_F_MISSING) ||
                 (int32_t)bd->facs[id].facet + 1 != m->marker[4 * (size_t)t + (size_t)k]) {
                 if (log)
-                    fprintf(log, "marked face %u %u %u of tet %u is no live subfacet\n", a, b, c, t);
+                    fprintf(log, "marked face %u %u %u of tet %u is no live subfacet\n", a, b, c,
+                            t);
                 bad++;
             } else {
                 marked[id] = 1;
