@@ -4,6 +4,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,17 +27,56 @@ double am__now(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
+void am__vline(int fd, const char *prefix, const char *fmt, va_list ap)
+{
+    /* One write per line: PEs share the launcher's stderr, and a line
+     * written in pieces (prefix, message, newline) can be cut by another
+     * PE's line. A line longer than the buffer is cut, not split. */
+    char line[1024];
+    size_t n = 0;
+    int k = snprintf(line, sizeof line - 1, "%s", prefix);
+    if (k > 0)
+        n = (size_t)k < sizeof line - 1 ? (size_t)k : sizeof line - 2;
+    k = vsnprintf(line + n, sizeof line - 1 - n, fmt, ap);
+    if (k > 0)
+        n += (size_t)k < sizeof line - 1 - n ? (size_t)k : sizeof line - 2 - n;
+    line[n++] = '\n';
+    for (size_t off = 0; off < n;) {
+        ssize_t w = write(fd, line + off, n - off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0)
+            break;
+        off += (size_t)w;
+    }
+}
+
 void am__warn(const am_ctx_t *ctx, const char *fmt, ...)
 {
-    va_list ap;
+    char prefix[32] = "am: ";
     if (ctx && ctx->size > 0)
-        fprintf(stderr, "am: PE %d: ", ctx->rank);
-    else
-        fprintf(stderr, "am: ");
+        snprintf(prefix, sizeof prefix, "am: PE %d: ", ctx->rank);
+    va_list ap;
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    am__vline(2, prefix, fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
+}
+
+/* Tells the launcher (AM_REPORT_FD) which PE this failure is about, in one
+ * write of one line, before the PE exits: the launcher names that PE, not
+ * the first PE it happens to see exit (CONTROL.md, "Failure report"). */
+static void report_failure(const am_ctx_t *ctx)
+{
+    if (ctx->report_fd < 0)
+        return;
+    char line[64];
+    int culprit = ctx->culprit == -1 ? ctx->rank : ctx->culprit;
+    int n = snprintf(line, sizeof line, "FAIL %d %d %d\n", ctx->rank,
+                     culprit >= 0 ? culprit : -1, ctx->failed);
+    ssize_t w;
+    do
+        w = write(ctx->report_fd, line, (size_t)n);
+    while (w < 0 && errno == EINTR);
 }
 
 int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
@@ -48,6 +88,7 @@ int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
     vsnprintf(ctx->errmsg, sizeof ctx->errmsg, fmt, ap);
     va_end(ap);
     ctx->failed = code;
+    report_failure(ctx);
     /* While am_init runs there is no handler to call yet: am_init prints
      * and returns the code. */
     if (ctx->state == AM__BOOTING) {
@@ -60,14 +101,31 @@ int am__fail(am_ctx_t *ctx, int code, const char *fmt, ...)
     }
     am__warn(ctx, "%s", ctx->errmsg);
     fflush(NULL);
-    /* Give queued frames (the ABORTs to the other PEs) half a second to
-     * leave, then stop: like MPI_ERRORS_ARE_FATAL. _exit, not exit:
-     * ZeroMQ's threads and half-done collectives make atexit handlers a
-     * risk, not a help. */
+    /* Give queued frames (the ABORTs to the other PEs) time to leave, then
+     * stop: like MPI_ERRORS_ARE_FATAL. _exit, not exit: ZeroMQ's threads
+     * and half-done collectives make atexit handlers a risk, not a help. */
     if (ctx->sock) {
-        int linger = 500;
-        zmq_setsockopt(ctx->sock, ZMQ_LINGER, &linger, sizeof linger);
-        am__transport_close(ctx);
+        /* Frames still in the runtime's own queues (ABORTs to peers whose
+         * pipes were full) are handed to ZeroMQ first; a peer that left
+         * meanwhile is skipped (AM__CLOSING). */
+        ctx->state = AM__CLOSING;
+        double end = am__now() + 0.5;
+        while (ctx->sendq_total && am__now() < end && !am__flush_sendq(ctx) &&
+               ctx->sendq_total) {
+            zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLOUT, 0};
+            zmq_poll(&it, 1, 10);
+        }
+        /* The socket is not closed: closing it while peers still send
+         * makes libzmq 4.3 abort when a heartbeat falls due during the
+         * linger (stream_engine_base.cpp: out_event's !_io_error
+         * assertion, seen in tests/am-fault.sh). ZeroMQ's I/O thread
+         * writes what is queued while this thread waits, and _exit closes
+         * the connections. The monitor stops first, so that its events
+         * cannot block that thread. */
+        zmq_socket_monitor(ctx->sock, NULL, 0);
+        struct timespec ts = {0, 300 * 1000 * 1000};
+        while (nanosleep(&ts, &ts) != 0 && errno == EINTR)
+            ;
     }
     _exit(1);
 }
@@ -358,6 +416,23 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
     return am__latency_init(ctx, lat, bw);
 }
 
+/* The launcher's failure-report pipe (AM_REPORT_FD, set by am-run for the
+ * PEs it forks). Kept away from programs the PE starts. A number that is
+ * not an open descriptor is ignored: the variable may have leaked from an
+ * enclosing job. */
+static void open_report(am_ctx_t *ctx)
+{
+    const char *v = am__env(ctx, "AM_REPORT_FD");
+    long fd;
+    if (!v || parse_long(v, 3, 1 << 20, &fd))
+        return;
+    int flags = fcntl((int)fd, F_GETFD);
+    if (flags < 0)
+        return;
+    fcntl((int)fd, F_SETFD, flags | FD_CLOEXEC);
+    ctx->report_fd = (int)fd;
+}
+
 /* ------------------------------------------------ control dispatch table */
 
 /* The modules that handle control frames, each with its list of entries.
@@ -427,6 +502,8 @@ static void destroy(am_ctx_t *ctx)
     free(ctx->rdv_file);
     free(ctx->curve_public);
     free(ctx->curve_secret);
+    if (ctx->report_fd >= 0)
+        close(ctx->report_fd);
     free(ctx);
 }
 
@@ -440,10 +517,14 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
         return AM_ENOMEM;
     ctx->t_init = am__now();
     ctx->state = AM__BOOTING;
+    ctx->culprit = -1;
+    ctx->report_fd = -1;
     ctl_table_build(ctx);
     int rc = take_args(ctx, argc, argv);
     if (!rc)
         rc = detect_rank(ctx);
+    if (!rc)
+        open_report(ctx);
     if (!rc)
         rc = resolve_options(ctx, opts);
     if (!rc && !(ctx->peers = calloc((size_t)ctx->size, sizeof *ctx->peers)))

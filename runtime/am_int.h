@@ -27,6 +27,7 @@
 #define AM_INT_H
 
 #include <event2/event.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <ucontext.h>
 #include <zmq.h>
@@ -47,6 +48,11 @@
 
 /* Seconds on CLOCK_MONOTONIC (about 20 ns a call on this hardware). */
 double am__now(void);
+
+/* Writes prefix, the formatted message and a newline to fd in one write
+ * call (cut to 1 KiB), so that lines of several processes sharing fd never
+ * interleave. */
+void am__vline(int fd, const char *prefix, const char *fmt, va_list ap);
 
 /* Prints "am: PE r: " and the message to stderr (diagnostics that are not
  * fatal errors: rejected frames, launch problems). */
@@ -109,6 +115,7 @@ typedef struct am__peer {
     int connected_to;       /* we connected to it (lower rank) */
     int suspect;            /* a disconnect may be this peer's */
     double suspect_since;
+    int judged;             /* probed in the current am__check_peers */
 } am__peer;
 
 /* Reasons a frame is rejected (counted in statistics). */
@@ -345,7 +352,11 @@ enum am__ctl_flags {
     /* A basic message of the termination detection (am_term.c): counted
      * when sent (by the transport) and when delivered (by its handler),
      * and held back once termination was declared. */
-    AM__CTLF_BASIC = 1u << 1
+    AM__CTLF_BASIC = 1u << 1,
+    /* Handled as soon as it is read: never held in the boot stash, the
+     * injected-latency queue or the deferred queue (ABORT: a PE must learn
+     * which peer failed before it judges the disconnects that follow). */
+    AM__CTLF_URGENT = 1u << 2
 };
 
 typedef struct am__ctl_entry {
@@ -363,6 +374,9 @@ struct am_ctx_s {
     int rank, size;
     int state;             /* enum am__boot_state */
     int failed;            /* first fatal error code, 0 if none */
+    int culprit;           /* the PE the failure is about: -1 this one,
+                              -2 unknown (an ABORT that names none) */
+    int report_fd;         /* AM_REPORT_FD: failure line to the launcher */
     char errmsg[256];
     am_error_fn on_error;
     void *on_error_arg;

@@ -3,10 +3,26 @@
  * It starts P PEs (forked locally, or through ssh on the hosts of a
  * hostfile), gives each its rank, size, job id and transport in AM_*
  * environment variables, serves the tcp rendezvous where rank 0 publishes
- * its endpoint, waits for the PEs, and returns the first failing PE's exit
- * status. When a PE fails, the others get a grace period to notice on
- * their own (they report which peer went away), then are terminated.
- * Ctrl-C or SIGTERM to the launcher stops the whole job.
+ * its endpoint, waits for the PEs, and returns the exit status of the PE
+ * that failed first. When a PE fails, the others get a grace period to
+ * notice on their own (they report which peer went away), then are
+ * terminated.
+ *
+ * Which PE failed first: a PE that fails writes one line "FAIL RANK
+ * CULPRIT CODE" to the report pipe (AM_REPORT_FD) before it exits, naming
+ * the peer that went away, or itself. The first line, or the first PE
+ * that ends badly without a line of its own, names the culprit; the order
+ * in which exits are reaped says nothing (a killed process can become a
+ * zombie after its peers have noticed and left). The culprit's line is
+ * printed first and its status is the job's. A culprit that the others
+ * gave up while it was stopped (SIGSTOP) is killed at once, not after the
+ * grace period.
+ *
+ * The launcher's own death: Ctrl-C, SIGTERM, SIGHUP and SIGQUIT are
+ * forwarded to the PEs (SIGKILL 3 s later); local PEs get a parent-death
+ * signal (SIGKILL), so they cannot outlive a launcher killed with SIGKILL;
+ * and for ipc jobs a small helper process removes the socket directory if
+ * the launcher dies without doing so.
  *
  * Transports: ipc (default for local jobs: sockets in a private temporary
  * directory that the launcher removes) or tcp (required for hostfiles;
@@ -25,6 +41,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/prctl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <sys/types.h>
@@ -66,6 +85,19 @@ typedef struct launch {
     char *root_ep;
     pid_t *pids;
     int *status;           /* wait status per rank, -1 while running */
+    double *stopped_at;    /* when the PE was stopped, 0 if it is not */
+    int *stop_status;      /* its wait status then */
+    int *forced;           /* killed by the launcher because it was stopped */
+    double *forced_after;  /* ... after that many seconds stopped */
+    double heartbeat;      /* AM_HEARTBEAT: a PE stopped longer is gone */
+    int *reported;         /* it wrote a failure line */
+    int *printed;          /* its failure was printed */
+    int report_rd, report_wr; /* the failure-report pipe, -1 if none */
+    char rep_buf[4096];    /* report bytes read, up to a partial line */
+    size_t rep_have;
+    int watch_wr;          /* write end of the clean-up helper's pipe */
+    pid_t watch_pid;
+    pid_t self;            /* the launcher's pid, for the PEs' death signal */
 } launch;
 
 static void lerr(const launch *L, const char *fmt, ...)
@@ -73,12 +105,12 @@ static void lerr(const launch *L, const char *fmt, ...)
 
 static void lerr(const launch *L, const char *fmt, ...)
 {
+    char prefix[64];
+    snprintf(prefix, sizeof prefix, "%s: ", L->prog);
     va_list ap;
-    fprintf(stderr, "%s: ", L->prog);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    am__vline(2, prefix, fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
 }
 
 static void usage(const launch *L, FILE *out)
@@ -108,10 +140,13 @@ static void usage(const launch *L, FILE *out)
             "      --grace SEC         after a PE fails, wait SEC before "
             "stopping the others (10)\n"
             "  -h, --help              this text\n\n"
-            "The exit status is 0 if every PE exited 0, else the first failing "
-            "PE's status\n(128+N if it was killed by signal N). The PEs find "
-            "their rank and peers in AM_*\nenvironment variables (see am_init "
-            "in am.h).\n",
+            "The exit status is 0 if every PE exited 0, else the status of the "
+            "PE that failed\nfirst (128+N if it was killed by signal N). A PE "
+            "stopped for longer than the\nheartbeat timeout (AM_HEARTBEAT, 3 s) "
+            "is killed and counts as 128+its stop signal.\nSIGINT, SIGTERM, "
+            "SIGHUP and SIGQUIT are passed on to the PEs. The PEs find their\n"
+            "rank and peers in AM_* environment variables (see am_init in "
+            "am.h).\n",
             L->prog, EXIT_TIMEOUT);
 }
 
@@ -334,8 +369,12 @@ static int make_env(launch *L, int r, char env[NENV][1200])
         snprintf(env[n++], 1200, "AM_BANDWIDTH=%s", L->bandwidth);
     if (L->stats_dir)
         snprintf(env[n++], 1200, "AM_STATS_DIR=%s", L->stats_dir);
+    if (!L->hosts && L->report_wr >= 0)
+        snprintf(env[n++], 1200, "AM_REPORT_FD=%d", L->report_wr);
     return n;
 }
+
+static void default_signals(void);
 
 static pid_t start_local(launch *L, int r)
 {
@@ -344,13 +383,20 @@ static pid_t start_local(launch *L, int r)
     pid_t pid = fork();
     if (pid != 0)
         return pid;
-    signal(SIGINT, SIG_DFL);
-    signal(SIGTERM, SIG_DFL);
+    default_signals();
+    /* A PE must not outlive its launcher, even one killed with SIGKILL. If
+     * the launcher died before the death signal was set, leave now. */
+    if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != L->self)
+        _exit(127);
+    /* The report pipe's write end stays open across exec; the read end
+     * (close-on-exec) does not. */
+    if (L->report_wr >= 0)
+        fcntl(L->report_wr, F_SETFD, 0);
     /* Nothing of an enclosing job may leak into this one. */
     static const char *const stale[] = {
         "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
         "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_SERVER_PUBLIC",
-        "AM_CURVE_SERVER_SECRET"};
+        "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
     for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
         unsetenv(stale[i]);
     for (int i = 0; i < n; i++)
@@ -362,6 +408,15 @@ static pid_t start_local(launch *L, int r)
     execvp(L->cmd[0], L->cmd);
     fprintf(stderr, "%s: cannot run %s: %s\n", L->prog, L->cmd[0], strerror(errno));
     _exit(127);
+}
+
+/* The signals the launcher catches, back to their defaults in a child. */
+static const int caught[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
+
+static void default_signals(void)
+{
+    for (size_t i = 0; i < sizeof caught / sizeof caught[0]; i++)
+        signal(caught[i], SIG_DFL);
 }
 
 /* Remote rank: ssh HOST sh -c 'read keys; cd DIR; exec env VARS PROGRAM ARGS'.
@@ -422,8 +477,10 @@ static pid_t start_remote(launch *L, int r)
     }
     pid_t pid = fork();
     if (pid == 0) {
-        signal(SIGINT, SIG_DFL);
-        signal(SIGTERM, SIG_DFL);
+        default_signals();
+        /* ssh ends its session when the launcher dies. */
+        if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0 || getppid() != L->self)
+            _exit(127);
         if (use_keys) {
             dup2(keys[0], 0);
             close(keys[0]);
@@ -451,13 +508,20 @@ static pid_t start_remote(launch *L, int r)
 
 /* ---------------------------------------------------------------- waiting */
 
+/* What ended PE r, from its wait status. A PE the launcher killed because
+ * it was stopped is described by its stop. */
 static void describe(const launch *L, int r, int status, char *buf, size_t n)
 {
     const char *where = L->hosts ? L->hosts[r] : NULL;
     char at[300] = "";
     if (where)
         snprintf(at, sizeof at, " on %s", where);
-    if (WIFSIGNALED(status))
+    if (WIFSTOPPED(status))
+        snprintf(buf, n, "PE %d (pid %ld%s) was stopped by signal %d (%s) "
+                         "for %.1f s; killed it",
+                 r, (long)L->pids[r], at, WSTOPSIG(status),
+                 strsignal(WSTOPSIG(status)), L->forced_after[r]);
+    else if (WIFSIGNALED(status))
         snprintf(buf, n, "PE %d (pid %ld%s) was killed by signal %d (%s)", r,
                  (long)L->pids[r], at, WTERMSIG(status),
                  strsignal(WTERMSIG(status)));
@@ -468,86 +532,268 @@ static void describe(const launch *L, int r, int status, char *buf, size_t n)
 
 static int exit_code(int status)
 {
+    if (WIFSTOPPED(status))
+        return 128 + WSTOPSIG(status);
     return WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status);
+}
+
+static int failed(int status)
+{
+    return status != -1 && !(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 }
 
 static void signal_all(launch *L, int sig)
 {
     for (int r = 0; r < L->np; r++)
-        if (L->pids[r] > 0 && L->status[r] == -1)
+        if (L->pids[r] > 0 && L->status[r] == -1) {
             kill(L->pids[r], sig);
+            /* A stopped PE acts on the signal only once continued. */
+            if (L->stopped_at[r] > 0 && sig != SIGKILL)
+                kill(L->pids[r], SIGCONT);
+        }
+}
+
+/* The state of a job that is being waited for. */
+typedef struct waitstate {
+    int alive;        /* PEs not reaped */
+    int culprit;      /* the PE that failed first, -1 while unknown */
+    int shown;        /* the culprit's line was printed */
+    double fail_at;   /* first sign of a failure, 0 if none */
+    double lone_at;   /* when the culprit became the only PE left */
+    int stopping;     /* 1: SIGTERM sent, 2: SIGKILL sent */
+    double term_at;   /* when SIGTERM was sent */
+    int signalled;    /* the launcher got a signal */
+} waitstate;
+
+/* Reads the failure lines the PEs wrote ("FAIL RANK CULPRIT CODE"). The
+ * first one that names a PE of the job names the culprit. */
+static void read_reports(launch *L, waitstate *W)
+{
+    char *buf = L->rep_buf;
+    size_t have = L->rep_have;
+    if (L->report_rd < 0)
+        return;
+    for (;;) {
+        ssize_t n = read(L->report_rd, buf + have, sizeof L->rep_buf - 1 - have);
+        if (n <= 0)
+            break;
+        have += (size_t)n;
+        char *line = buf, *nl;
+        while ((nl = memchr(line, '\n', have - (size_t)(line - buf)))) {
+            *nl = '\0';
+            int rank, culprit, code;
+            if (sscanf(line, "FAIL %d %d %d", &rank, &culprit, &code) == 3 &&
+                rank >= 0 && rank < L->np) {
+                L->reported[rank] = 1;
+                if (W->culprit < 0 && culprit >= 0 && culprit < L->np)
+                    W->culprit = culprit;
+                if (!W->fail_at)
+                    W->fail_at = am__now();
+            }
+            line = nl + 1;
+        }
+        have -= (size_t)(line - buf);
+        memmove(buf, line, have);
+        if (have == sizeof L->rep_buf - 1)
+            have = 0; /* a line that long is not ours */
+    }
+    L->rep_have = have;
+}
+
+/* Prints the culprit's line once its end is known, then those of the other
+ * PEs that failed, so that the first line names the PE that failed first.
+ * At the end (final) everything left is printed. */
+static void show_failures(launch *L, waitstate *W, int final)
+{
+    char what[400];
+    if (!W->shown && W->culprit >= 0 && L->status[W->culprit] != -1) {
+        if (failed(L->status[W->culprit])) {
+            describe(L, W->culprit, L->status[W->culprit], what, sizeof what);
+            lerr(L, "%s", what);
+            L->printed[W->culprit] = 1;
+        }
+        W->shown = 1;
+    }
+    if (!W->shown && !final)
+        return;
+    for (int r = 0; r < L->np; r++) {
+        if (L->printed[r] || !failed(L->status[r]))
+            continue;
+        describe(L, r, L->status[r], what, sizeof what);
+        lerr(L, "%s", what);
+        L->printed[r] = 1;
+    }
+}
+
+/* Takes one reaped (or stopped, or continued) child. */
+static void took(launch *L, waitstate *W, pid_t pid, int status)
+{
+    int r = 0;
+    while (r < L->np && L->pids[r] != pid)
+        r++;
+    if (r == L->np)
+        return; /* the clean-up helper */
+    if (WIFSTOPPED(status) || WIFCONTINUED(status)) {
+        L->stop_status[r] = WIFSTOPPED(status) ? status : 0;
+        L->stopped_at[r] = WIFSTOPPED(status) ? am__now() : 0;
+        return;
+    }
+    /* A PE the launcher killed because it was stopped is described by its
+     * stop, not by the launcher's SIGKILL. */
+    L->status[r] = L->forced[r] ? L->stop_status[r] : status;
+    W->alive--;
+    if (W->stopping) {
+        L->printed[r] = 1; /* ended by the launcher: not a failure */
+    } else if (failed(L->status[r])) {
+        /* Failed without a line of its own: it is the first failure
+         * unless a PE already named another. */
+        if (W->culprit < 0 && !L->reported[r])
+            W->culprit = r;
+        if (!W->fail_at)
+            W->fail_at = am__now();
+    }
+}
+
+/* Kills PE r, which is stopped; it is then described by its stop. */
+static void force_end(launch *L, int r, double now)
+{
+    L->forced[r] = 1;
+    L->forced_after[r] = now - L->stopped_at[r];
+    kill(L->pids[r], SIGKILL);
+}
+
+/* A PE stopped for longer than the heartbeat timeout is as gone as a
+ * silent one (CONTROL.md, "Failure detection"), and its peers may not be
+ * able to tell: their heartbeats wait behind the data they queued for it.
+ * So the launcher, which sees the stop, ends it; its peers then see it
+ * die. A stop of the whole job (Ctrl-Z) is left alone. */
+static void end_stopped(launch *L, waitstate *W, double now)
+{
+    if (W->stopping)
+        return;
+    int running = 0;
+    for (int r = 0; r < L->np; r++)
+        running += L->status[r] == -1 && L->stopped_at[r] == 0;
+    if (!running)
+        return;
+    for (int r = 0; r < L->np; r++) {
+        if (L->status[r] != -1 || L->forced[r] || L->stopped_at[r] == 0 ||
+            now < L->stopped_at[r] + L->heartbeat)
+            continue;
+        force_end(L, r, now);
+        if (W->culprit < 0)
+            W->culprit = r;
+        if (!W->fail_at)
+            W->fail_at = now;
+    }
+}
+
+/* The culprit is still there while the others gave it up. A stopped one
+ * cannot be on its way out: it is killed at once. A running one may be a
+ * process that is still dying (a core dump takes a while), so it gets a
+ * second before it is stopped like the rest of the job. */
+static void end_culprit(launch *L, waitstate *W, double now)
+{
+    int c = W->culprit;
+    if (c < 0 || L->status[c] != -1 || W->stopping || L->forced[c])
+        return;
+    if (W->alive > 1 && now < W->fail_at + L->grace)
+        return;
+    if (!W->lone_at)
+        W->lone_at = now;
+    if (L->stopped_at[c] > 0) {
+        force_end(L, c, now);
+    } else if (now > W->lone_at + 1.0) {
+        lerr(L, "PE %d (pid %ld) did not end after the other PEs gave it up; "
+                "stopping it", c, (long)L->pids[c]);
+        W->stopping = 1;
+        W->term_at = now;
+        signal_all(L, SIGTERM);
+    }
+}
+
+static void stop_job(launch *L, waitstate *W, double now)
+{
+    W->stopping = 1;
+    W->term_at = now;
+    signal_all(L, SIGTERM);
 }
 
 static int wait_job(launch *L)
 {
     pending *waiting = NULL;
-    int alive = 0, first_fail = -1, result = 0;
+    waitstate W = {0, -1, 0, 0, 0, 0, 0};
+    int result = 0;
     for (int r = 0; r < L->np; r++)
-        alive += L->pids[r] > 0;
-    double start = am__now(), fail_at = 0, term_at = 0;
-    int stopping = 0; /* 1: SIGTERM sent, 2: SIGKILL sent */
-    while (alive > 0) {
-        int status;
-        pid_t pid = waitpid(-1, &status, WNOHANG);
-        if (pid > 0) {
-            for (int r = 0; r < L->np; r++) {
-                if (L->pids[r] != pid)
-                    continue;
-                L->status[r] = status;
-                alive--;
-                if ((WIFEXITED(status) && WEXITSTATUS(status) == 0) ||
-                    stopping)
-                    break;
-                char what[400];
-                describe(L, r, status, what, sizeof what);
-                lerr(L, "%s", what);
-                if (first_fail < 0) {
-                    first_fail = r;
-                    result = exit_code(status);
-                    fail_at = am__now();
-                }
-            }
-            continue;
+        W.alive += L->pids[r] > 0;
+    double start = am__now();
+    while (W.alive > 0) {
+        /* Every child that changed, then every report line (a PE writes
+         * its line before it exits), then what they mean. */
+        pid_t pids[64];
+        int sts[64], n = 0;
+        while (n < 64) {
+            pid_t pid = waitpid(-1, &sts[n], WNOHANG | WUNTRACED | WCONTINUED);
+            if (pid < 0 && errno == ECHILD)
+                W.alive = 0; /* nothing left to wait for */
+            if (pid <= 0)
+                break;
+            pids[n++] = pid;
         }
-        if (pid < 0 && errno == ECHILD)
+        read_reports(L, &W);
+        for (int i = 0; i < n; i++)
+            took(L, &W, pids[i], sts[i]);
+        show_failures(L, &W, 0);
+        if (n == 64)
+            continue;
+        if (W.alive <= 0)
             break;
-        if (L->rdv)
+        if (L->rdv) {
             rdv_serve(L, &waiting, 20);
-        else {
-            struct timespec ts = {0, 20 * 1000 * 1000};
-            nanosleep(&ts, NULL);
+        } else {
+            struct pollfd pf = {L->report_rd, POLLIN, 0};
+            poll(&pf, L->report_rd >= 0, 20);
         }
         double now = am__now();
-        if (got_signal && !stopping) {
+        end_stopped(L, &W, now);
+        end_culprit(L, &W, now);
+        if (got_signal && W.stopping < 2 && !W.signalled) {
             lerr(L, "%s: stopping the job", strsignal(got_signal));
             result = 128 + got_signal;
-            stopping = 1;
-            term_at = now;
-            signal_all(L, SIGTERM);
-        } else if (!stopping && first_fail >= 0 && now > fail_at + L->grace) {
-            lerr(L, "stopping the %d PE%s still running after PE %d failed",
-                 alive, alive == 1 ? "" : "s", first_fail);
-            stopping = 1;
-            term_at = now;
-            signal_all(L, SIGTERM);
-        } else if (!stopping && L->timeout > 0 && now > start + L->timeout) {
+            W.signalled = 1;
+            W.stopping = 1;
+            W.term_at = now;
+            signal_all(L, got_signal == SIGQUIT ? SIGTERM : got_signal);
+        } else if (!W.stopping && W.fail_at && now > W.fail_at + L->grace) {
+            lerr(L, "stopping the %d PE%s still running %.0f s after the "
+                    "first failure",
+                 W.alive, W.alive == 1 ? "" : "s", L->grace);
+            stop_job(L, &W, now);
+        } else if (!W.stopping && L->timeout > 0 && now > start + L->timeout) {
             lerr(L, "the job ran out of its %.0f s (--timeout); stopping it",
                  L->timeout);
             result = EXIT_TIMEOUT;
-            stopping = 1;
-            term_at = now;
-            signal_all(L, SIGTERM);
-        } else if (stopping == 1 && now > term_at + 3.0) {
-            stopping = 2;
+            stop_job(L, &W, now);
+        } else if (W.stopping == 1 && now > W.term_at + 3.0) {
+            W.stopping = 2;
             signal_all(L, SIGKILL);
         }
     }
+    show_failures(L, &W, 1);
     while (waiting) {
         pending *p = waiting;
         waiting = p->next;
         free(p);
     }
-    return result;
+    if (result)
+        return result;
+    int c = W.culprit;
+    if (c >= 0 && failed(L->status[c]))
+        return exit_code(L->status[c]);
+    for (int r = 0; r < L->np; r++)
+        if (failed(L->status[r]))
+            return exit_code(L->status[r]);
+    return 0;
 }
 
 /* ------------------------------------------------------------------ main */
@@ -562,16 +808,83 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
+/* Removes the ipc sockets and their directory. */
+static void remove_ipc_dir(const launch *L)
+{
+    if (!L->ipc_dir[0])
+        return;
+    for (int r = 0; r < L->np; r++) {
+        char path[128];
+        snprintf(path, sizeof path, "%s/%d.sock", L->ipc_dir, r);
+        unlink(path);
+    }
+    rmdir(L->ipc_dir);
+}
+
+/* The clean-up helper of an ipc job: a child that outlives a launcher
+ * killed with SIGKILL just long enough to remove the socket directory (the
+ * PEs die of their parent-death signal). It waits for the end of a pipe
+ * from the launcher; a 'D' before the end means the launcher cleaned up
+ * itself. It holds no descriptor of the launcher's besides its pipe, so
+ * nothing waiting for the launcher's output waits for it. */
+static void start_watch(launch *L)
+{
+    int p[2];
+    if (pipe2(p, O_CLOEXEC) != 0)
+        return;
+    pid_t pid = fork();
+    if (pid < 0) {
+        close(p[0]);
+        close(p[1]);
+        return;
+    }
+    if (pid == 0) {
+        for (size_t i = 0; i < sizeof caught / sizeof caught[0]; i++)
+            signal(caught[i], SIG_IGN);
+        int null = open("/dev/null", O_RDWR);
+        for (int fd = 0; fd < 3 && null >= 0; fd++)
+            dup2(null, fd);
+        for (int fd = 3; fd < 1024; fd++)
+            if (fd != p[0])
+                close(fd);
+        char c, last = 0;
+        for (;;) {
+            ssize_t n = read(p[0], &c, 1);
+            if (n > 0)
+                last = c;
+            else if (n == 0 || errno != EINTR)
+                break;
+        }
+        if (last != 'D')
+            remove_ipc_dir(L);
+        _exit(0);
+    }
+    close(p[0]);
+    L->watch_wr = p[1];
+    L->watch_pid = pid;
+}
+
+/* Tells the helper the launcher cleaned up, and waits for it to go. */
+static void stop_watch(launch *L)
+{
+    if (L->watch_wr < 0)
+        return;
+    ssize_t w = write(L->watch_wr, "D", 1);
+    (void)w;
+    close(L->watch_wr);
+    L->watch_wr = -1;
+    while (waitpid(L->watch_pid, NULL, 0) < 0 && errno == EINTR)
+        ;
+}
+
 static void cleanup(launch *L)
 {
-    if (L->ipc_dir[0]) {
-        for (int r = 0; r < L->np; r++) {
-            char path[128];
-            snprintf(path, sizeof path, "%s/%d.sock", L->ipc_dir, r);
-            unlink(path);
-        }
-        rmdir(L->ipc_dir);
-    }
+    remove_ipc_dir(L);
+    stop_watch(L);
+    if (L->report_rd >= 0)
+        close(L->report_rd);
+    if (L->report_wr >= 0)
+        close(L->report_wr);
     if (L->rdv)
         zmq_close(L->rdv);
     if (L->zctx)
@@ -584,6 +897,12 @@ static void cleanup(launch *L)
     free(L->root_ep);
     free(L->pids);
     free(L->status);
+    free(L->stopped_at);
+    free(L->stop_status);
+    free(L->forced);
+    free(L->forced_after);
+    free(L->reported);
+    free(L->printed);
 }
 
 int am_launch_main(int argc, char **argv, const char *prog)
@@ -701,13 +1020,33 @@ int am_launch_main(int argc, char **argv, const char *prog)
     }
     L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve");
 
-    int rc = 1;
+    int rc = 1, handlers_set = 0;
     if (getrandom(&L.job, sizeof L.job, 0) != (ssize_t)sizeof L.job)
         L.job = (uint64_t)getpid() << 32 ^ (uint64_t)time(NULL);
     L.job &= (UINT64_C(1) << 62) - 1;
-    L.pids = calloc((size_t)L.np, sizeof *L.pids);
-    L.status = malloc(sizeof *L.status * (size_t)L.np);
-    if (!L.pids || !L.status)
+    L.report_rd = L.report_wr = L.watch_wr = -1;
+    /* The PEs' heartbeat timeout (am_ctx.c reads the same variable). */
+    L.heartbeat = 3.0;
+    const char *hb = getenv("AM_HEARTBEAT");
+    double hb_hi;
+    if (hb && parse_double(hb, &L.heartbeat) != 0 &&
+        am__latency_parse(hb, &L.heartbeat, &hb_hi) != 0)
+        L.heartbeat = 3.0;
+    if (L.heartbeat < 0.05)
+        L.heartbeat = 0.05;
+    L.self = getpid();
+    size_t np = (size_t)L.np;
+    L.pids = calloc(np, sizeof *L.pids);
+    L.status = malloc(sizeof *L.status * np);
+    L.stopped_at = calloc(np, sizeof *L.stopped_at);
+    L.stop_status = calloc(np, sizeof *L.stop_status);
+    L.forced = calloc(np, sizeof *L.forced);
+    L.forced_after = calloc(np, sizeof *L.forced_after);
+    L.reported = calloc(np, sizeof *L.reported);
+    L.printed = calloc(np, sizeof *L.printed);
+    if (!L.pids || !L.status || !L.stopped_at || !L.stop_status || !L.forced ||
+        !L.forced_after ||
+        !L.reported || !L.printed)
         goto out;
     for (int r = 0; r < L.np; r++)
         L.status[r] = -1;
@@ -724,6 +1063,16 @@ int am_launch_main(int argc, char **argv, const char *prog)
     }
     if (L.hostfile && read_hostfile(&L))
         goto out;
+    /* Caught from here on, so that no signal can leave the socket
+     * directory behind; forwarded to the PEs once they run. */
+    struct sigaction sa, old_sa[sizeof caught / sizeof caught[0]];
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    got_signal = 0;
+    for (size_t i = 0; i < sizeof caught / sizeof caught[0]; i++)
+        sigaction(caught[i], &sa, &old_sa[i]);
+    handlers_set = 1;
     if (!strcmp(L.transport, "ipc")) {
         const char *tmp = getenv("TMPDIR");
         if (!tmp || !*tmp || strlen(tmp) > 40)
@@ -735,6 +1084,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
             L.ipc_dir[0] = '\0';
             goto out;
         }
+        start_watch(&L);
     } else if (rdv_open(&L)) {
         lerr(&L, "cannot start the rendezvous server");
         goto out;
@@ -742,13 +1092,15 @@ int am_launch_main(int argc, char **argv, const char *prog)
     if (L.curve && zmq_curve_keypair(L.curve_pub, L.curve_sec) != 0)
         L.curve = 0;
 
-    struct sigaction sa, old_int, old_term;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    got_signal = 0;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    /* Non-blocking: a PE never waits to report (a full pipe loses the
+     * line, and the launcher falls back on the order of the exits). */
+    if (!L.hosts) {
+        int rp[2];
+        if (pipe2(rp, O_CLOEXEC | O_NONBLOCK) == 0) {
+            L.report_rd = rp[0];
+            L.report_wr = rp[1];
+        }
+    }
     fflush(NULL);
     int started = 0;
     for (int r = 0; r < L.np; r++) {
@@ -761,12 +1113,17 @@ int am_launch_main(int argc, char **argv, const char *prog)
         }
         started++;
     }
+    if (L.report_wr >= 0) {
+        close(L.report_wr);
+        L.report_wr = -1;
+    }
     rc = wait_job(&L);
     if (started < L.np && rc == 0)
         rc = 1;
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
 out:
     cleanup(&L);
+    if (handlers_set)
+        for (size_t i = 0; i < sizeof caught / sizeof caught[0]; i++)
+            sigaction(caught[i], &old_sa[i], NULL);
     return rc;
 }

@@ -328,6 +328,8 @@ int am__socket_readable(am_ctx_t *ctx)
 
 /* ---------------------------------------------------------------- sending */
 
+static void suspect(am_ctx_t *ctx, int pe, double now);
+
 static int peer_gone(am_ctx_t *ctx, int pe)
 {
     char why[AM__REASON_MAX];
@@ -347,6 +349,7 @@ int am__peer_failed(am_ctx_t *ctx, int pe, const char *why)
 {
     if (ctx->failed)
         return ctx->failed;
+    ctx->culprit = pe;
     /* Tell the others first: a PE that exits because of PE 3 would
      * otherwise be reported as the one that went away by PEs that notice
      * its own exit before PE 3's. */
@@ -369,7 +372,14 @@ int am__peer_failed(am_ctx_t *ctx, int pe, const char *why)
 
 /* Hands msg to ZeroMQ. Returns 0 (msg consumed), 1 (would block: msg still
  * ours), 2 (dropped: while finalizing, a peer that already left cannot be
- * told goodbye; msg still ours) or a fatal code (msg still ours). */
+ * told goodbye; msg still ours), 3 (no route to the peer: msg still ours)
+ * or a fatal code (msg still ours).
+ *
+ * No route is not a verdict: the peer may have left because a third PE
+ * failed, and its ABORT naming that PE may still wait in our socket. So the
+ * peer becomes a suspect, the frame waits in its send queue, and
+ * am__check_peers judges it after the same grace as a disconnect, once
+ * everything that arrived was read. */
 static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
 {
     uint8_t id[5];
@@ -382,8 +392,12 @@ static int zsend(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
         if (errno == EHOSTUNREACH &&
             (ctx->state == AM__CLOSING || ctx->aborting))
             return 2;
-        if (errno == EHOSTUNREACH)
-            return peer_gone(ctx, pe);
+        if (errno == EHOSTUNREACH) {
+            if (ctx->state != AM__RUNNING)
+                return peer_gone(ctx, pe);
+            suspect(ctx, pe, am__now());
+            return 3;
+        }
         return am__fail(ctx, AM_ETRANSPORT, "sending to PE %d failed: %s", pe,
                         zmq_strerror(errno));
     }
@@ -454,7 +468,7 @@ static int hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
         int rc = zsend(ctx, pe, msg);
         if (rc == 2) /* dropped while finalizing */
             zmq_msg_close(msg);
-        if (rc != 1) {
+        if (rc != 1 && rc != 3) {
             if (rc >= 0)
                 p->send_seq++;
             return rc < 0 ? rc : 0;
@@ -491,20 +505,30 @@ static int send_frame(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
     return rc;
 }
 
+/* Hands pe's queued frames to ZeroMQ until it would block. Returns 0, 3
+ * if the peer has no route (zsend), or a fatal code. */
+static int flush_peer(am_ctx_t *ctx, int pe)
+{
+    am__peer *p = &ctx->peers[pe];
+    while (p->sendq.head) {
+        int rc = zsend(ctx, pe, &p->sendq.head->msg);
+        if (rc < 0 || rc == 3)
+            return rc;
+        if (rc == 1)
+            break;
+        /* Sent (0) or dropped while finalizing (2). */
+        am__frame_free(am__fifo_pop(&p->sendq));
+        ctx->sendq_total--;
+    }
+    return 0;
+}
+
 int am__flush_sendq(am_ctx_t *ctx)
 {
     for (int pe = 0; pe < ctx->size && ctx->sendq_total; pe++) {
-        am__peer *p = &ctx->peers[pe];
-        while (p->sendq.head) {
-            int rc = zsend(ctx, pe, &p->sendq.head->msg);
-            if (rc < 0)
-                return rc;
-            if (rc == 1)
-                break;
-            /* Sent (0) or dropped while finalizing (2). */
-            am__frame_free(am__fifo_pop(&p->sendq));
-            ctx->sendq_total--;
-        }
+        int rc = flush_peer(ctx, pe);
+        if (rc < 0)
+            return rc;
     }
     return 0;
 }
@@ -766,7 +790,11 @@ static am__frame *keep(am_ctx_t *ctx, am__frame *f)
 static void route_frame(am_ctx_t *ctx, am__frame *f)
 {
     am__frame *k;
-    if (ctx->state == AM__BOOTING && !is_boot_frame(ctx, f)) {
+    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+    if (e && (e->flags & AM__CTLF_URGENT)) {
+        am__dispatch(ctx, f);
+        zmq_msg_close(&f->msg);
+    } else if (ctx->state == AM__BOOTING && !is_boot_frame(ctx, f)) {
         if ((k = keep(ctx, f)))
             am__fifo_push(&ctx->early, k);
     } else if (ctx->lat.on && ctx->state == AM__RUNNING) {
@@ -995,7 +1023,10 @@ static int unreachable(am_ctx_t *ctx, int pe)
     am__routing_id(pe, id);
     int gone = 0;
     ctx->events_stale = 1;
-    if (ctx->peers[pe].sendq.n == 0) {
+    if (ctx->peers[pe].sendq.n) {
+        /* Frames wait for it: handing them over is the probe. */
+        gone = flush_peer(ctx, pe) == 3;
+    } else {
         if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
             gone = errno == EHOSTUNREACH;
         } else {
@@ -1025,20 +1056,33 @@ void am__check_peers(am_ctx_t *ctx)
     /* A peer that finalized sent BYE before it closed: take everything
      * that is waiting, so its BYE is seen before its disconnect is judged. */
     am__recv_some(ctx, 1u << 16);
-    for (int pe = 0; pe < ctx->size && !ctx->failed; pe++) {
-        am__peer *p = &ctx->peers[pe];
-        if (!p->suspect)
-            continue;
-        if (p->said_bye || now - p->suspect_since > SUSPECT_WINDOW) {
-            p->suspect = 0;
-            ctx->suspects--;
-            continue;
+    /* Judged in the order they became suspects: when PE 6 leaves because
+     * PE 5 died and both disconnects are pending, PE 5's came first. */
+    while (ctx->suspects && !ctx->failed) {
+        int first = -1;
+        for (int pe = 0; pe < ctx->size; pe++) {
+            am__peer *p = &ctx->peers[pe];
+            if (!p->suspect)
+                continue;
+            if (p->said_bye || now - p->suspect_since > SUSPECT_WINDOW) {
+                p->suspect = 0;
+                ctx->suspects--;
+                continue;
+            }
+            if (now - p->suspect_since >= SUSPECT_GRACE && !p->judged &&
+                (first < 0 ||
+                 p->suspect_since < ctx->peers[first].suspect_since))
+                first = pe;
         }
-        if (now - p->suspect_since < SUSPECT_GRACE)
-            continue;
-        if (p->connected_to || unreachable(ctx, pe))
-            peer_gone(ctx, pe);
+        if (first < 0)
+            break;
+        am__peer *p = &ctx->peers[first];
+        p->judged = 1;
+        if (p->connected_to || unreachable(ctx, first))
+            peer_gone(ctx, first);
     }
+    for (int pe = 0; pe < ctx->size; pe++)
+        ctx->peers[pe].judged = 0;
 }
 
 /* A PING only tests whether its connection is still there (unreachable()
@@ -1057,13 +1101,16 @@ static void on_abort(am_ctx_t *ctx, int src, pr_reader *body)
         am__reject(ctx, AM__REJ_BODY, src, "abort");
         return;
     }
-    /* Passed on as is: the sender already named the PE concerned. */
+    /* Passed on as is: the sender already named the PE concerned, and
+     * this PE reports that one to the launcher too. */
+    if (!ctx->failed)
+        ctx->culprit = m.culprit < (uint32_t)ctx->size ? (int)m.culprit : -2;
     am__fail(ctx, AM_EPEER, "%.*s (noticed by PE %d)", (int)m.reason.len,
              (const char *)m.reason.p, src);
 }
 
 const am__ctl_entry am__transport_ctls[] = {
     {AM__CTL_PING, "ping", 0, on_ping},
-    {AM__CTL_ABORT, "abort", 0, on_abort},
+    {AM__CTL_ABORT, "abort", AM__CTLF_URGENT, on_abort},
     {0, NULL, 0, NULL},
 };

@@ -24,6 +24,9 @@
  *   am_mp coll             barrier, allreduce, gather
  *   am_mp kill VICTIM      PE VICTIM kills itself with SIGKILL mid-run; the
  *                          others must report it and exit (never return)
+ *   am_mp busy DIR SECONDS every PE writes its pid to DIR/pid-RANK, then
+ *                          sends messages of up to 1 KiB to random PEs for
+ *                          SECONDS (a job to kill or stop from outside)
  *   am_mp malformed        rank 0 throws malformed frames at PE 1 from raw
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
@@ -113,7 +116,7 @@ static uint64_t get64(const uint8_t *p)
 /* ---------------------------------------------------------------- storm */
 
 enum { H_STORM = 1, H_WORK = 2, H_SLOW = 3, H_FAST = 4, H_PING = 5, H_PONG = 6,
-       H_SPIN = 7 };
+       H_SPIN = 7, H_BUSY = 8 };
 
 #define STORM_HDR 20 /* src u32, idx u32, len u32, checksum u64 */
 
@@ -857,6 +860,56 @@ static int run_kill(am_ctx_t *ctx, int victim)
     return 1;
 }
 
+/* ----------------------------------------------------------------- busy */
+
+static double busy_end;
+
+static int busy_work(am_ctx_t *ctx, void *arg)
+{
+    (void)arg;
+    static double next;
+    double t = now_s();
+    if (t > busy_end || t < next)
+        return 0;
+    next = t + 0.001;
+    static uint8_t buf[1024];
+    for (int i = 0; i < 8; i++) {
+        int dst = (int)(rnd() % (uint64_t)am_size(ctx));
+        am_send(ctx, dst, H_BUSY, buf, (size_t)(rnd() % sizeof buf));
+    }
+    return 1;
+}
+
+static void busy_timer(am_ctx_t *ctx, am_timer_t *t, void *arg)
+{
+    (void)ctx;
+    (void)arg;
+    if (now_s() < busy_end)
+        am_timer_start(t, 0.001); /* keeps the PE active until the end */
+}
+
+static int run_busy(am_ctx_t *ctx, const char *dir, int seconds)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/pid-%d", dir, am_rank(ctx));
+    FILE *f = fopen(path, "w");
+    CHECK(f != NULL, "cannot write %s", path);
+    if (f) {
+        fprintf(f, "%ld\n", (long)getpid());
+        fclose(f);
+    }
+    am_register(ctx, H_BUSY, "busy", spin_handler, NULL);
+    am_barrier(ctx);
+    busy_end = now_s() + seconds;
+    am_timer_t *t;
+    am_timer_new(ctx, busy_timer, NULL, &t);
+    am_timer_start(t, 0.001);
+    int rc = am_run_until_done(ctx, busy_work, NULL);
+    CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+    am_timer_free(&t);
+    return 0;
+}
+
 /* ------------------------------------------------------------ malformed */
 
 /* Sends one message from a fresh DEALER socket. The ROUTER refuses a
@@ -1014,13 +1067,15 @@ int main(int argc, char **argv)
         rc = run_coll(ctx);
     else if (!strcmp(mode, "kill"))
         rc = run_kill(ctx, arg1);
+    else if (!strcmp(mode, "busy") && argc > 3)
+        rc = run_busy(ctx, argv[2], arg2);
     else if (!strcmp(mode, "malformed"))
         rc = run_malformed(ctx, 0);
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
     else {
         fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
-                        "malformed|stranger [ARGS]\n");
+                        "busy|malformed|stranger [ARGS]\n");
         rc = 2;
     }
     int frc = am_finalize(&ctx);

@@ -45,6 +45,13 @@ tests_test_am_stats_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_stats_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_stats_LDFLAGS = $(AM_LDFLAGS) -static
 
+check_PROGRAMS += tests/test_am_lines
+TESTS += tests/test_am_lines
+tests_test_am_lines_SOURCES = tests/test_am_lines.c
+tests_test_am_lines_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_lines_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_lines_LDFLAGS = $(AM_LDFLAGS) -static
+
 # Multi-process tests: am_mp under am-run, on loopback only.
 EXTRA_DIST += tests/am-lib.sh
 AM_MP_TESTS = \
@@ -56,6 +63,8 @@ AM_MP_TESTS = \
 	tests/am-kill.sh \
 	tests/am-coll.sh \
 	tests/am-malformed.sh \
-	tests/am-launch.sh
+	tests/am-launch.sh \
+	tests/am-fault.sh \
+	tests/am-signals.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)
