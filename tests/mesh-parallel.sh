@@ -62,7 +62,7 @@ done
 # bounds: an inclined internal facet, holes, two regions. Its boundary
 # splits are where pieces go missing for a while; on 3, 5 and 8 PEs they
 # must all be recovered (a run that left one used to write a mesh with a
-# hole in that facet, about one run in forty).
+# hole in that facet, about one run in 45).
 ex=${TETGEN_EXAMPLE:-/usr/share/doc/tetgen/examples/example.poly}
 if [ -r "$ex" ]; then
     cp "$ex" "$tmp/ex.poly" || exit 99
