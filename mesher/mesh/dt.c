@@ -200,15 +200,17 @@ void dt_cavity_abandon(tm_mesh *m, dt_cavity *c)
     dt_cavity_unlock(m, c);
 }
 
-/* Returns 1 if t is free or ours (taking it if free), 0 if locked by
- * someone else, PDR_ENOMEM. */
-static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
+/* Returns 1 if t is free or ours (taking it if free and lock is 1; lock
+ * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. */
+static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
 {
     uint32_t owner = m->lock[t];
     if (owner == c->lock_owner)
         return 1;
     if (owner != 0)
         return 0;
+    if (lock == 2)
+        return 1;
     if (pdr_grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
         return PDR_ENOMEM;
     m->lock[t] = c->lock_owner;
@@ -253,8 +255,8 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     c->status = DT_OK;
     c->ntets = c->nbnd = c->nnew = 0;
     c->located = c->dup_vertex = c->blocker = TM_NONE;
-    int lock = (flags & DT_LOCK) && m->lock;
-    if (lock)
+    int lock = !m->lock ? 0 : (flags & DT_LOCK) ? 1 : (flags & DT_CHECK_LOCKS) ? 2 : 0;
+    if (lock == 1)
         c->nheld = 0;
 
     uint32_t t0 = start;
@@ -287,7 +289,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     }
     c->located = t0;
     if (lock) {
-        int r = take_lock(m, c, t0);
+        int r = take_lock(m, c, t0, lock);
         if (r <= 0) {
             c->status = DT_LOCKED;
             c->blocker = t0;
@@ -335,7 +337,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
             if (fu & TM_F_CAVITY)
                 continue;
             if (lock) {
-                int r = take_lock(m, c, u);
+                int r = take_lock(m, c, u, lock);
                 if (r <= 0) {
                     clear_marks(m, c);
                     c->status = DT_LOCKED;

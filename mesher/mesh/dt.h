@@ -66,6 +66,10 @@ enum dt_search_flags {
     DT_LOCATE = 1u << 0,      /* walk from start to a tet in conflict */
     DT_STOP_MARKED = 1u << 1, /* do not cross marked faces */
     DT_LOCK = 1u << 2,        /* lock cavity and ring (needs TM_FEAT_LOCKS) */
+    DT_CHECK_LOCKS = 1u << 3, /* as DT_LOCK, but take no lock: only fail
+                                 (DT_LOCKED) where another owner holds one;
+                                 for a search committed before anything
+                                 else can run */
 };
 
 enum dt_status {

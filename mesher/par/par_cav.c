@@ -748,7 +748,17 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
     tm_mesh *m = &c->cc->s->r.m;
     *remote = 0;
     d->lock_owner = c->owner;
-    int rc = dt_cavity_search(m, p, start, DT_LOCK, d);
+    /* Most cavities lie on this PE alone and are committed before
+     * anything else runs here: for those, checking that no other cavity
+     * holds a lock is enough. Only one that reaches another PE, and so
+     * waits, is searched again taking its locks. */
+    int rc = dt_cavity_search(m, p, start, DT_CHECK_LOCKS, d);
+    int local = !rc && d->status == DT_OK;
+    for (size_t i = 0; local && i < d->nbnd; i++)
+        if (d->bnd[i].reason == DT_BND_REMOTE)
+            local = 0;
+    if (!rc && d->status == DT_OK && !local)
+        rc = dt_cavity_search(m, p, start, DT_LOCK, d);
     for (size_t i = 0; !rc && i < d->nheld; i++)
         rc = push(&c->own.held, d->held[i]);
     d->nheld = 0;
