@@ -15,3 +15,4 @@ dist_noinst_SCRIPTS += tools/check-layers
 dist_noinst_SCRIPTS += tools/bench-parallel
 EXTRA_DIST += bench/parallel.md
 dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces
+EXTRA_DIST += bench/surfaces.md
