@@ -66,7 +66,11 @@ EXTRA_DIST += \
 	tests/data/plc/tet.stl \
 	tests/data/plc/truncated.poly \
 	tests/data/plc/unknown.xyz \
-	tests/data/plc/zero-area.poly
+	tests/data/plc/zero-area.poly \
+	tests/data/surf/frame.off \
+	tests/data/surf/gridcube.off \
+	tests/data/surf/needle.off \
+	tests/data/surf/octa-6.off
 
 check_PROGRAMS += tests/test_delaunay
 TESTS += tests/test_delaunay
@@ -84,7 +88,8 @@ tests_test_refine_SOURCES = tests/test_refine.c
 tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
 tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
-	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh
+	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
+	tests/mesh-tessellated.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
 

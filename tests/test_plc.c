@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "plc/dom.h"
+#include "plc/fm.h"
 #include "plc/plc.h"
 #include "unit.h"
 
@@ -421,6 +422,139 @@ START_TEST(shared_internal_facet_is_valid)
 }
 END_TEST
 
+/* A cube [0,2]^3 whose faces are each four triangles around the face's
+ * centre (OFF, vertices 0-7 the corners, 8-13 the centres), with the top
+ * face (z = 2) tilted up at its centre by 'lift' so that its triangles are
+ * not coplanar when lift is nonzero. */
+static void fan_cube_off(char *buf, size_t n, const char *lift)
+{
+    snprintf(buf, n,
+             "OFF\n14 24 0\n"
+             "0 0 0\n2 0 0\n2 2 0\n0 2 0\n0 0 2\n2 0 2\n2 2 2\n0 2 2\n"
+             "1 1 0\n1 1 %s\n1 0 1\n1 2 1\n0 1 1\n2 1 1\n"
+             /* bottom z=0 (centre 8), top z=2 (9) */
+             "3 0 3 8\n3 3 2 8\n3 2 1 8\n3 1 0 8\n"
+             "3 4 5 9\n3 5 6 9\n3 6 7 9\n3 7 4 9\n"
+             /* y=0 (10), y=2 (11) */
+             "3 0 1 10\n3 1 5 10\n3 5 4 10\n3 4 0 10\n"
+             "3 3 7 11\n3 7 6 11\n3 6 2 11\n3 2 3 11\n"
+             /* x=0 (12), x=2 (13) */
+             "3 0 4 12\n3 4 7 12\n3 7 3 12\n3 3 0 12\n"
+             "3 1 2 13\n3 2 6 13\n3 6 5 13\n3 5 1 13\n",
+             lift);
+}
+
+/* Reads and validates OFF text, then prepares it (fm_prepare). */
+static int prepare_text(const char *text, double angle, plc *p, fm_stats *st, pdr_diag *d)
+{
+    make_tmpdir();
+    const char *path = write_file("s.off", text);
+    plc_init(p, NULL);
+    int rc = plc_read(p, path, d);
+    if (!rc)
+        rc = plc_validate(p, d);
+    if (!rc)
+        rc = fm_prepare(p, angle, st, d);
+    remove_tmpdir();
+    return rc;
+}
+
+START_TEST(coplanar_triangles_merge_into_facets)
+{
+    char off[1024];
+    fan_cube_off(off, sizeof off, "2");
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    int rc = prepare_text(off, FM_MERGE_ANGLE, &p, &st, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    /* Six square facets, each with its centre as an isolated vertex; the
+     * twelve cube edges are the only segments left. */
+    ck_assert_uint_eq(st.facets_before, 24);
+    ck_assert_uint_eq(st.triangles_merged, 24);
+    ck_assert_uint_eq(p.nfacet, 6);
+    ck_assert_uint_eq(p.nseg, 12);
+    for (size_t f = 0; f < p.nfacet; f++) {
+        const plc_facet *F = &p.facets[f];
+        ck_assert_uint_eq(F->npoly, 2);
+        ck_assert_uint_eq(p.polys[F->poly_first].n, 4);
+        ck_assert_uint_eq(p.polys[F->poly_first + 1].n, 1);
+        /* each facet triangulated with its centre: four triangles */
+        ck_assert_uint_eq(p.ftri_start[f + 1] - p.ftri_start[f], 4);
+    }
+    /* Cube edges meet at 90 degrees: nothing sharp or acute. */
+    ck_assert_uint_eq(st.sharp_segments, 0);
+    ck_assert_uint_eq(st.acute_vertices, 0);
+    for (size_t s = 0; s < p.nseg; s++)
+        ck_assert_double_eq_tol(p.seg_mindih[s], 90.0, 1e-4);
+    plc_free(&p);
+    pdr_diag_free(&d);
+
+    /* With the merge off, every triangle stays a facet. */
+    rc = prepare_text(off, -1, &p, &st, &d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_uint_eq(p.nfacet, 24);
+    ck_assert_uint_eq(st.triangles_merged, 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(merge_respects_the_angle_tolerance)
+{
+    /* The top centre lifted by 1e-12: the top's triangles are coplanar
+     * within the planar tolerance but not exactly, and meet at an angle
+     * within 0.1 degrees of 180. The default tolerance merges them, an
+     * angular tolerance of 0 (exactly coplanar only) does not. */
+    char off[1024];
+    fan_cube_off(off, sizeof off, "2.000000000001");
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    ck_assert_int_eq(prepare_text(off, FM_MERGE_ANGLE, &p, &st, &d), 0);
+    ck_assert_uint_eq(p.nfacet, 6);
+    plc_free(&p);
+    ck_assert_int_eq(prepare_text(off, 0, &p, &st, &d), 0);
+    ck_assert_uint_eq(p.nfacet, 5 + 4);
+    plc_free(&p);
+    /* Lifted by 1e-3 the top's triangles meet at 179.92 degrees, within
+     * the angular tolerance, but they are not planar: merging them would
+     * move the surface, so they stay four facets, whatever the
+     * tolerance. */
+    fan_cube_off(off, sizeof off, "2.001");
+    ck_assert_int_eq(prepare_text(off, 10, &p, &st, &d), 0);
+    ck_assert_uint_eq(p.nfacet, 5 + 4);
+    ck_assert_uint_eq(st.sharp_segments, 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(sharp_segments_and_acute_vertices)
+{
+    /* A wedge: triangle (0,0,0) (1,0,0) (0,0.25,0) extruded to z = 1;
+     * the edge at (1,0,z) has a dihedral angle of atan(0.25) = 14 degrees,
+     * and its two corners see segments at 14 degrees. */
+    const char *wedge = "OFF\n6 8 0\n0 0 0\n1 0 0\n0 0.25 0\n0 0 1\n1 0 1\n0 0.25 1\n"
+                        "3 0 2 1\n3 3 4 5\n"
+                        "3 0 1 4\n3 0 4 3\n3 1 2 5\n3 1 5 4\n3 2 0 3\n3 2 3 5\n";
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    int rc = prepare_text(wedge, FM_MERGE_ANGLE, &p, &st, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_uint_eq(p.nfacet, 5); /* three rectangles and two triangles */
+    ck_assert_uint_eq(st.sharp_segments, 1);
+    /* the corners of the thin end: the 14-degree angle of each end
+     * triangle, the other corners have 90 degrees or 76 */
+    ck_assert_uint_eq(st.acute_vertices, 2);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
 static Suite *plc_suite(void)
 {
     Suite *s = suite_create("plc");
@@ -437,6 +571,11 @@ static Suite *plc_suite(void)
     tc = tcase_create("validate");
     tcase_add_test(tc, coplanar_overlap_and_touching_vertex_are_intersections);
     tcase_add_test(tc, shared_internal_facet_is_valid);
+    suite_add_tcase(s, tc);
+    tc = tcase_create("prepare");
+    tcase_add_test(tc, coplanar_triangles_merge_into_facets);
+    tcase_add_test(tc, merge_respects_the_angle_tolerance);
+    tcase_add_test(tc, sharp_segments_and_acute_vertices);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -14,3 +14,5 @@ EXTRA_DIST += bench/mesh.md
 dist_noinst_SCRIPTS += tools/check-layers
 dist_noinst_SCRIPTS += tools/bench-parallel
 EXTRA_DIST += bench/parallel.md
+dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces
+EXTRA_DIST += bench/surfaces.md

@@ -203,6 +203,12 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
              * hole on both sides; a facet that should bound the mesh and
              * does not shows in the one-sided faces and the volume */
             r->facets_outside++;
+            /* Without hole points every facet of a valid PLC bounds some
+             * of the domain (outside the domain a closed surface encloses
+             * a region of it): one with no triangle means the mesh lost
+             * that part of the domain. */
+            if (!p->nhole)
+                r->facets_lost++;
             continue;
         }
         double err = ap > 0 ? fabs(am[f] - ap) / ap : 0;
@@ -291,7 +297,7 @@ done:
 size_t mc_defects(const mc_report *r)
 {
     return r->faces_not_in_mesh + r->boundary_uncovered + r->facets_uncovered +
-           r->faces_off_facet + r->volume_mismatch;
+           r->faces_off_facet + r->volume_mismatch + r->facets_lost;
 }
 
 static void line(FILE *f, const char *what, size_t n, int defect)
@@ -313,6 +319,7 @@ void mc_print(const mc_report *r, FILE *f)
         line(f, "input facets", r->facets, 0);
         line(f, "facets covered by subfacets", r->facets_covered, 0);
         line(f, "facets with no triangle (outside)", r->facets_outside, 0);
+        line(f, "... of an input without holes", r->facets_lost, 1);
         line(f, "facets not covered (area differs)", r->facets_uncovered, 1);
         line(f, "triangles in no input facet", r->faces_off_facet, 1);
         fprintf(f, "  %-34s %12.3g\n", "largest relative area difference", r->area_err_max);

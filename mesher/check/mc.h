@@ -56,6 +56,9 @@ typedef struct mc_report {
     size_t facets_uncovered;   /* facets whose area is not matched */
     size_t faces_off_facet;    /* triangles lying in no input facet */
     size_t volume_mismatch;    /* 1 if the volumes differ */
+    size_t facets_lost;        /* facets with no triangle although the
+                                  input has no hole points (an empty mesh
+                                  has all of them) */
 } mc_report;
 
 /* Checks mesh m (vertex i+1 is point i; tetrahedra linked with

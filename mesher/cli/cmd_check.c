@@ -15,6 +15,7 @@
 #include "io/tg.h"
 #include "check/mc.h"
 #include "cli/pdr_cli.h"
+#include "plc/fm.h"
 #include "plc/plc.h"
 #include "check/ql.h"
 #include "base/pdr_util.h"
@@ -44,6 +45,9 @@ static void usage(FILE *f)
             "Options:\n"
             "      --plc IN       the input the mesh was made from (.poly, .smesh, .off,\n"
             "                     .stl)\n"
+            "      --merge-angle A, --no-merge  prepare IN as 'pdr mesh' does: coplanar\n"
+            "                     triangles merged into facets (default A = %g degrees;\n"
+            "                     give the value pdr mesh was given)\n"
             "      --face FILE    boundary triangles (default MESH.face when it exists)\n"
             "      --max-ratio B  a tetrahedron with radius-edge ratio >= B is a defect\n"
             "      --plot PNG     draw the dihedral angle histograms with gnuplot\n"
@@ -52,18 +56,21 @@ static void usage(FILE *f)
             "      --no-hull      the boundary need not be convex (a domain's mesh)\n"
             "  -q, --quiet        print only the verdict line\n"
             "  -h, --help         show this help\n\n"
-            "Exit status: 0 no defect, 1 defects found or unreadable input, 2 usage error.\n");
+            "Exit status: 0 no defect, 1 defects found or unreadable input, 2 usage error.\n",
+            FM_MERGE_ANGLE);
 }
 
 int pdr_cmd_check(int argc, char **argv)
 {
-    enum { O_PLC = 256, O_FACE, O_MAXRATIO, O_PLOT, O_NOQ };
+    enum { O_PLC = 256, O_FACE, O_MAXRATIO, O_PLOT, O_NOQ, O_MERGE, O_NOMERGE };
     static const struct option opts[] = {{"no-delaunay", no_argument, NULL, 'D'},
                                          {"plc", required_argument, NULL, O_PLC},
                                          {"face", required_argument, NULL, O_FACE},
                                          {"max-ratio", required_argument, NULL, O_MAXRATIO},
                                          {"plot", required_argument, NULL, O_PLOT},
                                          {"no-quality", no_argument, NULL, O_NOQ},
+                                         {"merge-angle", required_argument, NULL, O_MERGE},
+                                         {"no-merge", no_argument, NULL, O_NOMERGE},
                                          {"no-hull", no_argument, NULL, 'H'},
                                          {"quiet", no_argument, NULL, 'q'},
                                          {"help", no_argument, NULL, 'h'},
@@ -71,7 +78,7 @@ int pdr_cmd_check(int argc, char **argv)
     unsigned what = VF_ALL;
     int quiet = 0, hull = 1, c, quality = 1;
     const char *plc_path = NULL, *face_path = NULL, *plot = NULL;
-    double max_ratio = 0;
+    double max_ratio = 0, merge_angle = FM_MERGE_ANGLE;
     optind = 1;
     while ((c = getopt_long(argc, argv, "qh", opts, NULL)) != -1) {
         switch (c) {
@@ -96,6 +103,13 @@ int pdr_cmd_check(int argc, char **argv)
             break;
         case O_NOQ:
             quality = 0;
+            break;
+        case O_MERGE:
+            if (pdr_cli_merge_angle("check", optarg, &merge_angle))
+                return PDR_EXIT_USAGE;
+            break;
+        case O_NOMERGE:
+            merge_angle = -1;
             break;
         case O_MAXRATIO: {
             char *end;
@@ -151,7 +165,9 @@ int pdr_cmd_check(int argc, char **argv)
             goto done;
         }
         have_plc = 1;
-        if (plc_read(&p, plc_path, &diag) || plc_validate(&p, &diag)) {
+        fm_stats fs;
+        if (plc_read(&p, plc_path, &diag) || plc_validate(&p, &diag) ||
+            fm_prepare(&p, merge_angle, &fs, &diag)) {
             pdr_diag_print(&diag, stderr);
             goto done;
         }

@@ -15,6 +15,7 @@
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
 #include "plc/dom.h"
+#include "plc/fm.h"
 #include "refine/refine.h"
 
 /* Size bound of 'pdr mesh' without an input file: cube-in-cube meshed to
@@ -59,6 +60,19 @@ static void usage(FILE *f)
             "                       insertion radius is below R times its cause's\n"
             "                       (default 0.354; 0 disables it)\n"
             "      --no-region-volume  ignore the volume bounds of the input's regions\n"
+            "      --merge-angle A  input preparation: neighbouring triangles with the same\n"
+            "                       marker whose dihedral angle is at least 180 - A degrees\n"
+            "                       and that are coplanar (exactly, or within the planarity\n"
+            "                       tolerance of facets) become one polygonal facet, the\n"
+            "                       segment between them removed (default %g, TetGen's\n"
+            "                       179.9 degrees; 0: exactly coplanar only)\n"
+            "      --no-merge       keep every input triangle a facet\n"
+            "      --max-points N   stop with an error after inserting N points (default:\n"
+            "                       %.0f + %.0f per input vertex, segment and facet + %.0f\n"
+            "                       per tetrahedron of the largest volume -a, -L or the\n"
+            "                       regions allow that fits in the input's bounding box;\n"
+            "                       0: no bound), so that a run that cannot finish says so\n"
+            "                       instead of running on\n"
             "      --check          verify the result with exact predicates\n"
             "  -Q, --quiet          print only errors and warnings\n\n"
             "Parallel refinement (Nave, Chrisochoides and Chew; the paper's Table 1):\n"
@@ -86,7 +100,8 @@ static void usage(FILE *f)
             "ranges and how many tetrahedra were left above the bound (only near input\n"
             "angles too small for the algorithm) and why.\n\n"
             "Exit status: 0 done, 1 failed (bad input, out of memory), 2 usage error.\n",
-            DEFAULT_DOMAIN_MAXVOL);
+            DEFAULT_DOMAIN_MAXVOL, FM_MERGE_ANGLE, REF_LIMIT_BASE, REF_LIMIT_PER_INPUT,
+            REF_LIMIT_PER_SIZE);
 }
 
 /* "-f node,vtu": the MP_FMT_* bits of a comma-separated list. Returns 0,
@@ -130,7 +145,8 @@ static int parse_double(const char *s, double *out)
 /* Long options without a short letter. */
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
-    O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_STATS, O_SUBMESHES
+    O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_STATS, O_SUBMESHES,
+    O_MERGE, O_NOMERGE, O_MAXPOINTS
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -157,6 +173,9 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"bandwidth", required_argument, NULL, O_BANDWIDTH},
                                           {"stats", required_argument, NULL, O_STATS},
                                           {"submeshes", no_argument, NULL, O_SUBMESHES},
+                                          {"merge-angle", required_argument, NULL, O_MERGE},
+                                          {"no-merge", no_argument, NULL, O_NOMERGE},
+                                          {"max-points", required_argument, NULL, O_MAXPOINTS},
                                           {"help", no_argument, NULL, 'h'},
                                           {NULL, 0, NULL, 0}};
 
@@ -212,6 +231,14 @@ static int parse_number(int c, const char *arg, mp_opts *o)
             return PDR_EXIT_USAGE;
         }
         o->ref.maxedge = x;
+        return 0;
+    case O_MAXPOINTS:
+        if (bad || x < 0 || x != floor(x)) {
+            pdr_cli_error("mesh", "--max-points needs a number of points (0: no bound), not '%s'",
+                          arg);
+            return PDR_EXIT_USAGE;
+        }
+        o->max_points = x;
         return 0;
     case O_MO_SIZE:
         if (bad || !(x >= 1)) {
@@ -345,6 +372,7 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
         case O_MINDIH:
         case O_MO_SIZE:
         case O_RHO:
+        case O_MAXPOINTS:
             rc = parse_number(c, optarg, o);
             break;
         case 'f':
@@ -363,6 +391,13 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
             break;
         case O_NOREGVOL:
             o->ref.use_region_maxvol = 0;
+            break;
+        case O_MERGE:
+            if (pdr_cli_merge_angle("mesh", optarg, &o->merge_angle))
+                rc = PDR_EXIT_USAGE;
+            break;
+        case O_NOMERGE:
+            o->merge_angle = -1;
             break;
         case O_CHECK:
             o->check = 1;

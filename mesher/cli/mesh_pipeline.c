@@ -2,6 +2,7 @@
  * refine, export, write, report, verify (see mesh_pipeline.h). */
 #include "config.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,6 +26,8 @@ void mp_default_opts(mp_opts *o)
     memset(o, 0, sizeof *o);
     ref_default_opts(&o->ref);
     o->formats = MP_FMT_NODE;
+    o->merge_angle = FM_MERGE_ANGLE;
+    o->max_points = -1;
 }
 
 /* The refinement's progress callback: a pdr_progress line on stderr. */
@@ -75,8 +78,9 @@ static const char *input_name(const mp_ctx *c)
 
 /* ------------------------------------------------------------- read */
 
-/* Fills the (initialised) PLC from the input file or the domain and
- * validates it; the reasons for a failure are in diag. */
+/* Fills the (initialised) PLC from the input file or the domain,
+ * validates it, merges coplanar triangles (validating the result again)
+ * and finds the sharp features; the reasons for a failure are in diag. */
 static int load_plc(mp_ctx *c)
 {
     int rc;
@@ -86,7 +90,11 @@ static int load_plc(mp_ctx *c)
         int dom = c->o.domain ? dom_lookup(c->o.domain) : -1;
         rc = dom < 0 ? PDR_EINVAL : dom_build_default(&c->p, dom, &c->diag);
     }
-    return rc ? rc : plc_validate(&c->p, &c->diag);
+    if (!rc)
+        rc = plc_validate(&c->p, &c->diag);
+    if (!rc)
+        rc = fm_prepare(&c->p, c->o.merge_angle, &c->fm, &c->diag);
+    return rc;
 }
 
 /* IN.poly -> IN.1 (TetGen's naming, which never overwrites an input), or
@@ -123,14 +131,69 @@ int mp_read(mp_ctx *c)
                "(%.3f s)\n",
                input_name(c), p->nv, p->nseg, p->nfacet, p->nhole, p->nhole == 1 ? "" : "s",
                p->nregion, p->nregion == 1 ? "" : "s", c->sec[MP_READ]);
+    if (!c->o.quiet && (c->fm.triangles_merged || c->fm.sharp_segments || c->fm.acute_vertices))
+        printf("input preparation: %zu coplanar triangles merged (%zu facets before, %zu "
+               "after), %zu sharp segments (dihedral < %g degrees), %zu acute vertices "
+               "(segments at < %g degrees)\n",
+               c->fm.triangles_merged, c->fm.facets_before, c->fm.facets_after,
+               c->fm.sharp_segments, FM_SHARP_DIH, c->fm.acute_vertices, FM_ACUTE_ANG);
     return 0;
 }
 
 /* ----------------------------------------------------- initial mesh */
 
+/* The message of a run stopped by the bound on inserted points: how many,
+ * and where the last one went, which is where the refinement runs on. */
+static int point_limit(mp_ctx *c)
+{
+    pdr_progress_end(&c->pg);
+    const ref_mesher *r = &c->r;
+    const plc *p = &c->p;
+    size_t n = r->st.seg_points + r->st.fac_points + r->st.tet_points;
+    if (r->stopped_below) {
+        pdr_cli_error(MP_CMD,
+                      "the boundary recovery does not terminate: after %zu points a missing "
+                      "piece of the boundary needs a split at (%.17g, %.17g, %.17g) nearer "
+                      "than %g to another vertex, the resolution of this mesher (%g times the "
+                      "bounding-box diagonal; small angles of the input make the splits "
+                      "cascade) (nothing written)",
+                      n, r->stop_at[0], r->stop_at[1], r->stop_at[2], r->min_spacing,
+                      REF_MIN_SPACING);
+        return PDR_ELIMIT;
+    }
+    uint32_t v = r->last_v;
+    char where[256] = "";
+    if (v) {
+        const double *x = r->m.xyz + 3 * (size_t)v;
+        uint32_t f = r->bd.vfeat[v];
+        switch (r->bd.vkind[v]) {
+        case BD_V_SEGMENT:
+            snprintf(where, sizeof where, " on the segment between input vertices %ld and %ld",
+                     plc_vnum(p, p->segs[f].v[0]), plc_vnum(p, p->segs[f].v[1]));
+            break;
+        case BD_V_FACET:
+            snprintf(where, sizeof where, " on facet %u (line %ld)", f + 1, p->facets[f].line);
+            break;
+        default:
+            snprintf(where, sizeof where, " inside the volume");
+            break;
+        }
+        size_t l = strlen(where);
+        snprintf(where + l, sizeof where - l, " at (%.6g, %.6g, %.6g)", x[0], x[1], x[2]);
+    }
+    pdr_cli_error(MP_CMD,
+                  "stopped after inserting %zu points, the bound for this input (see "
+                  "--max-points): the refinement does not terminate here; the last point "
+                  "went%s (nothing written)",
+                  n, where);
+    return PDR_ELIMIT;
+}
+
 int mp_initial_mesh(mp_ctx *c)
 {
     double t = pdr_now();
+    c->o.ref.max_points = c->o.max_points < 0 ? ref_point_limit(&c->p, &c->o.ref)
+                                              : (size_t)c->o.max_points;
     int rc = ref_init(&c->r, &c->p, &c->o.ref);
     if (rc)
         return fail(c, rc);
@@ -142,11 +205,13 @@ int mp_initial_mesh(mp_ctx *c)
         pdr_diag_print(&c->diag, stderr);
         pdr_diag_free(&c->diag);
     }
+    if (rc == PDR_ELIMIT)
+        return point_limit(c);
     if (rc)
         return fail(c, rc);
     if (c->o.mo_size > 0) {
         if ((rc = im_mo_size(&c->r, (size_t)c->o.mo_size)))
-            return fail(c, rc);
+            return rc == PDR_ELIMIT ? point_limit(c) : fail(c, rc);
         c->is.tets = ref_interior_tets(&c->r);
     }
     c->sec[MP_MO] = pdr_now() - t;
@@ -169,6 +234,8 @@ int mp_refine(mp_ctx *c)
 {
     double t = pdr_now();
     int rc = ref_refine(&c->r);
+    if (rc == PDR_ELIMIT)
+        return point_limit(c);
     if (rc)
         return fail(c, rc);
     c->sec[MP_REFINE] = pdr_now() - t;
@@ -197,6 +264,68 @@ void mp_print_mesh_summary(const mp_ctx *c)
            v->nf);
 }
 
+static double tri_area(const double *a, const double *b, const double *c)
+{
+    double u[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        w[k] = c[k] - a[k];
+    }
+    double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2],
+           z = u[0] * w[1] - u[1] * w[0];
+    return 0.5 * sqrt(x * x + y * y + z * z);
+}
+
+/* The guard against a mesh that does not cover its input: no tetrahedra
+ * at all, or a facet whose subfacets in the output do not add up to its
+ * area. A facet may have no subfacet at all only when the input has hole
+ * points (a facet with a hole or the outside on both sides bounds
+ * nothing); without them every facet of a valid PLC bounds some of the
+ * domain. Such a mesh means the boundary was lost (the classification
+ * of inside and outside then leaks through it), never a valid result.
+ * Returns 0, or PDR_ETOPOLOGY after saying what is wrong. */
+static int guard_output(mp_ctx *c)
+{
+    const ref_output *o = &c->out;
+    const plc *p = &c->p;
+    if (!o->view.nt) {
+        pdr_cli_error(MP_CMD,
+                      "the mesh is empty: the boundary of the domain was lost during the "
+                      "refinement (nothing written)");
+        return PDR_ETOPOLOGY;
+    }
+    double *got = calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
+    if (!got)
+        return fail(c, PDR_ENOMEM);
+    for (size_t i = 0; i < o->view.nf; i++)
+        got[o->tri_facet[i]] += tri_area(o->xyz[o->tri[i][0]], o->xyz[o->tri[i][1]],
+                                         o->xyz[o->tri[i][2]]);
+    size_t bad = 0, first = 0;
+    double worst = 0;
+    for (size_t f = 0; f < p->nfacet; f++) {
+        double want = 0;
+        for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
+            want += tri_area(p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]], p->xyz[p->ftri[t][2]]);
+        double err = want > 0 ? fabs(got[f] - want) / want : 0.0;
+        if (err > 1e-6 && (got[f] > 0 || !p->nhole)) {
+            if (!bad++)
+                first = f;
+            if (err > worst)
+                worst = err;
+        }
+    }
+    free(got);
+    if (!bad)
+        return 0;
+    pdr_cli_error(MP_CMD,
+                  "the mesh does not cover the input: %zu facet%s not covered by the mesh's "
+                  "boundary (the first: facet %zu, line %ld of %s; area off by up to %.3g%%); "
+                  "the boundary was lost during the refinement (nothing written)",
+                  bad, bad == 1 ? "" : "s", first + 1, p->facets[first].line, p->path,
+                  100 * worst);
+    return PDR_ETOPOLOGY;
+}
+
 int mp_export(mp_ctx *c)
 {
     double t = pdr_now();
@@ -213,7 +342,7 @@ int mp_export(mp_ctx *c)
     c->st = c->r.st;
     c->sec[MP_EXPORT] = pdr_now() - t;
     mp_print_mesh_summary(c);
-    return 0;
+    return guard_output(c);
 }
 
 /* ------------------------------------------------------------ write */

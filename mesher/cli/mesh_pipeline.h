@@ -45,6 +45,7 @@
 
 #include "base/pdr_error.h"
 #include "base/pdr_util.h"
+#include "plc/fm.h"
 #include "plc/plc.h"
 #include "refine/im.h"
 #include "refine/refine.h"
@@ -67,6 +68,10 @@ typedef struct mp_opts {
     int mo_only;         /* --mo-only: the driver skips mp_refine */
     int check;           /* --check: the driver runs mp_verify */
     int quiet;           /* -Q: print only errors and warnings */
+    double max_points;   /* --max-points: bound on inserted points; < 0:
+                            automatic (ref_point_limit), 0: none */
+    double merge_angle;  /* --merge-angle: tolerance of the coplanar merge
+                            (plc/fm.h), degrees; < 0 (--no-merge): none */
 } mp_opts;
 
 /* The stages, as indices of mp_ctx.sec. */
@@ -85,6 +90,7 @@ typedef struct mp_ctx {
                             have_out */
     int have_plc, have_r, have_out;
     im_stats is;         /* what building Mo did */
+    fm_stats fm;         /* what the input preparation did */
     size_t v0;           /* mesh vertices of Mo */
     int refined;         /* a refinement ran (its summary line is due) */
     size_t v_added;      /* vertices the refinement added */
@@ -106,8 +112,9 @@ void mp_init(mp_ctx *c, const mp_opts *o);
 /* Releases everything the context owns (safe after any stage failed). */
 void mp_free(mp_ctx *c);
 
-/* Reads and validates o.in, or builds o.domain, into p, and makes the
- * output base name. Returns 0, PDR_EIO, PDR_EPARSE, PDR_EGEOMETRY,
+/* Reads and validates o.in, or builds o.domain, into p, merges its
+ * coplanar triangles and finds its sharp features (plc/fm.h), and makes
+ * the output base name. Returns 0, PDR_EIO, PDR_EPARSE, PDR_EGEOMETRY,
  * PDR_EUNSUPPORTED, PDR_EINVAL (neither input nor known domain) or
  * PDR_ENOMEM. */
 int mp_read(mp_ctx *c);
@@ -124,7 +131,11 @@ int mp_refine(mp_ctx *c);
 /* Ends the progress line, counts what r left above the bounds into st,
  * then moves the mesh into out (ref_export_take: afterwards r holds no
  * mesh, only its boundary and statistics) and prints the summary of both
- * (mp_print_mesh_summary). Returns 0 or PDR_ENOMEM. */
+ * (mp_print_mesh_summary). Then the guard: a mesh with no tetrahedra, or
+ * whose boundary does not cover every input facet (the boundary was lost,
+ * and inside and outside with it), fails with PDR_ETOPOLOGY after a
+ * message, so that such a mesh is never written. Returns 0, PDR_ENOMEM
+ * or PDR_ETOPOLOGY. */
 int mp_export(mp_ctx *c);
 
 /* "refinement: ..." (when 'refined') and "mesh: ..." from out, st,

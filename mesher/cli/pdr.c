@@ -1,8 +1,10 @@
 /* cli/pdr.c -- entry point of the pdr program: dispatches to a subcommand. */
 #include "config.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli/pdr_cli.h"
@@ -27,6 +29,19 @@ void pdr_cli_error(const char *cmd, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     va_end(ap);
     fputc('\n', stderr);
+}
+
+int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(arg, &end);
+    if (errno || end == arg || *end || !(x >= 0 && x < 90)) {
+        pdr_cli_error(cmd, "--merge-angle needs an angle in [0, 90) degrees, not '%s'", arg);
+        return -1;
+    }
+    *out = x;
+    return 0;
 }
 
 static void usage(FILE *out)

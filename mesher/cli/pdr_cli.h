@@ -29,4 +29,8 @@ enum { PDR_EXIT_OK = 0, PDR_EXIT_FAIL = 1, PDR_EXIT_USAGE = 2 };
 void pdr_cli_error(const char *cmd, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
+/* --merge-angle A of 'pdr mesh' and 'pdr check': A in [0, 90) degrees
+ * into *out. Returns 0, or -1 after a usage message naming cmd. */
+int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out);
+
 #endif /* PDR_CLI_H */

@@ -2,11 +2,13 @@
 # domains. Uses base, geom and mesh.
 noinst_HEADERS += \
 	mesher/plc/dom.h \
+	mesher/plc/fm.h \
 	mesher/plc/plc.h \
 	mesher/plc/plc_int.h \
 	mesher/plc/plc_tri.h
 libpdrmesh_la_SOURCES += \
 	mesher/plc/dom.c \
+	mesher/plc/fm.c \
 	mesher/plc/plc.c \
 	mesher/plc/plc_check.c \
 	mesher/plc/plc_read.c \

@@ -65,6 +65,9 @@ void plc__drop_derived(plc *p)
     free(p->v_facets);
     free(p->ftri_start);
     free(p->ftri);
+    free(p->seg_mindih);
+    free(p->v_minang);
+    p->seg_mindih = p->v_minang = NULL;
     p->segs = NULL;
     p->seg_fstart = p->v_sstart = p->v_fstart = p->ftri_start = NULL;
     p->seg_facets = p->v_segs = p->v_facets = NULL;

@@ -42,6 +42,8 @@
  *    vertex v and v_facets[v_fstart[v] .. v_fstart[v+1]-1] the facets having
  *    v as a corner (sorted, distinct);
  *  - bbox is the bounding box of all vertices.
+ * seg_mindih and v_minang belong to the derived data too, filled only by
+ * fm_features (plc/fm.h).
  * After a successful plc_validate() also:
  *  - ftri[ftri_start[f] .. ftri_start[f+1]-1] triangulate facet f exactly
  *    (a constrained Delaunay triangulation of its polygons and segments,
@@ -132,6 +134,12 @@ typedef struct plc {
     uint32_t *v_facets;
     size_t *ftri_start;  /* nfacet + 1, NULL until validated */
     uint32_t (*ftri)[3];
+    /* Features (plc/fm.h, fm_features), NULL until computed: the smallest
+     * dihedral angle in degrees between two facets of each segment (180
+     * with fewer than two), and the smallest angle between two segments
+     * at each vertex (180 with fewer than two). */
+    float *seg_mindih;   /* nseg */
+    float *v_minang;     /* nv */
 
     /* Validation setting: a facet is planar when every corner is within
      * planar_tol times the bounding-box diagonal of its plane. plc_init()

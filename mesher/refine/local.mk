@@ -13,3 +13,4 @@ libpdrmesh_la_SOURCES += \
 	mesher/refine/refine_classify.c \
 	mesher/refine/refine_decide.c \
 	mesher/refine/refine_run.c
+EXTRA_DIST += mesher/refine/RECOVERY.md

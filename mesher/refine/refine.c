@@ -25,6 +25,25 @@ void ref_default_opts(ref_opts *o)
     o->order = REF_ORDER_LIFO;
 }
 
+size_t ref_point_limit(const plc *p, const ref_opts *o)
+{
+    double n = REF_LIMIT_BASE + REF_LIMIT_PER_INPUT * (double)(p->nv + p->nseg + p->nfacet);
+    double box = 1;
+    for (int k = 0; k < 3; k++)
+        box *= p->bbox[1][k] - p->bbox[0][k];
+    /* The largest tetrahedron volume the size bounds allow. */
+    double v = o->maxvol > 0 ? o->maxvol : INFINITY;
+    if (o->maxedge > 0)
+        v = fmin(v, o->maxedge * o->maxedge * o->maxedge / (6.0 * M_SQRT2));
+    if (o->use_region_maxvol)
+        for (size_t i = 0; i < p->nregion; i++)
+            if (p->regions[i].maxvol > 0)
+                v = fmin(v, p->regions[i].maxvol);
+    if (isfinite(v) && v > 0 && box > 0)
+        n += REF_LIMIT_PER_SIZE * box / v;
+    return n < 4e9 ? (size_t)n : (size_t)4e9;
+}
+
 int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
 {
     memset(r, 0, sizeof *r);
@@ -35,6 +54,10 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
         ref_default_opts(&r->o);
     r->b2 = r->o.ratio > 0 ? r->o.ratio * r->o.ratio : 0.0;
     r->sin_min = r->o.min_dihedral > 0 ? sin(r->o.min_dihedral * M_PI / 180.0) : 0.0;
+    double d2 = 0;
+    for (int k = 0; k < 3; k++)
+        d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
+    r->min_spacing = REF_MIN_SPACING * sqrt(d2);
     bd_init(&r->bd);
     dt_cavity_init(&r->cav);
     int rc = tm_init(&r->m, TM_FEAT_MARKERS);

@@ -230,6 +230,9 @@ typedef struct ref_opts {
                           insertion radius is below rho times its
                           encroacher's (default 1/(2 sqrt 2)); 0: never */
     int use_region_maxvol; /* apply the PLC's regional volume bounds */
+    size_t max_points; /* ref_run stops with PDR_ELIMIT once this many
+                          points were inserted in all (0: no limit; see
+                          ref_point_limit) */
     int order;         /* enum ref_order */
     /* Called about every 2^14 insertions when not NULL. */
     void (*progress)(void *arg, const struct ref_mesher *r);
@@ -315,9 +318,29 @@ typedef struct ref_mesher {
     size_t region_doubts; /* flat tetrahedra on facets met, flips after
                              classification: reasons to classify again */
     const ref_hooks *hooks; /* NULL when sequential; not owned */
+    uint32_t last_v;   /* the vertex inserted last (0: none) */
+    double min_spacing; /* no boundary split nearer than this to a vertex:
+                           REF_MIN_SPACING times the bounding-box diagonal */
+    int stopped_below; /* a run stopped because a missing piece needed a
+                          split below min_spacing, at stop_at */
+    double stop_at[3];
     uint32_t *miss;    /* new subfacets missing from T */
     size_t nmiss, cap_miss;
 } ref_mesher;
+
+/* A bound on the points a run may insert, for an input that makes the
+ * refinement run on (small angles the safety net does not catch): REF_
+ * LIMIT_BASE plus REF_LIMIT_PER_INPUT per input vertex, segment and facet,
+ * plus REF_LIMIT_PER_SIZE times the number of tetrahedra of the largest
+ * volume the size bounds allow (maxvol, maxedge, the regions' volumes)
+ * that fit in the input's bounding box. Terminating runs stay far below
+ * it (the model problems by a factor of 20 or more). */
+#define REF_LIMIT_BASE 100000.0
+/* Relative resolution of boundary splits (ref_mesher.min_spacing). */
+#define REF_MIN_SPACING 1e-10
+#define REF_LIMIT_PER_INPUT 200.0
+#define REF_LIMIT_PER_SIZE 20.0
+size_t ref_point_limit(const plc *p, const ref_opts *o);
 
 /* Sets *o to the defaults: ratio 2, smallest dihedral angle 10 degrees,
  * no size bound, rho 1/(2 sqrt 2), regional volume bounds on, LIFO
@@ -337,7 +360,11 @@ void ref_release_work(ref_mesher *r);
 
 /* Splits queued subsegments and subfacets (recovery and encroachment)
  * until none is queued; with tets != 0 and the mesh classified, also bad
- * tetrahedra. Returns 0 or PDR_ENOMEM/PDR_ELIMIT/PDR_ETOPOLOGY (also when
+ * tetrahedra. Stops with PDR_ELIMIT when o.max_points points were
+ * inserted (r->last_v is the last one), or when a missing subsegment or
+ * subfacet needs a split nearer than min_spacing to a vertex
+ * (r->stopped_below, r->stop_at). Returns 0 or PDR_ENOMEM/
+ * PDR_ELIMIT/PDR_ETOPOLOGY (also when
  * the option check_each_step finds the tables and the mesh disagree; r is
  * then left as it was after the last step, good for ref_consistency and
  * ref_free). */

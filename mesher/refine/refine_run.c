@@ -319,6 +319,7 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
     r->bd.vkind[v] = (uint8_t)vkind;
     r->bd.vfeat[v] = feat;
     r->bd.vrins[v] = (float)rins;
+    r->last_v = v;
     *vout = v;
     return 0;
 }
@@ -422,6 +423,23 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
     return dt_cavity_search(m, p, t, 0, &r->cav);
 }
 
+/* A boundary split whose new vertex would lie nearer than min_spacing to
+ * another: below that, double precision no longer describes the geometry
+ * (splits that cascade into a corner reach it, and the boundary then
+ * falls apart). A present piece is left as it is (tolerated); a missing
+ * one cannot be, so the run stops with PDR_ELIMIT and r->stop_at. */
+static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_t *flags)
+{
+    if (!missing) {
+        *flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    memcpy(r->stop_at, p, sizeof r->stop_at);
+    r->stopped_below = 1;
+    return PDR_ELIMIT;
+}
+
 /* Splits subsegment id. A split of a present subsegment is refused
  * (SPLIT_REFUSED, the subsegment flagged TOLERATED) when the new vertex
  * would be nearer than rmin to an existing one: rmin is how the
@@ -461,6 +479,10 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0;
     }
     double rins = insertion_radius(r);
+    if (rins < r->min_spacing) {
+        dt_cavity_abandon(m, &r->cav);
+        return below_resolution(r, p, missing, &r->bd.segs[id].flags);
+    }
     if (!missing && rins < rmin) {
         dt_cavity_abandon(m, &r->cav);
         r->bd.segs[id].flags |= BD_F_TOLERATED;
@@ -610,6 +632,11 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         return rc;
     }
     double rins = insertion_radius(r);
+    if (rins < r->min_spacing) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return below_resolution(r, c, missing, &r->bd.facs[id].flags);
+    }
     if (!missing && rins < rmin) {
         ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
@@ -883,6 +910,11 @@ int ref_run(ref_mesher *r, int tets)
     while (!rc) {
         if ((++iter & 0x3fff) == 0 && r->o.progress)
             r->o.progress(r->o.progress_arg, r);
+        if (r->o.max_points &&
+            r->st.seg_points + r->st.fac_points + r->st.tet_points >= r->o.max_points) {
+            rc = PDR_ELIMIT;
+            break;
+        }
         if (r->o.check_each_step && ref_consistency(r, r->o.log, 0)) {
             if (r->o.log)
                 fprintf(r->o.log,

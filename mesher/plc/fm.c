@@ -1,0 +1,633 @@
+/* plc/fm.c -- merging coplanar triangles into facets, and the sharp
+ * segments and acute vertices of a PLC (see plc/fm.h). */
+#include "config.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/hmap.h"
+#include "base/pdr_util.h"
+#include "base/v3.h"
+#include "geom/pred.h"
+#include "plc/fm.h"
+#include "plc/plc_int.h"
+
+#define NONE UINT32_MAX
+
+static uint64_t dkey(uint32_t a, uint32_t b)
+{
+    return ((uint64_t)a << 32) | b;
+}
+
+static uint64_t ukey(uint32_t a, uint32_t b)
+{
+    return a < b ? dkey(a, b) : dkey(b, a);
+}
+
+/* The corners of facet f when it is a single triangle without holes:
+ * returns 1 and c[], else 0. */
+static int facet_tri(const plc *p, size_t f, uint32_t c[3])
+{
+    const plc_facet *F = &p->facets[f];
+    if (F->npoly != 1 || F->nhole)
+        return 0;
+    const plc_polygon *q = &p->polys[F->poly_first];
+    if (q->n != 3)
+        return 0;
+    memcpy(c, p->corners + q->first, 3 * sizeof *c);
+    return 1;
+}
+
+/* The cosine of the angle between the half-planes bounded by line ab that
+ * hold c and d (the dihedral angle at ab of triangles abc and abd); 1 when
+ * one of them is degenerate. */
+static double halfplane_cos(const double *a, const double *b, const double *c, const double *d)
+{
+    double e[3], u[3], w[3];
+    v3_sub(b, a, e);
+    v3_sub(c, a, u);
+    v3_sub(d, a, w);
+    double ee = v3_dot(e, e);
+    if (!(ee > 0))
+        return 1.0;
+    double su = v3_dot(u, e) / ee, sw = v3_dot(w, e) / ee;
+    for (int k = 0; k < 3; k++) {
+        u[k] -= su * e[k];
+        w[k] -= sw * e[k];
+    }
+    double nu = v3_dot(u, u), nw = v3_dot(w, w);
+    if (!(nu > 0 && nw > 0))
+        return 1.0;
+    return v3_dot(u, w) / sqrt(nu * nw);
+}
+
+static void cross(const double *u, const double *w, double *n)
+{
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
+}
+
+/* ------------------------------------------------------------- merging */
+
+/* The merge's working state. */
+typedef struct fm_work {
+    plc *p;
+    double cos_min;     /* merge when the dihedral cosine is at most this */
+    double plane_tol;   /* absolute distance to the seed plane */
+    uint32_t *group;    /* per facet: first facet of its group, or NONE */
+    uint32_t (*ot)[3];  /* per triangle facet: corners, oriented in group */
+    uint32_t *next;     /* per facet: next member of its group, or NONE */
+    uint32_t *size;     /* per facet (group leader): members */
+    uint8_t *merged;    /* per facet (group leader): group becomes a facet */
+    uint32_t *queue;
+    hmap explicit_segs; /* undirected keys of the input's own segments */
+    /* one group at a time */
+    hmap edges;         /* directed edge -> member facet */
+    hmap out;           /* vertex + 1 -> the boundary edge leaving it */
+    uint32_t (*bnd)[2]; /* boundary edges */
+    size_t nbnd, cap_bnd;
+    uint8_t *used;      /* per boundary edge: chained */
+    size_t cap_used;
+    uint32_t *vstamp;   /* per vertex: group leader + 1 that listed it */
+    /* the new facet arrays */
+    plc_facet *facets;
+    size_t nfacet, cap_facet;
+    plc_polygon *polys;
+    size_t npoly, cap_poly;
+    uint32_t *corners;
+    size_t ncorner, cap_corner;
+    plc_point *fholes;
+    size_t nfhole, cap_fhole;
+} fm_work;
+
+/* The segment joining a and b, or NONE. */
+static uint32_t seg_between(const plc *p, uint32_t a, uint32_t b)
+{
+    for (size_t i = p->v_sstart[a]; i < p->v_sstart[a + 1]; i++) {
+        const uint32_t *v = p->segs[p->v_segs[i]].v;
+        if ((v[0] == a && v[1] == b) || (v[0] == b && v[1] == a))
+            return p->v_segs[i];
+    }
+    return NONE;
+}
+
+/* Whether the triangle facet across edge a->b of oriented triangle (a, b,
+ * c) of group g joins g; if so returns it with its far corner in *d. */
+static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c, uint32_t *d)
+{
+    const plc *p = w->p;
+    uint32_t s = seg_between(p, a, b);
+    if (s == NONE || p->seg_fstart[s + 1] - p->seg_fstart[s] != 2 ||
+        hmap_get(&w->explicit_segs, ukey(a, b)) != HMAP_NONE)
+        return NONE;
+    uint32_t f0 = p->seg_facets[p->seg_fstart[s]], f1 = p->seg_facets[p->seg_fstart[s] + 1];
+    uint32_t u = w->group[f0] == lead && w->group[f1] != lead ? f1 : f0;
+    uint32_t uc[3];
+    if (w->group[u] != NONE || !facet_tri(p, u, uc) ||
+        p->facets[u].marker != p->facets[lead].marker)
+        return NONE;
+    *d = uc[0] != a && uc[0] != b ? uc[0] : uc[1] != a && uc[1] != b ? uc[1] : uc[2];
+    const double *pa = p->xyz[a], *pb = p->xyz[b], *pc = p->xyz[c], *pd = p->xyz[*d];
+    double cs = halfplane_cos(pa, pb, pc, pd);
+    int flat = pred_orient3d(pa, pb, pc, pd) == 0 && cs < 0;
+    if (!flat && !(cs <= w->cos_min))
+        return NONE;
+    /* Against the plane of the group's first triangle. */
+    const uint32_t *s0 = w->ot[lead];
+    const double *q0 = p->xyz[s0[0]], *q1 = p->xyz[s0[1]], *q2 = p->xyz[s0[2]];
+    if (pred_orient3d(q0, q1, q2, pd) != 0) {
+        double u1[3], u2[3], n[3], x[3];
+        v3_sub(q1, q0, u1);
+        v3_sub(q2, q0, u2);
+        cross(u1, u2, n);
+        v3_sub(pd, q0, x);
+        double nn = sqrt(v3_dot(n, n));
+        if (!(nn > 0) || fabs(v3_dot(x, n)) / nn > w->plane_tol)
+            return NONE;
+    }
+    return u;
+}
+
+/* Grows the group of triangle facet lead breadth first. */
+static void grow_group(fm_work *w, uint32_t lead)
+{
+    size_t head = 0, n = 0;
+    w->queue[n++] = lead;
+    w->group[lead] = lead;
+    w->size[lead] = 1;
+    uint32_t last = lead;
+    while (head < n) {
+        uint32_t t = w->queue[head++];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = w->ot[t][k], b = w->ot[t][(k + 1) % 3], c = w->ot[t][(k + 2) % 3], d;
+            uint32_t u = joins(w, lead, a, b, c, &d);
+            if (u == NONE)
+                continue;
+            w->group[u] = lead;
+            w->ot[u][0] = b;
+            w->ot[u][1] = a;
+            w->ot[u][2] = d;
+            w->next[last] = u;
+            last = u;
+            w->size[lead]++;
+            w->queue[n++] = u;
+        }
+    }
+}
+
+/* Appends a polygon of the given corners to the new arrays. */
+static int put_polygon(fm_work *w, const uint32_t *c, uint32_t n, long line)
+{
+    if (pdr_grow((void **)&w->polys, &w->cap_poly, w->npoly + 1, sizeof *w->polys) ||
+        pdr_grow((void **)&w->corners, &w->cap_corner, w->ncorner + n, sizeof *w->corners))
+        return PDR_ENOMEM;
+    plc_polygon *q = &w->polys[w->npoly++];
+    q->first = w->ncorner;
+    q->n = n;
+    q->line = line;
+    memcpy(w->corners + w->ncorner, c, n * sizeof *c);
+    w->ncorner += n;
+    w->facets[w->nfacet - 1].npoly++;
+    return 0;
+}
+
+static int put_hole(fm_work *w, const double x[3], long line)
+{
+    if (pdr_grow((void **)&w->fholes, &w->cap_fhole, w->nfhole + 1, sizeof *w->fholes))
+        return PDR_ENOMEM;
+    memcpy(w->fholes[w->nfhole].xyz, x, sizeof w->fholes[0].xyz);
+    w->fholes[w->nfhole++].line = line;
+    w->facets[w->nfacet - 1].nhole++;
+    return 0;
+}
+
+/* Starts a new facet like facet f of the input (marker, line). */
+static int begin_facet(fm_work *w, size_t f)
+{
+    if (pdr_grow((void **)&w->facets, &w->cap_facet, w->nfacet + 1, sizeof *w->facets))
+        return PDR_ENOMEM;
+    plc_facet *F = &w->facets[w->nfacet++];
+    memset(F, 0, sizeof *F);
+    F->poly_first = w->npoly;
+    F->hole_first = w->nfhole;
+    F->marker = w->p->facets[f].marker;
+    F->line = w->p->facets[f].line;
+    return 0;
+}
+
+/* Copies facet f of the input as it is. */
+static int copy_facet(fm_work *w, size_t f)
+{
+    const plc *p = w->p;
+    const plc_facet *F = &p->facets[f];
+    int rc = begin_facet(w, f);
+    for (size_t k = 0; k < F->npoly && !rc; k++) {
+        const plc_polygon *q = &p->polys[F->poly_first + k];
+        rc = put_polygon(w, p->corners + q->first, q->n, q->line);
+    }
+    for (size_t k = 0; k < F->nhole && !rc; k++)
+        rc = put_hole(w, p->fholes[F->hole_first + k].xyz, p->fholes[F->hole_first + k].line);
+    return rc;
+}
+
+/* The boundary of group lead: its directed edges whose reverse is not in
+ * the group, into w->bnd, and w->out from each one's first vertex.
+ * Returns 0, 1 when a vertex has two boundary edges leaving it (the
+ * boundary touches itself there), or PDR_ENOMEM. */
+static int group_boundary(fm_work *w, uint32_t lead)
+{
+    hmap_free(&w->edges);
+    hmap_free(&w->out);
+    w->nbnd = 0;
+    for (uint32_t t = lead; t != NONE; t = w->next[t])
+        for (int k = 0; k < 3; k++)
+            if (hmap_put(&w->edges, dkey(w->ot[t][k], w->ot[t][(k + 1) % 3]), t))
+                return PDR_ENOMEM;
+    for (uint32_t t = lead; t != NONE; t = w->next[t])
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = w->ot[t][k], b = w->ot[t][(k + 1) % 3];
+            if (hmap_get(&w->edges, dkey(b, a)) != HMAP_NONE)
+                continue;
+            if (hmap_get(&w->out, (uint64_t)a + 1) != HMAP_NONE)
+                return 1;
+            if (pdr_grow((void **)&w->bnd, &w->cap_bnd, w->nbnd + 1, sizeof *w->bnd) ||
+                hmap_put(&w->out, (uint64_t)a + 1, (uint32_t)w->nbnd))
+                return PDR_ENOMEM;
+            w->bnd[w->nbnd][0] = a;
+            w->bnd[w->nbnd][1] = b;
+            w->nbnd++;
+        }
+    return 0;
+}
+
+/* A point just inside the hole bounded by the loop whose longest edge is
+ * a->b (the group lies on its left, seen along normal n): a thousandth of
+ * that edge's length to its right, from its midpoint. */
+static void hole_point(const plc *p, uint32_t a, uint32_t b, const double n[3], double x[3])
+{
+    double e[3], left[3];
+    v3_sub(p->xyz[b], p->xyz[a], e);
+    cross(n, e, left);
+    for (int k = 0; k < 3; k++)
+        x[k] = 0.5 * (p->xyz[a][k] + p->xyz[b][k]) - 1e-3 * left[k];
+}
+
+/* Emits group lead as one facet: loops (outer first), hole points,
+ * isolated vertices. Returns 0, 1 when the group cannot be one facet
+ * (nothing emitted), or PDR_ENOMEM. */
+static int emit_group(fm_work *w, uint32_t lead)
+{
+    const plc *p = w->p;
+    int rc = group_boundary(w, lead);
+    if (rc)
+        return rc;
+    if (pdr_grow((void **)&w->used, &w->cap_used, w->nbnd, 1))
+        return PDR_ENOMEM;
+    memset(w->used, 0, w->nbnd);
+    /* The group's normal, from its first triangle. */
+    double n[3], u1[3], u2[3];
+    const uint32_t *s0 = w->ot[lead];
+    v3_sub(p->xyz[s0[1]], p->xyz[s0[0]], u1);
+    v3_sub(p->xyz[s0[2]], p->xyz[s0[0]], u2);
+    cross(u1, u2, n);
+    double nl = sqrt(v3_dot(n, n));
+    for (int k = 0; k < 3; k++)
+        n[k] /= nl;
+    /* Chain the loops into queue (reused: corners of loop after loop),
+     * with loop starts, areas and longest edges kept aside. */
+    size_t nloop = 0, ncorner = 0, outer = SIZE_MAX;
+    size_t *start = malloc((w->nbnd + 1) * sizeof *start);
+    uint32_t (*longest)[2] = malloc((w->nbnd + 1) * sizeof *longest);
+    if (!start || !longest) {
+        free(start);
+        free(longest);
+        return PDR_ENOMEM;
+    }
+    for (size_t e0 = 0; e0 < w->nbnd && !rc; e0++) {
+        if (w->used[e0])
+            continue;
+        start[nloop] = ncorner;
+        double area[3] = {0, 0, 0}, lmax = -1;
+        size_t e = e0;
+        while (!w->used[e]) {
+            w->used[e] = 1;
+            uint32_t a = w->bnd[e][0], b = w->bnd[e][1];
+            w->queue[ncorner++] = a;
+            const double *pa = p->xyz[a], *pb = p->xyz[b];
+            area[0] += (pa[1] - pb[1]) * (pa[2] + pb[2]);
+            area[1] += (pa[2] - pb[2]) * (pa[0] + pb[0]);
+            area[2] += (pa[0] - pb[0]) * (pa[1] + pb[1]);
+            double l = v3_dist2(pa, pb);
+            if (l > lmax) {
+                lmax = l;
+                longest[nloop][0] = a;
+                longest[nloop][1] = b;
+            }
+            uint32_t ne = hmap_get(&w->out, (uint64_t)b + 1);
+            if (ne == HMAP_NONE) {
+                rc = 1; /* cannot happen on a closed chain */
+                break;
+            }
+            e = ne;
+        }
+        if (!rc && v3_dot(area, n) > 0) {
+            if (outer != SIZE_MAX)
+                rc = 1; /* two outer loops */
+            outer = nloop;
+        }
+        nloop++;
+    }
+    start[nloop] = ncorner;
+    if (!rc && outer == SIZE_MAX)
+        rc = 1;
+    if (!rc)
+        rc = begin_facet(w, lead);
+    if (!rc)
+        rc = put_polygon(w, w->queue + start[outer], (uint32_t)(start[outer + 1] - start[outer]),
+                         p->polys[p->facets[lead].poly_first].line);
+    for (size_t l = 0; l < nloop && !rc; l++) {
+        if (l == outer)
+            continue;
+        rc = put_polygon(w, w->queue + start[l], (uint32_t)(start[l + 1] - start[l]), 0);
+        double x[3];
+        hole_point(p, longest[l][0], longest[l][1], n, x);
+        if (!rc)
+            rc = put_hole(w, x, 0);
+    }
+    /* Vertices of the group on no loop: isolated vertices of the facet. */
+    for (size_t i = 0; i < ncorner; i++)
+        w->vstamp[w->queue[i]] = lead + 1;
+    for (uint32_t t = lead; t != NONE && !rc; t = w->next[t])
+        for (int k = 0; k < 3 && !rc; k++) {
+            uint32_t v = w->ot[t][k];
+            if (w->vstamp[v] == lead + 1)
+                continue;
+            w->vstamp[v] = lead + 1;
+            rc = put_polygon(w, &v, 1, 0);
+        }
+    free(start);
+    free(longest);
+    return rc;
+}
+
+static void work_free(fm_work *w)
+{
+    free(w->group);
+    free(w->ot);
+    free(w->next);
+    free(w->size);
+    free(w->merged);
+    free(w->queue);
+    hmap_free(&w->explicit_segs);
+    hmap_free(&w->edges);
+    hmap_free(&w->out);
+    free(w->bnd);
+    free(w->used);
+    free(w->vstamp);
+    free(w->facets);
+    free(w->polys);
+    free(w->corners);
+    free(w->fholes);
+}
+
+/* Groups every triangle facet; returns 0 or PDR_ENOMEM. */
+static int make_groups(fm_work *w)
+{
+    const plc *p = w->p;
+    for (size_t i = 0; i < p->nsegin; i++)
+        if (hmap_put(&w->explicit_segs, ukey(p->segin[i].v[0], p->segin[i].v[1]), 1))
+            return PDR_ENOMEM;
+    for (size_t f = 0; f < p->nfacet; f++) {
+        w->group[f] = NONE;
+        w->next[f] = NONE;
+        w->size[f] = 0;
+    }
+    for (size_t f = 0; f < p->nfacet; f++)
+        if (w->group[f] == NONE && facet_tri(p, f, w->ot[f]))
+            grow_group(w, (uint32_t)f);
+    return 0;
+}
+
+/* Writes the new facets into w: merged groups in place of their first
+ * triangle, the rest copied. */
+static int rebuild(fm_work *w, fm_stats *s)
+{
+    const plc *p = w->p;
+    int rc = 0;
+    for (size_t f = 0; f < p->nfacet && !rc; f++) {
+        uint32_t g = w->group[f];
+        if (g != NONE && g != f && w->merged[g])
+            continue;
+        if (g == f && w->size[f] > 1) {
+            size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
+            rc = emit_group(w, (uint32_t)f);
+            if (rc == 0) {
+                w->merged[f] = 1;
+                s->triangles_merged += w->size[f];
+                continue;
+            }
+            if (rc < 0)
+                return rc;
+            /* Keep the group's triangles: undo what was emitted. */
+            w->nfacet = nf;
+            w->npoly = np;
+            w->ncorner = nc;
+            w->nfhole = nh;
+            s->groups_kept++;
+            rc = 0;
+        }
+        rc = copy_facet(w, f);
+    }
+    return rc;
+}
+
+int fm_merge(plc *p, double angle_tol, fm_stats *st)
+{
+    fm_stats s;
+    memset(&s, 0, sizeof s);
+    s.facets_before = s.facets_after = p->nfacet;
+    if (!p->derived || !p->nfacet) {
+        if (st)
+            *st = s;
+        return 0;
+    }
+    fm_work w;
+    memset(&w, 0, sizeof w);
+    w.p = p;
+    /* With no tolerance only exactly coplanar triangles merge (the cosine
+     * of an angle within 1e-8 degrees of 180 rounds to -1). */
+    w.cos_min = angle_tol > 0 ? -cos(angle_tol * M_PI / 180.0) : -INFINITY;
+    double d2 = 0;
+    for (int k = 0; k < 3; k++)
+        d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
+    w.plane_tol = p->planar_tol * sqrt(d2);
+    size_t nf = p->nfacet;
+    w.group = malloc(nf * sizeof *w.group);
+    w.ot = malloc(nf * sizeof *w.ot);
+    w.next = malloc(nf * sizeof *w.next);
+    w.size = malloc(nf * sizeof *w.size);
+    w.merged = calloc(nf, 1);
+    w.queue = malloc((nf * 3 + 1) * sizeof *w.queue);
+    w.vstamp = calloc(p->nv ? p->nv : 1, sizeof *w.vstamp);
+    int rc = w.group && w.ot && w.next && w.size && w.merged && w.queue && w.vstamp ? 0
+                                                                                      : PDR_ENOMEM;
+    if (!rc)
+        rc = make_groups(&w);
+    if (!rc)
+        rc = rebuild(&w, &s);
+    if (!rc && s.triangles_merged) {
+        /* Swap the new facet arrays in; the old ones go with w. */
+        plc_facet *fa = p->facets;
+        plc_polygon *po = p->polys;
+        uint32_t *co = p->corners;
+        plc_point *fh = p->fholes;
+        p->facets = w.facets;
+        p->nfacet = w.nfacet;
+        p->cap_facet = w.cap_facet;
+        p->polys = w.polys;
+        p->npoly = w.npoly;
+        p->cap_poly = w.cap_poly;
+        p->corners = w.corners;
+        p->ncorner = w.ncorner;
+        p->cap_corner = w.cap_corner;
+        p->fholes = w.fholes;
+        p->nfhole = w.nfhole;
+        p->cap_fhole = w.cap_fhole;
+        w.facets = fa;
+        w.polys = po;
+        w.corners = co;
+        w.fholes = fh;
+        plc__drop_derived(p);
+        s.facets_after = p->nfacet;
+    }
+    work_free(&w);
+    if (st)
+        *st = s;
+    return rc;
+}
+
+/* ------------------------------------------------------------ features */
+
+/* One apex per facet around a segment, collected through hmap_each. */
+typedef struct fm_apexes {
+    const plc *p;
+    const uint32_t *tf; /* facet of each facet triangle */
+    uint32_t a, b;      /* the segment */
+    uint32_t apex[16], fac[16];
+    size_t n;
+} fm_apexes;
+
+static int collect_apex(void *arg, uint32_t t)
+{
+    fm_apexes *c = arg;
+    for (size_t i = 0; i < c->n; i++)
+        if (c->fac[i] == c->tf[t])
+            return 0;
+    if (c->n == 16)
+        return 1;
+    const uint32_t *v = c->p->ftri[t];
+    c->apex[c->n] = v[0] != c->a && v[0] != c->b ? v[0] : v[1] != c->a && v[1] != c->b ? v[1] : v[2];
+    c->fac[c->n++] = c->tf[t];
+    return 0;
+}
+
+/* The smallest dihedral angle, degrees, between two facets at segment s. */
+static float segment_angle(const plc *p, const hmap *tri_of, const uint32_t *tf, size_t s)
+{
+    fm_apexes c = {.p = p, .tf = tf, .a = p->segs[s].v[0], .b = p->segs[s].v[1], .n = 0};
+    hmap_each(tri_of, ukey(c.a, c.b), collect_apex, &c);
+    double best = 180.0;
+    for (size_t i = 0; i < c.n; i++)
+        for (size_t j = i + 1; j < c.n; j++) {
+            double cs = halfplane_cos(p->xyz[c.a], p->xyz[c.b], p->xyz[c.apex[i]],
+                                      p->xyz[c.apex[j]]);
+            double ang = acos(fmax(-1.0, fmin(1.0, cs))) * 180.0 / M_PI;
+            if (ang < best)
+                best = ang;
+        }
+    return (float)best;
+}
+
+/* The smallest angle, degrees, between two segments at vertex v. */
+static float vertex_angle(const plc *p, size_t v)
+{
+    double best = 180.0;
+    for (size_t i = p->v_sstart[v]; i < p->v_sstart[v + 1]; i++)
+        for (size_t j = i + 1; j < p->v_sstart[v + 1]; j++) {
+            const uint32_t *e = p->segs[p->v_segs[i]].v, *g = p->segs[p->v_segs[j]].v;
+            uint32_t x = e[0] == v ? e[1] : e[0], y = g[0] == v ? g[1] : g[0];
+            double u[3], w[3];
+            v3_sub(p->xyz[x], p->xyz[v], u);
+            v3_sub(p->xyz[y], p->xyz[v], w);
+            double nn = sqrt(v3_dot(u, u) * v3_dot(w, w));
+            if (!(nn > 0))
+                continue;
+            double ang = acos(fmax(-1.0, fmin(1.0, v3_dot(u, w) / nn))) * 180.0 / M_PI;
+            if (ang < best)
+                best = ang;
+        }
+    return (float)best;
+}
+
+int fm_features(plc *p, fm_stats *st)
+{
+    if (!p->derived || !p->ftri_start)
+        return PDR_EINVAL;
+    free(p->seg_mindih);
+    free(p->v_minang);
+    p->seg_mindih = malloc((p->nseg ? p->nseg : 1) * sizeof *p->seg_mindih);
+    p->v_minang = malloc((p->nv ? p->nv : 1) * sizeof *p->v_minang);
+    size_t ntri = p->ftri_start[p->nfacet];
+    uint32_t *tf = malloc((ntri ? ntri : 1) * sizeof *tf);
+    hmap tri_of = {0};
+    int rc = p->seg_mindih && p->v_minang && tf ? 0 : PDR_ENOMEM;
+    /* Every facet triangle under each of its edges, and its facet. */
+    for (size_t f = 0; f < p->nfacet && !rc; f++)
+        for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1] && !rc; t++) {
+            tf[t] = (uint32_t)f;
+            for (int k = 0; k < 3 && !rc; k++)
+                rc = hmap_put(&tri_of, ukey(p->ftri[t][k], p->ftri[t][(k + 1) % 3]),
+                              (uint32_t)t);
+        }
+    size_t sharp = 0, acute = 0;
+    for (size_t s = 0; s < p->nseg && !rc; s++) {
+        p->seg_mindih[s] = segment_angle(p, &tri_of, tf, s);
+        sharp += p->seg_mindih[s] < FM_SHARP_DIH;
+    }
+    for (size_t v = 0; v < p->nv && !rc; v++) {
+        p->v_minang[v] = vertex_angle(p, v);
+        acute += p->v_minang[v] < FM_ACUTE_ANG;
+    }
+    hmap_free(&tri_of);
+    free(tf);
+    if (rc) {
+        free(p->seg_mindih);
+        free(p->v_minang);
+        p->seg_mindih = p->v_minang = NULL;
+        return rc;
+    }
+    if (st) {
+        st->sharp_segments = sharp;
+        st->acute_vertices = acute;
+    }
+    return 0;
+}
+
+int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag)
+{
+    memset(st, 0, sizeof *st);
+    st->facets_before = st->facets_after = p->nfacet;
+    int rc = merge_angle >= 0 ? fm_merge(p, merge_angle, st) : 0;
+    if (!rc && st->triangles_merged) {
+        rc = plc_validate(p, diag);
+        if (rc == PDR_EGEOMETRY)
+            pdr_diag_add(diag, p->path, 0,
+                         "the facets made by merging coplanar triangles are not valid "
+                         "(a defect of the merge: try --no-merge)");
+    }
+    if (!rc)
+        rc = fm_features(p, st);
+    return rc;
+}

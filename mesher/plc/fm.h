@@ -1,0 +1,96 @@
+/*
+ * plc/fm.h -- input preparation for tessellated surfaces (prefix fm_):
+ * merging coplanar triangles into polygonal facets, and finding the sharp
+ * segments and acute vertices that the refinement must treat specially.
+ *
+ * Why. A closed triangle surface from a CAD tool or a scanner (.stl, .off)
+ * makes every triangle its own facet and every triangle edge a segment.
+ * On a flat face split into many triangles, segments then meet at 45
+ * degrees or less inside the face, and Delaunay refinement's boundary
+ * recovery splits them into each other without end (the grid-triangulated
+ * cube does that down to the last bit of double precision). Such edges are
+ * not features of the shape: TetGen removes them (its 'mergefacets').
+ *
+ * Merging (fm_merge). Two triangle facets (one polygon of three corners,
+ * no facet holes) are merged across their common edge when
+ *  - they have the same marker, the edge belongs to no other facet and is
+ *    not an explicit segment of the input;
+ *  - their dihedral angle at the edge is at least 180 - angle_tol degrees
+ *    (TetGen's default tolerance: 179.9 degrees); angle_tol = 0 merges
+ *    only triangles that are exactly coplanar (orient3d, exact);
+ *  - the new triangle's far corner is exactly coplanar with the triangle
+ *    that started the group (orient3d), or within the validator's planar
+ *    tolerance (plc.planar_tol times the bounding-box diagonal) of its
+ *    plane. Testing against the group's first triangle, not the
+ *    neighbour, stops a gently curved surface (a finely tessellated
+ *    sphere, every dihedral angle near 180) from merging into one facet.
+ * Groups grow breadth first from the lowest-numbered triangle. A group of
+ * two or more triangles becomes one facet at the place of its first
+ * triangle (same marker and line): its boundary edges, chained into
+ * loops in the orientation of the group's triangles, become polygons
+ * (the outer loop first), every inner loop gets a facet hole point just
+ * inside it, and every vertex of the group on no loop becomes a 1-corner
+ * polygon (an isolated vertex of the facet), so that no vertex is left
+ * floating on a facet. The facet's triangulation is made again by
+ * plc_validate (a constrained Delaunay triangulation), so a merged facet
+ * covers exactly the union of its triangles when they are exactly
+ * coplanar, and to within the planar tolerance otherwise. A group whose
+ * boundary touches itself at a vertex, or that has no single outer loop,
+ * is left as it was (its triangles stay facets).
+ *
+ * Features (fm_features). On a validated PLC: for every segment the
+ * smallest dihedral angle between two of its facets (180 for a segment
+ * of a single facet or none), and for every vertex the smallest angle
+ * between two of its segments. A segment is sharp below FM_SHARP_DIH
+ * degrees, a vertex acute below FM_ACUTE_ANG (TetGen 1.6's thresholds):
+ * there Shewchuk's angle conditions fail and the refinement does not
+ * split pieces into each other (see refine/refine.h). Stored in the PLC
+ * as derived data (plc.seg_mindih, plc.v_minang).
+ *
+ * Ownership: both functions change the PLC in place; it keeps owning
+ * everything.
+ */
+#ifndef PDR_FM_H
+#define PDR_FM_H
+
+#include <stddef.h>
+
+#include "base/pdr_error.h"
+#include "plc/plc.h"
+
+/* Default angular tolerance of the merge, degrees (TetGen: 179.9). */
+#define FM_MERGE_ANGLE 0.1
+/* Thresholds of fm_features, degrees. */
+#define FM_SHARP_DIH 72.0
+#define FM_ACUTE_ANG 60.0
+
+typedef struct fm_stats {
+    size_t facets_before;    /* facets of the input */
+    size_t facets_after;     /* facets after merging */
+    size_t triangles_merged; /* triangles now part of a merged facet */
+    size_t groups_kept;      /* groups left unmerged (pinched boundary) */
+    size_t sharp_segments;   /* after fm_features */
+    size_t acute_vertices;
+} fm_stats;
+
+/* Merges coplanar neighbouring triangle facets of p (see above), with the
+ * angular tolerance angle_tol in degrees, >= 0. p must be derived
+ * (plc_derive or plc_validate); afterwards its derived data is dropped:
+ * call plc_validate again. st (may be NULL) receives the counts. Returns
+ * 0 or PDR_ENOMEM (p then unchanged). */
+int fm_merge(plc *p, double angle_tol, fm_stats *st);
+
+/* Fills p->seg_mindih and p->v_minang of the validated PLC p and counts
+ * the sharp segments and acute vertices into st (may be NULL). Returns 0
+ * or PDR_ENOMEM. */
+int fm_features(plc *p, fm_stats *st);
+
+/* The whole preparation of a validated PLC p, as 'pdr mesh' does it and
+ * 'pdr check --plc' repeats it (so that a mesh is compared with the
+ * facets the mesher was given): fm_merge with merge_angle degrees (none
+ * when merge_angle is negative), plc_validate again when anything was
+ * merged, fm_features. st receives the counts. Returns 0, PDR_EGEOMETRY
+ * (messages in diag) or PDR_ENOMEM. */
+int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag);
+
+#endif /* PDR_FM_H */
