@@ -3,7 +3,8 @@
 #  - 2 and 4 PEs on cube-in-cube and the tee: the merged mesh passes pdr
 #    check against the input with radius-edge bound 2, and has about as
 #    many tetrahedra as the sequential pdr mesh with the same bounds;
-#  - 3, 5 and 8 PEs on TetGen's example.poly, checked the same way;
+#  - 3, 5 and 8 PEs on TetGen's example.poly, and 3 on a tessellated cube
+#    (tests/data/surf/gridcube.off), checked the same way;
 #  - 4 PEs, 32 parts, injected latency 100us-1ms: setbacks and distributed
 #    cavities both happened, and the mesh is still correct;
 #  - a bad input: every PE exits, status 1, file:line message, no file;
@@ -30,9 +31,11 @@ run() { # NAME DOMAIN ARGS...: a parallel run that must succeed and check
     name=$1
     d=$2
     shift 2
-    timeout 120 "$PDR" mesh "$@" -q 2 -o "$tmp/$name" "$tmp/$d.poly" >"$tmp/$name.out" 2>&1 ||
+    in=$tmp/$d.poly
+    [ -e "$in" ] || in=$tmp/$d.off
+    timeout 120 "$PDR" mesh "$@" -q 2 -o "$tmp/$name" "$in" >"$tmp/$name.out" 2>&1 ||
         { cat "$tmp/$name.out"; fail "$name: pdr mesh $* exited $?"; }
-    "$PDR" check --plc "$tmp/$d.poly" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1 ||
+    "$PDR" check --plc "$in" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1 ||
         { cat "$tmp/$name.chk"; fail "$name: pdr check found defects"; }
     grep -q '^left above the bound: 0 tetrahedra' "$tmp/$name.out" ||
         fail "$name: tetrahedra left above the bound: $(grep '^left' "$tmp/$name.out")"
@@ -73,6 +76,12 @@ if [ -r "$ex" ]; then
 else
     echo "example.poly skipped: $ex not found (Debian package tetgen)"
 fi
+
+# A tessellated surface as CAD tools write it (a cube whose faces are
+# triangle grids, merged into six facets by the input preparation).
+cp "$top_srcdir/tests/data/surf/gridcube.off" "$tmp/gridcube.off" || exit 99
+run grid-3 gridcube -n 3
+echo "grid-3: $(tets "$tmp/grid-3.out") tetrahedra"
 
 # Over-decomposition with latency: cavities cross PEs and collide.
 run lat cic -n 4 --parts 32 --latency 100us-1ms -a 1e-4 --stats "$tmp/stats"
