@@ -65,6 +65,7 @@ AM_MP_TESTS = \
 	tests/am-malformed.sh \
 	tests/am-launch.sh \
 	tests/am-fault.sh \
-	tests/am-signals.sh
+	tests/am-signals.sh \
+	tests/am-flood.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)
