@@ -617,13 +617,13 @@ static int run_flood(am_ctx_t *ctx, int pairs, int n, int maxlen, int nthreads,
         CHECK(rc == 0, "spawn: %s", am_strerror(rc));
     }
     if (!pairs) {
-        /* Handlers flood too: a burst from every PE but the last, and the
-         * last sends until it is refused. */
-        for (int pe = 0; pe < F.size - 1; pe++) {
-            int rc = am_send(ctx, pe, H_KICK, "B", 1);
+        /* Handlers flood too: every PE but the last kicks its own handler
+         * into a burst, and the last kicks it into sending until it is
+         * refused. */
+        if (me < F.size - 1) {
+            int rc = am_send(ctx, me, H_KICK, "B", 1);
             CHECK(rc == 0, "kick: %s", am_errname(rc));
-        }
-        if (me == F.size - 1 && F.window && F.queue) {
+        } else if (F.window && F.queue) {
             int rc = am_send(ctx, me, H_KICK, "O", 1);
             CHECK(rc == 0, "overflow kick: %s", am_errname(rc));
         }

@@ -45,6 +45,13 @@ tests_test_am_stats_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_stats_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_stats_LDFLAGS = $(AM_LDFLAGS) -static
 
+check_PROGRAMS += tests/test_am_flow
+TESTS += tests/test_am_flow
+tests_test_am_flow_SOURCES = tests/test_am_flow.c
+tests_test_am_flow_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_flow_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_flow_LDFLAGS = $(AM_LDFLAGS) -static
+
 check_PROGRAMS += tests/test_am_lines
 TESTS += tests/test_am_lines
 tests_test_am_lines_SOURCES = tests/test_am_lines.c
