@@ -11,8 +11,10 @@
  * peer into EHOSTUNREACH instead of a silent drop. High-water marks are
  * unlimited by default (AM_HWM), so a burst is never dropped; when ZeroMQ
  * still says EAGAIN the frame waits in the peer's send queue, which the
- * loop flushes, so am_send never blocks on the receiver. ZMQ_LINGER is
- * bounded (2 s) so a dead peer cannot hold up exit.
+ * loop flushes. What bounds memory is flow control (am_flow.c): a basic
+ * frame gets here only once it fits in the peer's send window, so ZeroMQ's
+ * pipes and the send queue hold at most a window of them per peer.
+ * ZMQ_LINGER is bounded (2 s) so a dead peer cannot hold up exit.
  *
  * ZMQ_FD is edge-triggered: it signals a change, not a level. The runtime
  * therefore never relies on it alone: am_poll receives until ZeroMQ says
