@@ -570,6 +570,20 @@ static size_t env_size(const char *name)
     return v ? (size_t)strtoull(v, NULL, 10) : 0;
 }
 
+/* Under AddressSanitizer the resident memory is mostly the sanitizer's:
+ * its quarantine keeps freed blocks (256 MiB by default) and its shadow
+ * adds an eighth. The memory bound is then reported, not checked. */
+#if defined(__SANITIZE_ADDRESS__)
+#define FLOOD_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define FLOOD_ASAN 1
+#endif
+#endif
+#ifndef FLOOD_ASAN
+#define FLOOD_ASAN 0
+#endif
+
 /* Peak resident memory of this process (VmHWM), in KiB. */
 static long peak_rss_kib(void)
 {
@@ -686,14 +700,15 @@ static int run_flood(am_ctx_t *ctx, int pairs, int n, int maxlen, int nthreads,
                   "%lld messages, %lld answers sent, %lld arrived, %lld refused",
                   (long long)s[2], (long long)s[5], (long long)s[6],
                   (long long)s[7]);
-        CHECK(rss_mib <= 0 || pk[0] <= rss_mib * 1024,
+        CHECK(rss_mib <= 0 || FLOOD_ASAN || pk[0] <= rss_mib * 1024,
               "peak RSS %.1f MiB exceeds the bound of %ld MiB", pk[0] / 1024.0,
               rss_mib);
         printf("%s: %d PEs, %lld messages (%.1f MiB) delivered exactly once, "
                "checksums agree, termination in %.3f s; peak RSS PE 0 %.1f "
-               "MiB, largest %.1f MiB (bound %ld MiB)\n",
+               "MiB, largest %.1f MiB (bound %ld MiB%s)\n",
                pairs ? "flood-pair" : "flood", F.size, (long long)s[2],
-               s[4] / 1048576.0, dt, pk[1] / 1024.0, pk[0] / 1024.0, rss_mib);
+               s[4] / 1048576.0, dt, pk[1] / 1024.0, pk[0] / 1024.0, rss_mib,
+               FLOOD_ASAN ? ", not checked under AddressSanitizer" : "");
     }
     if (!pairs && me == F.size - 1 && F.window && F.queue) {
         size_t cost = FLOOD_COST(FLOOD_HDR + F.maxlen);
