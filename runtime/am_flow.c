@@ -181,7 +181,7 @@ void am__flow_consumed(am_ctx_t *ctx, int src, size_t size)
     }
     am__peer *p = &ctx->peers[src];
     p->consumed += c;
-    if (p->consumed < ctx->send_window / 2 || p->consumed == 0)
+    if (p->consumed < ctx->send_window / 2)
         return;
     /* A peer that said goodbye sends nothing more; while closing, peers
      * may be gone. */

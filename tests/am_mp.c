@@ -564,10 +564,21 @@ static void flood_thread(am_ctx_t *ctx, void *arg)
     F.threads_done++;
 }
 
+/* A byte count from the environment as libam reads it ("4096", "64k",
+ * "4M", "1G"), 0 if unset. */
 static size_t env_size(const char *name)
 {
     const char *v = getenv(name);
-    return v ? (size_t)strtoull(v, NULL, 10) : 0;
+    if (!v)
+        return 0;
+    char *end;
+    size_t n = (size_t)strtoull(v, &end, 10);
+    switch (*end) {
+    case 'k': case 'K': return n << 10;
+    case 'm': case 'M': return n << 20;
+    case 'g': case 'G': return n << 30;
+    default: return n;
+    }
 }
 
 /* Under AddressSanitizer the resident memory is mostly the sanitizer's:
