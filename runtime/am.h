@@ -64,7 +64,8 @@ extern "C" {
     X(TIMEOUT, -7, "timed out")                                              \
     X(LAUNCH, -8, "job launch failed")                                       \
     X(NOHANDLER, -9, "no handler registered for this id")                    \
-    X(SYS, -10, "system call failed (see errno)")
+    X(SYS, -10, "system call failed (see errno)")                            \
+    X(FULL, -11, "the send queue to that PE is full (flow control)")
 
 enum am_errno {
 #define AM_ERRNO_ENUM(name, value, msg) AM_E##name = (value),
@@ -88,6 +89,16 @@ typedef struct am_timer_s am_timer_t;   /* one-shot timer */
 
 /* Largest payload of one message (1 GiB, the wire format's limit). */
 #define AM_MAX_PAYLOAD ((size_t)1 << 30)
+
+/* Flow control (see am_send): what a message of len payload bytes counts
+ * against the send window and the handler queue is len + AM_MSG_OVERHEAD
+ * (the frame header and the runtime's and ZeroMQ's bookkeeping), so that a
+ * flood of empty messages is bounded too. */
+#define AM_MSG_OVERHEAD 88
+
+/* Default bounds of flow control (am_opts_t.send_window, .send_queue). */
+#define AM_SEND_WINDOW_DEFAULT ((size_t)4 << 20)
+#define AM_SEND_QUEUE_DEFAULT ((size_t)64 << 20)
 
 /* A received message, as seen by its handler. data is owned by the runtime
  * and valid only until the handler returns: copy what you keep. */
@@ -125,9 +136,15 @@ typedef struct am_opts {
     const char *stats_dir;/* if set, am_finalize writes stats-<rank>.json */
     unsigned poll_budget; /* max frames taken from the socket per am_poll
                              (256) */
+    size_t send_window;   /* bytes of messages in flight to one PE before
+                             its senders wait (AM_SEND_WINDOW_DEFAULT); every
+                             PE of a job must use the same value */
+    size_t send_queue;    /* bytes of handler sends that may wait for one
+                             PE's window before am_send says AM_EFULL
+                             (AM_SEND_QUEUE_DEFAULT; 0 is allowed) */
 } am_opts_t;
 
-#define AM_OPTS_INIT {0, 0, NULL, NULL, 0.0, 0.0, NULL, 0}
+#define AM_OPTS_INIT {0, 0, NULL, NULL, 0.0, 0.0, NULL, 0, 0, 0}
 
 /* Runtime-wide counters of one PE (am_stats_get). Times in seconds. */
 typedef struct am_stats {
@@ -144,6 +161,11 @@ typedef struct am_stats {
     uint64_t rejected;    /* malformed or unexpected frames dropped */
     uint64_t queued_sends;/* sends that had to wait in the local queue */
     uint64_t threads_spawned, thread_switches;
+    uint64_t send_waits;  /* thread and main-context sends that waited for
+                             room in a send window */
+    double send_wait_s;   /* time they waited */
+    uint64_t held_sends;  /* callback sends queued for a full window */
+    uint64_t credits_recv;/* window credits received from the peers */
 } am_stats_t;
 
 /* -------------------------------------------------------- callback types */
@@ -209,7 +231,9 @@ AM_EXPORT const char *am_version(void);
  * AM_ROOT is not given, AM_JOB (job id; PEs of other jobs are refused),
  * AM_LATENCY, AM_BANDWIDTH, AM_STATS_DIR, AM_STACK_SIZE, AM_SWITCH
  * (ucontext|fast), AM_BOOT_TIMEOUT, AM_HEARTBEAT (seconds), AM_HWM (ZeroMQ
- * high-water mark, default 0 = unlimited), AM_CURVE_SERVER_PUBLIC/SECRET
+ * high-water mark, default 0 = unlimited: the send windows bound memory),
+ * AM_SEND_WINDOW and AM_SEND_QUEUE (bytes, suffix k, M or G for powers of
+ * 1024; see am_send), AM_CURVE_SERVER_PUBLIC/SECRET
  * (CURVE keys for tcp, made by am-run: a socket without them cannot get a
  * frame in; protocol notes: runtime/CONTROL.md). opts fields, when set,
  * win over the environment. The caller owns *out (am_finalize). */
@@ -250,14 +274,38 @@ AM_EXPORT int am_register(am_ctx_t *ctx, unsigned id, const char *name,
 
 /* Sends len bytes of data to handler id on PE pe (which may be this PE).
  * Copies data: the caller keeps ownership and may reuse the buffer at
- * once. One-sided and asynchronous: it never waits for the receiver (if
- * ZeroMQ cannot take the message now it waits in a local queue flushed by
- * the loop). Messages from one PE to another arrive in the order sent. */
+ * once. One-sided and asynchronous: it never waits for the receiver to run
+ * the handler. Messages from one PE to another arrive in the order sent.
+ *
+ * Flow control. Each PE may have at most a window of send_window bytes
+ * (AM_SEND_WINDOW, default 4 MiB; a message counts len + AM_MSG_OVERHEAD)
+ * in flight to each PE: sent, and not yet run by the receiver's handler.
+ * The receiver hands the room back as its handlers run (CREDIT frames,
+ * runtime/CONTROL.md). A message goes out at once if the window has room
+ * for it, or if at most half the window is in use (so one message of any
+ * size can go), and no earlier message to that PE waits. Otherwise:
+ *  - from a thread, am_send blocks that thread (the PE polls, delivers and
+ *    runs other threads meanwhile) until there is room;
+ *  - from the main context, it drives the loop like am_wait until there is
+ *    room (handlers and threads run meanwhile);
+ *  - from a callback (handler or timer), which must not block, the message
+ *    is queued for the window if the PE's queued callback sends to pe stay
+ *    within send_queue bytes (AM_SEND_QUEUE, default 64 MiB); otherwise
+ *    nothing is sent and am_send returns AM_EFULL. Queued messages go out
+ *    in order, before any later message to pe.
+ * So a receiver holds at most (P-1) windows of messages from the others,
+ * and a sender at most a window and a queue per destination, plus one
+ * message per blocked thread. A PE that stops polling makes its senders
+ * wait; this cannot deadlock, because handlers never wait and every PE
+ * keeps receiving while its threads wait. The same applies to
+ * am_send_zc, am_send_buf, am_call (requests) and am_reply/am_reply_to
+ * (replies). */
 AM_EXPORT int am_send(am_ctx_t *ctx, int pe, unsigned id, const void *data,
                       size_t len);
 
-/* Zero-copy send. frame points to AM_HEADROOM bytes that the runtime
- * overwrites with the header, followed by len bytes of payload. On success
+/* Zero-copy send (flow control as am_send). frame points to AM_HEADROOM
+ * bytes that the runtime overwrites with the header, followed by len bytes
+ * of payload. On success
  * the runtime takes ownership of frame and calls ffn(frame, hint) when it
  * is done with it (possibly from another OS thread, see am_free_fn); ffn
  * may be NULL for memory that outlives the job. On failure ffn is never
@@ -373,7 +421,9 @@ AM_EXPORT int am_call(am_ctx_t *ctx, int pe, unsigned id, const void *req,
                       size_t len, void **reply, size_t *reply_len);
 
 /* Answers a call from within its handler (msg->call_id != 0). Copies
- * data. AM_EINVAL if msg is not a call. */
+ * data. AM_EINVAL if msg is not a call; AM_EFULL if the reply does not fit
+ * in the send queue to the caller (flow control, see am_send): the call is
+ * then still unanswered. */
 AM_EXPORT int am_reply(am_ctx_t *ctx, const am_msg_t *msg, const void *data,
                        size_t len);
 

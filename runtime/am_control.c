@@ -225,3 +225,15 @@ int am__empty_get(pr_reader *r)
 {
     return pr_reader_finish(r);
 }
+
+void am__credit_put(pr_buf *b, uint64_t bytes)
+{
+    pr_put_u64(b, bytes);
+}
+
+int am__credit_get(pr_reader *r, uint64_t *bytes)
+{
+    if (pr_get_u64(r, bytes) == 0 && (*bytes == 0 || *bytes > AM__CREDIT_MAX))
+        return pr_reader_fail(r, PR_ERANGE);
+    return pr_reader_finish(r);
+}

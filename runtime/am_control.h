@@ -33,6 +33,7 @@ enum am__ctl_type {
     AM__CTL_RPC_REQ = 11,   /* am_call request */
     AM__CTL_RPC_REP = 12,   /* am_call reply */
     AM__CTL_ABORT = 13,     /* a PE saw a peer fail; it exits */
+    AM__CTL_CREDIT = 14,    /* receiver -> sender: window room back */
     AM__CTL_COUNT           /* one past the highest type */
 };
 
@@ -136,6 +137,12 @@ typedef struct am__abort_msg {
 
 void am__abort_put(pr_buf *b, const am__abort_msg *m);
 int am__abort_get(pr_reader *r, am__abort_msg *m);
+
+/* CREDIT: bytes of the sender's window the receiver hands back (at least
+ * 1, at most AM__CREDIT_MAX). */
+#define AM__CREDIT_MAX ((uint64_t)1 << 40)
+void am__credit_put(pr_buf *b, uint64_t bytes);
+int am__credit_get(pr_reader *r, uint64_t *bytes);
 
 /* BYE and PING have empty bodies. */
 int am__empty_get(pr_reader *r);

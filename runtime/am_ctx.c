@@ -369,6 +369,21 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         return bad_option(ctx, "AM_HWM", v, "a message count, 0 = unlimited");
     ctx->hwm = (int)hwm;
 
+    ctx->send_window = AM_SEND_WINDOW_DEFAULT;
+    if (o->send_window)
+        ctx->send_window = o->send_window;
+    else if ((v = am__env(ctx, "AM_SEND_WINDOW")) &&
+             (am__bytes_parse(v, &ctx->send_window) || ctx->send_window < 4096))
+        return bad_option(ctx, "AM_SEND_WINDOW", v, "bytes, at least 4096");
+    if (ctx->send_window < 4096)
+        return AM_EINVAL;
+    ctx->send_queue = AM_SEND_QUEUE_DEFAULT;
+    if (o->send_queue)
+        ctx->send_queue = o->send_queue;
+    else if ((v = am__env(ctx, "AM_SEND_QUEUE")) &&
+             am__bytes_parse(v, &ctx->send_queue))
+        return bad_option(ctx, "AM_SEND_QUEUE", v, "bytes, e.g. 64M, or 0");
+
     v = o->stats_dir ? o->stats_dir : am__env(ctx, "AM_STATS_DIR");
     if (v && !(ctx->stats_dir = strdup(v)))
         return AM_ENOMEM;
@@ -439,7 +454,7 @@ static void open_report(am_ctx_t *ctx)
  * A new module that handles control types is added here once. */
 static const am__ctl_entry *const ctl_modules[] = {
     am__boot_ctls, am__ctx_ctls,  am__transport_ctls,
-    am__term_ctls, am__coll_ctls, am__rpc_ctls,
+    am__term_ctls, am__coll_ctls, am__rpc_ctls,  am__flow_ctls,
 };
 
 /* Fills the context's dispatch table from the modules' lists. A type
@@ -475,6 +490,7 @@ static void ctl_table_build(am_ctx_t *ctx)
 static void destroy(am_ctx_t *ctx)
 {
     am__latency_free(ctx);
+    am__flow_free(ctx);
     am__coll_free_all(ctx);
     am__fifo_clear(&ctx->loopback);
     am__fifo_clear(&ctx->early);
@@ -615,6 +631,9 @@ int am_finalize(am_ctx_t **pctx)
         return AM_ESTATE;
     int rc = 0;
     if (ctx->state == AM__RUNNING && !ctx->failed && ctx->size > 1) {
+        /* Callback sends still waiting for a window go before the barrier
+         * and the BYEs, which would overtake them. */
+        am__flow_drain(ctx, ctx->boot_timeout);
         ctx->coll_deadline = am__now() + ctx->boot_timeout;
         rc = am_barrier(ctx);
         ctx->coll_deadline = 0;

@@ -6,6 +6,8 @@
  *   am_boot.c       finding rank 0, hello exchange, endpoint table
  *   am_transport.c  the ROUTER socket, sending, send queues, receiving,
  *                   frame validation, peer failure detection
+ *   am_flow.c       flow control: send windows, credits, waiting senders,
+ *                   the queue of callback sends
  *   am_loop.c       libevent integration, am_poll, idle blocking, drive
  *                   loops, am_run_until_done
  *   am_thread.c     coroutines, stack pool; am_switch_x86_64.S fast switch
@@ -83,6 +85,12 @@ typedef struct am__fifo {
     size_t n;
 } am__fifo;
 
+/* A wait queue of threads or the main context (am_future.c). */
+typedef struct am__waiter am__waiter;
+typedef struct am__waitq {
+    am__waiter *head, *tail;
+} am__waitq;
+
 void am__fifo_push(am__fifo *q, am__frame *f);
 am__frame *am__fifo_pop(am__fifo *q);
 /* Frees every node (closing its message). */
@@ -98,7 +106,18 @@ void am__frame_free(am__frame *f);
  * sendq is not empty every new frame to the peer is appended to it, so
  * frames never overtake each other. delayq is ordered by due time, which
  * never decreases along the queue (per-sender order is kept under random
- * latency); delay_ev is armed for the head whenever delayq is not empty. */
+ * latency); delay_ev is armed for the head whenever delayq is not empty.
+ *
+ * Flow control (am_flow.c), for basic frames (user AMs, RPC requests and
+ * replies) only: win_used is the cost of the frames sent to the peer that
+ * it has not handed back with CREDIT (for this PE itself: not yet
+ * dispatched from the loopback queue). A frame enters the window only if
+ * heldq is empty and the window has room, so frames leave in the order
+ * they were sent. heldq holds callback sends waiting for room, held_bytes
+ * their cost (at most the queue bound); their sequence numbers are given
+ * when they leave heldq. roomq holds the threads and the main context
+ * waiting for room. On the receiving side, consumed is the cost of this
+ * peer's frames dispatched here since the last CREDIT to it. */
 typedef struct am__peer {
     am_ctx_t *ctx;          /* back pointer for libevent callbacks */
     char *endpoint;         /* where it listens; owned */
@@ -116,6 +135,11 @@ typedef struct am__peer {
     int suspect;            /* a disconnect may be this peer's */
     double suspect_since;
     int judged;             /* probed in the current am__check_peers */
+    size_t win_used;        /* flow: bytes in flight to it, uncredited */
+    size_t held_bytes;      /* flow: bytes waiting in heldq */
+    am__fifo heldq;         /* flow: callback sends waiting for room */
+    am__waitq roomq;        /* flow: senders waiting for room */
+    size_t consumed;        /* flow: its bytes dispatched, not credited */
 } am__peer;
 
 /* Reasons a frame is rejected (counted in statistics). */
@@ -156,15 +180,11 @@ typedef struct am__thread am__thread;
 
 /* A waiter in a future's or condition's queue. Threads put it on their own
  * stack (valid while they are blocked); the main context on its stack. */
-typedef struct am__waiter {
+struct am__waiter {
     struct am__waiter *next;
     am__thread *thread; /* NULL: the main context is waiting */
     int woken;
-} am__waiter;
-
-typedef struct am__waitq {
-    am__waiter *head, *tail;
-} am__waitq;
+};
 
 /* Invariants: a thread is in exactly one of: the run queue (RUNNABLE),
  * running (RUNNING, sched.current), a wait queue or a timer (BLOCKED), or
@@ -388,6 +408,8 @@ struct am_ctx_s {
     double heartbeat;
     unsigned poll_budget;
     int hwm;
+    size_t send_window;    /* flow control bounds, bytes (am_flow.c) */
+    size_t send_queue;
     char *stats_dir;
     char *transport;       /* "ipc" or "tcp" */
     char *ipc_dir;
@@ -411,6 +433,7 @@ struct am_ctx_s {
     int aborting;          /* telling peers about a failure */
     am__peer *peers;       /* size entries */
     size_t sendq_total;    /* frames in all send queues */
+    size_t held_total;     /* frames in all heldq (flow control) */
     am__fifo loopback;     /* frames sent to this PE */
     am__fifo early;        /* non-boot frames received while booting */
     am__fifo deferred;     /* basic frames held back after TERMINATE */
@@ -565,6 +588,36 @@ void am__coll_free_all(am_ctx_t *ctx);
 /* am_rpc.c */
 /* RPC_REQ and RPC_REP. */
 extern const am__ctl_entry am__rpc_ctls[];
+
+/* am_flow.c */
+/* Parses a byte count ("4194304", "4M", "64k", "1G"). */
+int am__bytes_parse(const char *spec, size_t *out);
+/* Before a basic frame of size bytes (header included) goes to pe: 0 if it
+ * may go now (its cost is in the window), 1 if it must wait in heldq (a
+ * callback's send: the caller queues it with am__flow_hold), or a
+ * negative code (AM_EFULL: the queue is full). From a thread or the main
+ * context it waits for room first. */
+int am__flow_reserve(am_ctx_t *ctx, int pe, size_t size);
+/* Gives back a reservation whose frame could not be sent. */
+void am__flow_unreserve(am_ctx_t *ctx, int pe, size_t size);
+/* Queues a frame in pe's heldq (header h without its seq); takes ownership
+ * of msg on success only. */
+int am__flow_hold(am_ctx_t *ctx, int pe, const pr_header *h, zmq_msg_t *msg);
+/* A basic frame of size bytes from src was dispatched here. */
+void am__flow_consumed(am_ctx_t *ctx, int src, size_t size);
+/* Waits (bounded, main context) until every held frame left. */
+void am__flow_drain(am_ctx_t *ctx, double seconds);
+void am__flow_free(am_ctx_t *ctx);
+/* CREDIT. */
+extern const am__ctl_entry am__flow_ctls[];
+
+/* am_transport.c, for am_flow.c: hands a frame that was held to ZeroMQ,
+ * the peer's send queue or the loopback queue, giving it its sequence
+ * number (h->seq). Takes ownership of msg on success only. */
+int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg);
+/* 1 if the frame with this header is a basic message of the termination
+ * detection (and so subject to flow control). */
+int am__is_basic(const am_ctx_t *ctx, const pr_header *h);
 
 /* am_stats.c */
 void am__stats_free(am_ctx_t *ctx);

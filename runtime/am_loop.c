@@ -235,7 +235,8 @@ int am_quiescent(am_ctx_t *ctx, int passive)
     if (rc)
         return rc;
     passive = passive && ctx->sched.live == 0 && ctx->user_timers_armed == 0 &&
-              !am__has_ready_work(ctx) && ctx->sendq_total == 0;
+              !am__has_ready_work(ctx) && ctx->sendq_total == 0 &&
+              ctx->held_total == 0;
     if (!am__term_step(ctx, passive))
         return ctx->failed;
     /* Declared. The barrier makes every PE leave together; until it ends,

@@ -128,6 +128,8 @@ static void write_json(am_ctx_t *ctx, FILE *f)
     fprintf(f, ",\n  \"switch\": \"%s\",\n  \"stack_size\": %zu,\n",
             ctx->sched.mode == AM_SWITCH_FAST ? "fast" : "ucontext",
             ctx->sched.stack_size);
+    fprintf(f, "  \"send_window\": %zu, \"send_queue\": %zu,\n",
+            ctx->send_window, ctx->send_queue);
     fprintf(f, "  \"wall_s\": %.9g,\n", st.wall_s);
     fprintf(f,
             "  \"runtime\": {\"poll_s\": %.9g, \"poll_excess_s\": %.9g, "
@@ -135,7 +137,9 @@ static void write_json(am_ctx_t *ctx, FILE *f)
             "\"polls_empty\": %llu,\n    \"msgs_sent\": %llu, \"bytes_sent\": "
             "%llu, \"msgs_recv\": %llu, \"bytes_recv\": %llu, \"ctl_sent\": "
             "%llu, \"ctl_recv\": %llu,\n    \"queued_sends\": %llu, "
-            "\"threads_spawned\": %llu, \"thread_switches\": %llu},\n",
+            "\"threads_spawned\": %llu, \"thread_switches\": %llu,\n    "
+            "\"send_waits\": %llu, \"send_wait_s\": %.9g, \"held_sends\": "
+            "%llu, \"credits_recv\": %llu},\n",
             st.poll_s, st.poll_excess_s, st.idle_s, st.handler_s,
             (unsigned long long)st.polls, (unsigned long long)st.polls_empty,
             (unsigned long long)st.msgs_sent, (unsigned long long)st.bytes_sent,
@@ -143,7 +147,10 @@ static void write_json(am_ctx_t *ctx, FILE *f)
             (unsigned long long)st.ctl_sent, (unsigned long long)st.ctl_recv,
             (unsigned long long)st.queued_sends,
             (unsigned long long)st.threads_spawned,
-            (unsigned long long)st.thread_switches);
+            (unsigned long long)st.thread_switches,
+            (unsigned long long)st.send_waits, st.send_wait_s,
+            (unsigned long long)st.held_sends,
+            (unsigned long long)st.credits_recv);
     static const char *const reasons[AM__REJ_COUNT] = {
 #define AM__REJ_NAME(name, msg) #name,
         AM__REJECT_MAP(AM__REJ_NAME)

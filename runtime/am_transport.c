@@ -11,8 +11,10 @@
  * peer into EHOSTUNREACH instead of a silent drop. High-water marks are
  * unlimited by default (AM_HWM), so a burst is never dropped; when ZeroMQ
  * still says EAGAIN the frame waits in the peer's send queue, which the
- * loop flushes, so am_send never blocks on the receiver. ZMQ_LINGER is
- * bounded (2 s) so a dead peer cannot hold up exit.
+ * loop flushes. What bounds memory is flow control (am_flow.c): a basic
+ * frame gets here only once it fits in the peer's send window, so ZeroMQ's
+ * pipes and the send queue hold at most a window of them per peer.
+ * ZMQ_LINGER is bounded (2 s) so a dead peer cannot hold up exit.
  *
  * ZMQ_FD is edge-triggered: it signals a change, not a level. The runtime
  * therefore never relies on it alone: am_poll receives until ZeroMQ says
@@ -448,7 +450,7 @@ static void count_send(am_ctx_t *ctx, unsigned flags, unsigned type,
 /* Writes h (its seq filled in here) into the header room of msg and hands
  * msg to ZeroMQ, the peer's send queue, or the loopback queue. Takes
  * ownership of msg on success only; on failure the caller closes it. */
-static int hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
+int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
 {
     am__frame *f;
     if (pe == ctx->rank) {
@@ -491,15 +493,28 @@ static int hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
 /* Sends a frame already holding header room (every send path ends here,
  * the probe in unreachable() excepted) and counts it. user and user_len
  * say what it carries for the user (count_send): a user AM carries itself,
- * its handler id and payload length. Takes ownership of msg on success
- * only. */
+ * its handler id and payload length. A basic frame passes flow control
+ * first (am_flow.c): it may wait for room in the window (threads, main
+ * context) or in the held queue (callbacks), or be refused (AM_EFULL).
+ * Takes ownership of msg on success only. */
 static int send_frame(am_ctx_t *ctx, int pe, unsigned flags, unsigned handler,
                       zmq_msg_t *msg, unsigned user, size_t user_len)
 {
-    size_t body_len = zmq_msg_size(msg) - PR_HEADER_SIZE;
+    size_t size = zmq_msg_size(msg);
+    size_t body_len = size - PR_HEADER_SIZE;
     pr_header h = {(uint8_t)flags, (uint16_t)handler, (uint32_t)ctx->rank,
                    (uint32_t)body_len, 0};
-    int rc = hand_over(ctx, pe, &h, msg);
+    int basic = am__is_basic(ctx, &h);
+    int rc = basic ? am__flow_reserve(ctx, pe, size) : 0;
+    if (rc < 0)
+        return rc;
+    if (rc == 1) {
+        rc = am__flow_hold(ctx, pe, &h, msg);
+    } else {
+        rc = am__hand_over(ctx, pe, &h, msg);
+        if (rc && basic)
+            am__flow_unreserve(ctx, pe, size);
+    }
     if (rc == 0)
         count_send(ctx, flags, handler, body_len, user, user_len);
     return rc;
@@ -760,11 +775,11 @@ static int is_boot_frame(const am_ctx_t *ctx, const am__frame *f)
     return e && (e->flags & AM__CTLF_BOOT);
 }
 
-static int is_basic(const am_ctx_t *ctx, const am__frame *f)
+int am__is_basic(const am_ctx_t *ctx, const pr_header *h)
 {
-    if (!(f->hdr.flags & PR_FLAG_CONTROL))
+    if (!(h->flags & PR_FLAG_CONTROL))
         return 1;
-    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+    const am__ctl_entry *e = ctl_entry(ctx, h);
     return e && (e->flags & AM__CTLF_BASIC);
 }
 
@@ -800,7 +815,7 @@ static void route_frame(am_ctx_t *ctx, am__frame *f)
     } else if (ctx->lat.on && ctx->state == AM__RUNNING) {
         if ((k = keep(ctx, f)))
             am__latency_enqueue(ctx, k);
-    } else if (ctx->term.defer && is_basic(ctx, f)) {
+    } else if (ctx->term.defer && am__is_basic(ctx, &f->hdr)) {
         if ((k = keep(ctx, f)))
             am__fifo_push(&ctx->deferred, k);
     } else {
@@ -897,7 +912,7 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
 
 void am__arrive(am_ctx_t *ctx, am__frame *f)
 {
-    if (ctx->term.defer && is_basic(ctx, f)) {
+    if (ctx->term.defer && am__is_basic(ctx, &f->hdr)) {
         am__fifo_push(&ctx->deferred, f);
         return;
     }
@@ -939,20 +954,24 @@ void am__dispatch(am_ctx_t *ctx, am__frame *f)
     size_t len = f->hdr.payload_len;
     if (!(f->hdr.flags & PR_FLAG_CONTROL)) {
         am__deliver_user(ctx, f->src, f->hdr.handler, payload, len, 0);
-        return;
+    } else {
+        const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
+        if (!e) {
+            am__reject(ctx, AM__REJ_BODY, f->src, "unknown control type");
+            return;
+        }
+        am__hstat *st = &ctx->ctl_st[f->hdr.handler];
+        st->recv++;
+        st->recv_bytes += len;
+        ctx->st.ctl_recv++;
+        pr_reader r;
+        pr_reader_init(&r, payload, len);
+        e->fn(ctx, f->src, &r);
+        if (!(e->flags & AM__CTLF_BASIC))
+            return;
     }
-    const am__ctl_entry *e = ctl_entry(ctx, &f->hdr);
-    if (!e) {
-        am__reject(ctx, AM__REJ_BODY, f->src, "unknown control type");
-        return;
-    }
-    am__hstat *st = &ctx->ctl_st[f->hdr.handler];
-    st->recv++;
-    st->recv_bytes += len;
-    ctx->st.ctl_recv++;
-    pr_reader r;
-    pr_reader_init(&r, payload, len);
-    e->fn(ctx, f->src, &r);
+    /* Its handler ran (or refused it): the room goes back to the sender. */
+    am__flow_consumed(ctx, f->src, PR_HEADER_SIZE + len);
 }
 
 /* ------------------------------------------------------ failure detection */

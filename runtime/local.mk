@@ -12,6 +12,7 @@ libam_la_SOURCES = \
 	runtime/am_ctx.c \
 	runtime/am_boot.c \
 	runtime/am_transport.c \
+	runtime/am_flow.c \
 	runtime/am_loop.c \
 	runtime/am_thread.c \
 	runtime/am_future.c \

@@ -27,6 +27,18 @@
  *   am_mp busy DIR SECONDS every PE writes its pid to DIR/pid-RANK, then
  *                          sends messages of up to 1 KiB to random PEs for
  *                          SECONDS (a job to kill or stop from outside)
+ *   am_mp flood N SIZE T MIB  every PE floods PE 0: T threads and the main
+ *                          context send N messages each (SIZE/2..SIZE
+ *                          bytes), a handler on every PE but the last sends
+ *                          a burst within AM_SEND_QUEUE, and a handler on
+ *                          the last PE sends until the runtime refuses with
+ *                          AM_EFULL; each message must arrive exactly once
+ *                          (index per stream, checksum, counts), the job
+ *                          must terminate, and no PE may peak above MIB MiB
+ *                          of resident memory
+ *   am_mp flood-pair N SIZE T  PEs 2k and 2k+1 flood each other from T
+ *                          threads and the main context while their
+ *                          handlers answer every message (no deadlock)
  *   am_mp malformed        rank 0 throws malformed frames at PE 1 from raw
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
@@ -116,7 +128,7 @@ static uint64_t get64(const uint8_t *p)
 /* ---------------------------------------------------------------- storm */
 
 enum { H_STORM = 1, H_WORK = 2, H_SLOW = 3, H_FAST = 4, H_PING = 5, H_PONG = 6,
-       H_SPIN = 7, H_BUSY = 8 };
+       H_SPIN = 7, H_BUSY = 8, H_FLOOD = 9, H_KICK = 10, H_ACK = 11 };
 
 #define STORM_HDR 20 /* src u32, idx u32, len u32, checksum u64 */
 
@@ -394,6 +406,339 @@ static int run_term(am_ctx_t *ctx, int seeds, int depth)
                    "before termination was declared (%.3f s)\n",
                    epoch, T.size, (long long)all[0], dt);
     }
+    return 0;
+}
+
+/* ---------------------------------------------------------------- flood */
+
+/* A flood message: src u32, stream u32, idx u32, len u32, checksum u64 of
+ * the body, then len body bytes made by storm_fill. Streams: 0 the main
+ * context, 1..T the threads, T+1 the kick handler's burst, T+2 the overflow
+ * handler. */
+#define FLOOD_HDR 24
+/* What the runtime charges a message against a window (am.h). */
+#define FLOOD_COST(payload) ((size_t)(payload) + 88)
+
+typedef struct flood {
+    int size, nthreads, nstreams, n, maxlen;
+    int target;            /* -1: pairs (rank ^ 1) */
+    uint32_t *next;        /* receiver: [src * nstreams + stream] */
+    uint32_t *sent;        /* sender: per stream */
+    int64_t recv, recv_bytes, recv_sum;
+    int64_t sent_n, sent_sum;
+    int64_t acks_sent, acks_recv, ack_errors;
+    size_t window, queue;  /* AM_SEND_WINDOW / AM_SEND_QUEUE, 0 if unset */
+    int burst;             /* messages of the kick handler's burst */
+    int64_t overflow_ok;   /* overflow handler: sends accepted */
+    int overflow_code;     /* and the code that stopped it (0: none) */
+    int threads_done;
+} flood;
+
+static flood F;
+
+static size_t flood_len(int src, int stream, uint32_t idx)
+{
+    size_t half = (size_t)F.maxlen / 2;
+    uint64_t h = mix(((uint64_t)src << 40) ^ ((uint64_t)stream << 32) ^ idx);
+    return half + (size_t)(h % (half + 1));
+}
+
+static int flood_send(am_ctx_t *ctx, int dst, int stream, size_t len)
+{
+    uint32_t idx = F.sent[stream];
+    uint8_t *p = malloc(FLOOD_HDR + len);
+    if (!p)
+        return AM_ENOMEM;
+    put32(p, (uint32_t)am_rank(ctx));
+    put32(p + 4, (uint32_t)stream);
+    put32(p + 8, idx);
+    put32(p + 12, (uint32_t)len);
+    storm_fill(p + FLOOD_HDR, len, am_rank(ctx), stream, idx);
+    uint64_t sum = checksum(p + FLOOD_HDR, len);
+    put64(p + 16, sum);
+    int rc = am_send(ctx, dst, H_FLOOD, p, FLOOD_HDR + len);
+    free(p);
+    if (rc == 0) {
+        F.sent[stream]++;
+        F.sent_n++;
+        F.sent_sum += (uint32_t)sum;
+    }
+    return rc;
+}
+
+static int flood_dst(am_ctx_t *ctx)
+{
+    return F.target >= 0 ? F.target : am_rank(ctx) ^ 1;
+}
+
+static void flood_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    const uint8_t *d = m->data;
+    if (m->len < FLOOD_HDR) {
+        CHECK(0, "flood message of %zu bytes", m->len);
+        return;
+    }
+    uint32_t src = get32(d), stream = get32(d + 4), idx = get32(d + 8);
+    uint32_t len = get32(d + 12);
+    uint64_t sum = get64(d + 16);
+    if (!((int)src == m->src && (int)stream < F.nstreams &&
+          len == m->len - FLOOD_HDR)) {
+        CHECK(0, "flood message from PE %d: bad header (src %u stream %u len "
+                 "%u of %zu)",
+              m->src, src, stream, len, m->len);
+        return;
+    }
+    uint32_t *next = &F.next[src * (uint32_t)F.nstreams + stream];
+    CHECK(idx == *next, "from PE %u stream %u got index %u, expected %u "
+                        "(lost, duplicated or reordered)",
+          src, stream, idx, *next);
+    CHECK(checksum(d + FLOOD_HDR, len) == sum,
+          "from PE %u stream %u index %u: contents differ", src, stream, idx);
+    *next = idx + 1;
+    F.recv++;
+    F.recv_bytes += (int64_t)m->len;
+    F.recv_sum += (uint32_t)sum;
+    if (F.target < 0) {
+        /* Pairs: answer from the handler, toward a PE whose threads are
+         * flooding this one. */
+        uint8_t ack[4];
+        put32(ack, idx);
+        int rc = am_send(ctx, m->src, H_ACK, ack, sizeof ack);
+        if (rc == 0)
+            F.acks_sent++;
+        else
+            F.ack_errors++;
+        CHECK(rc == 0, "ack from a handler: %s", am_errname(rc));
+    }
+}
+
+static void ack_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)m;
+    (void)arg;
+    F.acks_recv++;
+}
+
+/* A handler's sends: a burst that fits in AM_SEND_QUEUE (every one must be
+ * accepted), or, for the overflow kick, sends until the runtime refuses. */
+static void kick_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)arg;
+    int stream = F.nthreads + 1;
+    if (m->len == 1 && ((const uint8_t *)m->data)[0] == 'O') {
+        stream = F.nthreads + 2;
+        size_t limit = 2 * (F.window + F.queue) / FLOOD_COST(FLOOD_HDR) + 16;
+        for (size_t i = 0; i < limit; i++) {
+            int rc = flood_send(ctx, F.target, stream, (size_t)F.maxlen);
+            if (rc) {
+                F.overflow_code = rc;
+                break;
+            }
+            F.overflow_ok++;
+        }
+        return;
+    }
+    for (int i = 0; i < F.burst; i++) {
+        int rc = flood_send(ctx, F.target, stream, flood_len(am_rank(ctx), stream,
+                                                          (uint32_t)i));
+        CHECK(rc == 0, "send %d of a burst of %d from a handler: %s", i,
+              F.burst, am_errname(rc));
+        if (rc)
+            break;
+    }
+}
+
+static void flood_thread(am_ctx_t *ctx, void *arg)
+{
+    int stream = (int)(intptr_t)arg;
+    int dst = flood_dst(ctx);
+    for (int i = 0; i < F.n; i++) {
+        int rc = flood_send(ctx, dst, stream,
+                            flood_len(am_rank(ctx), stream, (uint32_t)i));
+        CHECK(rc == 0, "send from a thread: %s", am_errname(rc));
+        if (rc)
+            break;
+    }
+    F.threads_done++;
+}
+
+/* A byte count from the environment as libam reads it ("4096", "64k",
+ * "4M", "1G"), 0 if unset. */
+static size_t env_size(const char *name)
+{
+    const char *v = getenv(name);
+    if (!v)
+        return 0;
+    char *end;
+    size_t n = (size_t)strtoull(v, &end, 10);
+    switch (*end) {
+    case 'k': case 'K': return n << 10;
+    case 'm': case 'M': return n << 20;
+    case 'g': case 'G': return n << 30;
+    default: return n;
+    }
+}
+
+/* Under AddressSanitizer the resident memory is mostly the sanitizer's:
+ * its quarantine keeps freed blocks (256 MiB by default) and its shadow
+ * adds an eighth. The memory bound is then reported, not checked. */
+#if defined(__SANITIZE_ADDRESS__)
+#define FLOOD_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define FLOOD_ASAN 1
+#endif
+#endif
+#ifndef FLOOD_ASAN
+#define FLOOD_ASAN 0
+#endif
+
+/* Peak resident memory of this process (VmHWM), in KiB. */
+static long peak_rss_kib(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kib = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, "VmHWM:", 6))
+            kib = strtol(line + 6, NULL, 10);
+    if (f)
+        fclose(f);
+    return kib;
+}
+
+static int run_flood(am_ctx_t *ctx, int pairs, int n, int maxlen, int nthreads,
+                     long rss_mib)
+{
+    int me = am_rank(ctx);
+    F.size = am_size(ctx);
+    F.n = n;
+    F.maxlen = maxlen < 2 ? 2 : maxlen;
+    F.nthreads = nthreads;
+    F.nstreams = nthreads + 3;
+    F.target = pairs ? -1 : 0;
+    F.window = env_size("AM_SEND_WINDOW");
+    F.queue = env_size("AM_SEND_QUEUE");
+    /* A burst of at most half the handler queue, all of it accepted. */
+    F.burst = n;
+    if (F.queue && (size_t)F.burst * FLOOD_COST(FLOOD_HDR + F.maxlen) > F.queue / 2)
+        F.burst = (int)(F.queue / 2 / FLOOD_COST(FLOOD_HDR + F.maxlen));
+    if (pairs && (F.size % 2)) {
+        CHECK(0, "flood-pair needs an even number of PEs");
+        return 1;
+    }
+    F.next = calloc((size_t)F.size * (size_t)F.nstreams, sizeof *F.next);
+    F.sent = calloc((size_t)F.nstreams, sizeof *F.sent);
+    am_register(ctx, H_FLOOD, "flood", flood_handler, NULL);
+    am_register(ctx, H_KICK, "kick", kick_handler, NULL);
+    am_register(ctx, H_ACK, "ack", ack_handler, NULL);
+    am_barrier(ctx);
+    double t0 = now_s();
+    int dst = flood_dst(ctx);
+    for (int t = 1; t <= nthreads; t++) {
+        int rc = am_thread_spawn(ctx, flood_thread, (void *)(intptr_t)t, NULL);
+        CHECK(rc == 0, "spawn: %s", am_strerror(rc));
+    }
+    if (!pairs) {
+        /* Handlers flood too: every PE but the last kicks its own handler
+         * into a burst, and the last kicks it into sending until it is
+         * refused. */
+        if (me < F.size - 1) {
+            int rc = am_send(ctx, me, H_KICK, "B", 1);
+            CHECK(rc == 0, "kick: %s", am_errname(rc));
+        } else if (F.window && F.queue) {
+            int rc = am_send(ctx, me, H_KICK, "O", 1);
+            CHECK(rc == 0, "overflow kick: %s", am_errname(rc));
+        }
+    }
+    /* The main context floods as well, before it runs the loop. */
+    for (int i = 0; i < n; i++) {
+        int rc = flood_send(ctx, dst, 0, flood_len(me, 0, (uint32_t)i));
+        CHECK(rc == 0, "send from the main context: %s", am_errname(rc));
+        if (rc)
+            break;
+    }
+    int rc = am_run_until_done(ctx, NULL, NULL);
+    double dt = now_s() - t0;
+    CHECK(rc == 0, "am_run_until_done: %s", am_strerror(rc));
+    CHECK(F.threads_done == nthreads, "%d of %d threads finished",
+          F.threads_done, nthreads);
+
+    /* Exactly once: every stream's next index equals what its sender says
+     * it sent (the receiver checked the order), and the totals agree. */
+    uint8_t *mine = malloc((size_t)F.nstreams * 4);
+    for (int s = 0; s < F.nstreams; s++)
+        put32(mine + 4 * s, F.sent[s]);
+    void *all = NULL;
+    size_t *lens = NULL;
+    rc = am_gather(ctx, mine, (size_t)F.nstreams * 4, &all, &lens);
+    CHECK(rc == 0, "gather: %s", am_strerror(rc));
+    if (all) {
+        for (int src = 0; src < F.size; src++) {
+            int to = pairs ? src ^ 1 : 0;
+            for (int s = 0; s < F.nstreams; s++) {
+                uint32_t sent = get32((uint8_t *)all + 4 * ((size_t)src * F.nstreams + s));
+                if (to == 0 && !pairs) {
+                    uint32_t got = F.next[(size_t)src * F.nstreams + s];
+                    CHECK(got == sent, "PE %d stream %d: %u sent, %u arrived",
+                          src, s, sent, got);
+                }
+            }
+        }
+    }
+    free(all);
+    free(lens);
+    free(mine);
+    /* In pairs, each stream arrived in order from index 0 and the totals
+     * agree (below): every stream arrived whole, exactly once. */
+    long rss = peak_rss_kib();
+    int64_t v[9] = {F.sent_n, F.sent_sum, F.recv, F.recv_sum, F.recv_bytes,
+                    F.acks_sent, F.acks_recv, F.ack_errors, (int64_t)failures};
+    int64_t s[9];
+    am_allreduce_i64(ctx, v, s, 9, AM_SUM);
+    int64_t peaks[2] = {rss, me == 0 ? rss : 0}, pk[2];
+    am_allreduce_i64(ctx, peaks, pk, 2, AM_MAX);
+    int64_t of[2] = {F.overflow_ok, F.overflow_code ? 1 : 0}, ofs[2];
+    am_allreduce_i64(ctx, of, ofs, 2, AM_SUM);
+    if (me == 0) {
+        CHECK(s[0] == s[2], "%lld messages sent, %lld arrived", (long long)s[0],
+              (long long)s[2]);
+        CHECK(s[1] == s[3], "checksums of sent and arrived messages differ");
+        if (pairs)
+            CHECK(s[5] == s[2] && s[6] == s[5] && s[7] == 0,
+                  "%lld messages, %lld answers sent, %lld arrived, %lld refused",
+                  (long long)s[2], (long long)s[5], (long long)s[6],
+                  (long long)s[7]);
+        CHECK(rss_mib <= 0 || FLOOD_ASAN || pk[0] <= rss_mib * 1024,
+              "peak RSS %.1f MiB exceeds the bound of %ld MiB", pk[0] / 1024.0,
+              rss_mib);
+        printf("%s: %d PEs, %lld messages (%.1f MiB) delivered exactly once, "
+               "checksums agree, termination in %.3f s; peak RSS PE 0 %.1f "
+               "MiB, largest %.1f MiB (bound %ld MiB%s)\n",
+               pairs ? "flood-pair" : "flood", F.size, (long long)s[2],
+               s[4] / 1048576.0, dt, pk[1] / 1024.0, pk[0] / 1024.0, rss_mib,
+               FLOOD_ASAN ? ", not checked under AddressSanitizer" : "");
+    }
+    if (!pairs && me == F.size - 1 && F.window && F.queue) {
+        size_t cost = FLOOD_COST(FLOOD_HDR + F.maxlen);
+        size_t took = (size_t)F.overflow_ok * cost;
+        CHECK(F.overflow_code && !strcmp(am_errname(F.overflow_code), "AM_EFULL"),
+              "a handler sent %lld messages (%.1f MiB) to one PE and was %s",
+              (long long)F.overflow_ok, took / 1048576.0,
+              F.overflow_code ? am_errname(F.overflow_code) : "never refused");
+        CHECK(!F.overflow_code || (took + cost > F.queue &&
+                                   took <= F.window + F.queue),
+              "a handler's sends were refused after %zu bytes; the queue holds "
+              "%zu, the window %zu", took, F.queue, F.window);
+        printf("flood: a handler's sends to PE 0 stopped by %s after %lld "
+               "messages (%.2f MiB; queue %.2f MiB, window %.2f MiB)\n",
+               F.overflow_code ? am_errname(F.overflow_code) : "nothing",
+               (long long)F.overflow_ok, took / 1048576.0, F.queue / 1048576.0, F.window / 1048576.0);
+    }
+    free(F.next);
+    free(F.sent);
     return 0;
 }
 
@@ -1069,13 +1414,17 @@ int main(int argc, char **argv)
         rc = run_kill(ctx, arg1);
     else if (!strcmp(mode, "busy") && argc > 3)
         rc = run_busy(ctx, argv[2], arg2);
+    else if (!strcmp(mode, "flood") || !strcmp(mode, "flood-pair"))
+        rc = run_flood(ctx, !strcmp(mode, "flood-pair"), arg1 > 0 ? arg1 : 1000,
+                       arg2 > 0 ? arg2 : 1024, argc > 4 ? atoi(argv[4]) : 4,
+                       argc > 5 ? atol(argv[5]) : 0);
     else if (!strcmp(mode, "malformed"))
         rc = run_malformed(ctx, 0);
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
     else {
         fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
-                        "busy|malformed|stranger [ARGS]\n");
+                        "busy|flood|flood-pair|malformed|stranger [ARGS]\n");
         rc = 2;
     }
     int frc = am_finalize(&ctx);

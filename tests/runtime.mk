@@ -45,6 +45,13 @@ tests_test_am_stats_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_stats_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_stats_LDFLAGS = $(AM_LDFLAGS) -static
 
+check_PROGRAMS += tests/test_am_flow
+TESTS += tests/test_am_flow
+tests_test_am_flow_SOURCES = tests/test_am_flow.c
+tests_test_am_flow_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_flow_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_flow_LDFLAGS = $(AM_LDFLAGS) -static
+
 check_PROGRAMS += tests/test_am_lines
 TESTS += tests/test_am_lines
 tests_test_am_lines_SOURCES = tests/test_am_lines.c
@@ -65,6 +72,7 @@ AM_MP_TESTS = \
 	tests/am-malformed.sh \
 	tests/am-launch.sh \
 	tests/am-fault.sh \
-	tests/am-signals.sh
+	tests/am-signals.sh \
+	tests/am-flood.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)

@@ -267,6 +267,32 @@ START_TEST(abort_round_trip)
 }
 END_TEST
 
+static int credit_get(pr_reader *r, void *out)
+{
+    return am__credit_get(r, out);
+}
+
+START_TEST(credit_round_trip)
+{
+    uint64_t out;
+    pr_buf b = PR_BUF_INIT;
+    am__credit_put(&b, 123456);
+    ck_assert_uint_eq(b.len, 8);
+    check_prefixes_and_trailing(&b, credit_get, &out);
+    ck_assert_uint_eq(out, 123456);
+    /* Zero and absurd amounts are refused. */
+    uint64_t bad[] = {0, AM__CREDIT_MAX + 1, UINT64_MAX};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        pr_buf_reset(&b);
+        am__credit_put(&b, bad[i]);
+        pr_reader r;
+        pr_reader_init(&r, b.data, b.len);
+        ck_assert_int_eq(am__credit_get(&r, &out), PR_ERANGE);
+    }
+    pr_buf_free(&b);
+}
+END_TEST
+
 START_TEST(empty_bodies)
 {
     pr_reader r;
@@ -291,7 +317,7 @@ START_TEST(dispatch_table_is_complete)
         [AM__CTL_TERMINATE] = "terminate", [AM__CTL_COLL_UP] = "coll_up",
         [AM__CTL_COLL_DOWN] = "coll_down", [AM__CTL_GATHER] = "gather",
         [AM__CTL_RPC_REQ] = "rpc_request", [AM__CTL_RPC_REP] = "rpc_reply",
-        [AM__CTL_ABORT] = "abort"};
+        [AM__CTL_ABORT] = "abort",         [AM__CTL_CREDIT] = "credit"};
     am_ctx_t *ctx;
     ck_assert_int_eq(am_init(NULL, NULL, NULL, &ctx), 0);
     ck_assert_ptr_null(ctx->ctl[0]);
@@ -460,6 +486,7 @@ static Suite *control_suite(void)
     tcase_add_test(tc, collective_round_trip);
     tcase_add_test(tc, gather_and_rpc_round_trip);
     tcase_add_test(tc, abort_round_trip);
+    tcase_add_test(tc, credit_round_trip);
     tcase_add_test(tc, empty_bodies);
     suite_add_tcase(s, tc);
     tc = tcase_create("dispatch");
