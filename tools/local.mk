@@ -14,3 +14,6 @@ EXTRA_DIST += bench/mesh.md
 dist_noinst_SCRIPTS += tools/check-layers
 dist_noinst_SCRIPTS += tools/bench-parallel
 EXTRA_DIST += bench/parallel.md
+# The paper's Table 1, Table 2 and figures (tests/tables.sh runs them small).
+dist_noinst_SCRIPTS += tools/table1 tools/table2 tools/figures
+dist_noinst_DATA += tools/tables-lib.sh
