@@ -7,6 +7,10 @@ UNIT_LIBS = $(CHECK_LIBS)
 TESTS += tests/pdr-cli.sh
 dist_check_SCRIPTS += tests/pdr-cli.sh
 
+# tools/table1, tools/table2 and tools/figures end to end at a tiny scale.
+TESTS += tests/tables.sh
+dist_check_SCRIPTS += tests/tables.sh
+
 # The include layering of mesher/ (tools/check-layers).
 TESTS += tests/layering.sh
 dist_check_SCRIPTS += tests/layering.sh

@@ -16,3 +16,6 @@ dist_noinst_SCRIPTS += tools/bench-parallel
 EXTRA_DIST += bench/parallel.md
 dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces
 EXTRA_DIST += bench/surfaces.md
+# The paper's Table 1, Table 2 and figures (tests/tables.sh runs them small).
+dist_noinst_SCRIPTS += tools/table1 tools/table2 tools/figures
+dist_noinst_DATA += tools/tables-lib.sh

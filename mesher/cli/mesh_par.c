@@ -301,9 +301,11 @@ static int write_submesh(const par_sub *s, const char *base)
 /* ---------------------------------------------------------- the run */
 
 /* Rank 0: the job messages (PLC, options, each PE's submesh), and the
- * size of Mo. Returns 0 or a code (its message printed). */
+ * size of Mo; t[0] when the conforming mesh is done, t[1] when Mo is,
+ * t[2] when it is partitioned into submeshes. Returns 0 or a code (its
+ * message printed). */
 static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets,
-                   double *t_mo)
+                   double t[3])
 {
     mp_opts *o = &c->o;
     int rc = mp_read(c);
@@ -311,7 +313,7 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
         rc = mp_initial_mesh(c);
     if (rc)
         return rc;
-    *t_mo = pdr_now();
+    t[0] = pdr_now();
     if (!(o->mo_size > 0) && o->ref.maxvol > 0) {
         /* The paper's 10^5 tetrahedra, or a tenth of the final mesh when
          * that is smaller: a mesh with radius-edge bound 2 and volume
@@ -326,9 +328,11 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
         }
     }
     *mo_tets = ref_interior_tets(&c->r);
+    t[1] = pdr_now();
     uint32_t parts = po->parts ? po->parts : (uint32_t)size;
     par_decomp d;
     rc = par_decomp_run(&c->r, (uint32_t)size, parts, (int)po->seed, &d);
+    t[2] = pdr_now();
     pr_buf plcb = PR_BUF_INIT, optb = PR_BUF_INIT;
     if (!rc)
         rc = par_decomp_plc_put(&plcb, &c->p);
@@ -403,9 +407,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_table1 row, *rows = NULL;
     size_t mo_tets = 0;
     int status = PDR_EXIT_FAIL;
-    /* Rank 0's clock: Mo done, refinement started and ended, submeshes
-     * gathered (the merge's own time is measured around it). */
-    double t_mo = 0, t_start = 0, t_end = 0, t_gathered = 0;
+    /* Rank 0's clock: conforming mesh, Mo and partition done, refinement
+     * started and ended, submeshes gathered (the merge's own time is
+     * measured around it). */
+    double t_prep[3] = {0, 0, 0}, t_start = 0, t_end = 0, t_gathered = 0;
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
     if (!rc)
         rc = am_barrier(am);
@@ -414,7 +419,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     if (rank == 0) {
         pr_buf *msg = calloc((size_t)size, sizeof *msg);
-        int prc = msg ? prepare(&c, po, size, msg, &mo_tets, &t_mo) : PDR_ENOMEM;
+        int prc = msg ? prepare(&c, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -579,13 +584,16 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     double t_merged = pdr_now();
     /* The parallel stage, for the summary's rate: from Mo to the merged
      * mesh (distribution, refinement, gathering, merge). */
-    c.sec[MP_REFINE] = t_merged - t_mo;
+    c.sec[MP_REFINE] = t_merged - t_prep[0];
     if ((rc = mp_export(&c)) || (rc = mp_write(&c)))
         goto done;
     if (!c.o.quiet) {
         print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
         printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s\n",
-               t_start - t_mo, t_end - t_start, t_gathered - t_end, t_merged - tm);
+               t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm);
+        /* The distribution's parts, for the paper's Table 2. */
+        printf("distribute: Mo %.3f, partition %.3f, send %.3f s\n", t_prep[1] - t_prep[0],
+               t_prep[2] - t_prep[1], t_start - t_prep[2]);
     }
     rc = mp_report(&c);
     if (!rc && c.o.check)
