@@ -665,6 +665,18 @@ static int try_submesh(const uint8_t *msg, size_t len, const plc *p)
     return 1;
 }
 
+/* bad = src with 1-8 random bytes at a random place (xorshift state *x). */
+static void damage_stretch(uint8_t *bad, const uint8_t *src, size_t len, uint64_t *x)
+{
+    memcpy(bad, src, len);
+    *x ^= *x << 13, *x ^= *x >> 7, *x ^= *x << 17;
+    size_t at = *x % len, n = 1 + (*x >> 32) % 8;
+    for (size_t j = at; j < at + n && j < len; j++) {
+        *x ^= *x << 13, *x ^= *x >> 7, *x ^= *x << 17;
+        bad[j] = (uint8_t)*x;
+    }
+}
+
 START_TEST(submesh_decoder_refuses_truncation)
 {
     plc p;
@@ -720,13 +732,7 @@ START_TEST(submesh_decoder_survives_corruption)
     /* random bytes over random stretches */
     uint64_t x = 88172645463325252ULL;
     for (int round = 0; round < 3000; round++) {
-        memcpy(bad, msg, len);
-        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
-        size_t at = x % len, n = 1 + (x >> 32) % 8;
-        for (size_t j = at; j < at + n && j < len; j++) {
-            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
-            bad[j] = (uint8_t)x;
-        }
+        damage_stretch(bad, msg, len, &x);
         decoded += (size_t)try_submesh(bad, len, &p);
     }
     /* coordinates and radii are free to change: some copies decode */
@@ -1039,13 +1045,7 @@ START_TEST(cavity_reply_tets)
     uint64_t x = 0x9E3779B97F4A7C15ULL;
     size_t refused = 0;
     for (int round = 0; round < 3000; round++) {
-        memcpy(bad, b.data, b.len);
-        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
-        size_t at = x % b.len, k = 1 + (x >> 32) % 8;
-        for (size_t j = at; j < at + k && j < b.len; j++) {
-            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
-            bad[j] = (uint8_t)x;
-        }
+        damage_stretch(bad, b.data, b.len, &x);
         refused += try_cavity_tets(bad, b.len) == PDR_EPARSE;
     }
     ck_assert_uint_gt(refused, 0);
