@@ -463,12 +463,16 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     memset(&ro_run, 0, sizeof ro_run);
     ro_run.max_threads = po->max_threads;
     ro_run.seed = po->seed;
-    /* PDR_PAR_ORDER=fifo|lifo|local: the order of the bad tetrahedra, for
-     * comparisons (default local: see REF_ORDER_LOCAL_FIRST). */
+    /* PDR_PAR_ORDER=local|local-all|fifo|lifo: the order of the bad
+     * tetrahedra, for comparisons. Default local: REF_ORDER_LOCAL_FIRST,
+     * where a step next to the interface counts as remote (local-all:
+     * it does not). */
     const char *order = getenv("PDR_PAR_ORDER");
-    ro_run.order = !order || !strcmp(order, "local") ? REF_ORDER_LOCAL_FIRST
-                   : !strcmp(order, "lifo")          ? REF_ORDER_LIFO
-                                                     : REF_ORDER_FIFO;
+    int local = !order || !strcmp(order, "local"), local_all = order && !strcmp(order, "local-all");
+    ro_run.strict_local = local;
+    ro_run.order = local || local_all         ? REF_ORDER_LOCAL_FIRST
+                   : !strcmp(order, "lifo")   ? REF_ORDER_LIFO
+                                              : REF_ORDER_FIFO;
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;

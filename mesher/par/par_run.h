@@ -71,6 +71,8 @@ typedef struct par_run_opts {
     int max_threads;  /* cavity threads per PE (>= 1) */
     uint64_t seed;    /* random back-off */
     double backoff_s; /* base pause after repeated setbacks (a round trip) */
+    int strict_local; /* with REF_ORDER_LOCAL_FIRST: a local step next to
+                         the interface counts as remote */
     int order;        /* enum ref_order of the bad tetrahedra (see
                          refine.h: REF_ORDER_LOCAL_FIRST is the default
                          of pdr mesh) */

@@ -191,10 +191,10 @@ enum ref_order {
     REF_ORDER_LIFO = 1, /* last queued first: stays where the work is */
     /* For the parallel refinement: the bad tetrahedra a step made are
      * split next, newest first, when the step's cavity stayed on this PE
-     * (hooks->cavity returned REF_SEARCHED); all other work waits its turn,
-     * oldest first. Newest first everywhere would follow the work across
-     * an interface and chase the other PE; oldest first everywhere loses
-     * the cache. */
+     * (hooks->cavity returned REF_SEARCHED and did not set step_remote);
+     * all other work waits its turn, oldest first. Newest first
+     * everywhere would follow the work across an interface and chase the
+     * other PE; oldest first everywhere loses the cache. */
     REF_ORDER_LOCAL_FIRST = 2,
 };
 
@@ -299,7 +299,8 @@ typedef struct ref_mesher {
     /* work queues */
     ref_queue segq, facq, tetq;
     ref_queue tetq_local; /* REF_ORDER_LOCAL_FIRST: work of local steps */
-    int step_remote;      /* the current step's cavity came from other PEs */
+    int step_remote;      /* the current step's cavity came from other PEs
+                             (or hooks->cavity set it: next to them) */
     /* scratch */
     dt_cavity cav;
     ref_marks marks;
