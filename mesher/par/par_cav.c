@@ -188,23 +188,19 @@ static void rec_drop(par_cav_ctx *cc, uint32_t i)
 
 /* --------------------------------------------------------- encoding */
 
-/* Appends the tetrahedra cav[from..] of this PE, with their vertices and
+/* Appends tetrahedra tets[0..nt-1] of this PE, with their vertices and
  * the subsegments and subfacets on them, to a reply. */
-static int put_tets(const par_sub *s, const uint32_t *tets, size_t ntets, pr_buf *b)
+static int put_tets(const par_sub *s, const uint32_t *tets, size_t nt, pr_buf *b)
 {
-    const u32list cavl = {(uint32_t *)(uintptr_t)tets, ntets, ntets};
-    const u32list *cav = &cavl;
-    const size_t from = 0;
     const tm_mesh *m = &s->r.m;
     const bd_set *bd = &s->r.bd;
     hmap vidx = {0};   /* local vertex + 1 -> reply index */
     hmap seen = {0};   /* piece key -> 1 */
     u32list verts = {0};
     int rc = 0;
-    size_t nt = cav->n - from;
-    for (size_t i = from; i < cav->n && !rc; i++)
+    for (size_t i = 0; i < nt && !rc; i++)
         for (int k = 0; k < 4 && !rc; k++) {
-            uint32_t v = m->tets[cav->a[i]].v[k];
+            uint32_t v = m->tets[tets[i]].v[k];
             if (v != TM_VINF && hmap_get(&vidx, (uint64_t)v + 1) == HMAP_NONE) {
                 rc = hmap_put(&vidx, (uint64_t)v + 1, (uint32_t)verts.n);
                 if (!rc)
@@ -228,8 +224,8 @@ static int put_tets(const par_sub *s, const uint32_t *tets, size_t ntets, pr_buf
     }
     pr_put_u32(b, (uint32_t)nt);
     u32list pieces = {0};
-    for (size_t i = from; i < cav->n && !rc; i++) {
-        uint32_t t = cav->a[i];
+    for (size_t i = 0; i < nt && !rc; i++) {
+        uint32_t t = tets[i];
         const tm_tet *T = &m->tets[t];
         uint16_t fl = m->flags[t];
         for (int k = 0; k < 4; k++) {
@@ -548,14 +544,33 @@ static void send_all(par_cav_ctx *cc, const u32list *parts, int type, uint32_t o
 
 /* ------------------------------------------------------------ import */
 
+/* With the refinement's check_each_step (PDR_REF_CHECK): the problems
+ * ref_consistency and par_verify_facets count on this PE, 0 when off. */
+static size_t dbg_count(par_sub *s)
+{
+    if (!s->r.o.check_each_step)
+        return 0;
+    return ref_consistency(&s->r, NULL, 0) + par_verify_facets(s, NULL);
+}
+
+/* Describes on the check's log the problems that 'what' (an import or a
+ * migration of cavity owner, ntets tetrahedra) added to the count before
+ * it, if any. */
+static void dbg_report(par_sub *s, size_t before, const char *what, uint32_t owner,
+                       size_t ntets)
+{
+    FILE *log = s->r.o.log;
+    if (!log || dbg_count(s) <= before)
+        return;
+    fprintf(log, "PE %u: the %s of cavity %u (%zu tetrahedra) brought these problems:\n",
+            s->rank, what, owner, ntets);
+    ref_consistency(&s->r, log, 0);
+    par_verify_facets(s, log);
+}
+
 /* Makes the gathered tetrahedra local tetrahedra of this PE, linked to the
  * origin's own cavity, to its closure and, by new interface faces, to the
  * closure on other PEs. */
-static size_t dbg_problems(par_sub *s, FILE *log)
-{
-    return ref_consistency(&s->r, log, 0) + par_verify_facets(s, log);
-}
-
 static int import(par_cav *c)
 {
     par_cav_ctx *cc = c->cc;
@@ -565,7 +580,7 @@ static int import(par_cav *c)
     uint32_t *loc = malloc((c->ngv ? c->ngv : 1) * sizeof *loc);
     uint32_t *newt = malloc((c->ngt ? c->ngt : 1) * sizeof *newt);
     int rc = loc && newt ? 0 : PDR_ENOMEM;
-    size_t gaps0 = r->o.check_each_step ? dbg_problems(s, NULL) : 0;
+    size_t problems0 = dbg_count(s);
     for (size_t i = 0; i < c->ngv && !rc; i++) {
         const par_gvert *g = &c->gv[i];
         rc = par_sub_vertex(s, g->gid, g->xyz, g->kind, g->feat, g->rins, &loc[i]);
@@ -678,11 +693,8 @@ static int import(par_cav *c)
         if ((c->gt[i].flags & TM_F_QUEUED) && cc->requeue)
             rc = cc->requeue(cc->requeue_arg, 0, newt[i]);
     cc->st.tets_in += c->ngt;
-    if (r->o.check_each_step && dbg_problems(s, NULL) > gaps0) {
-        fprintf(stderr, "PE %u: import of %u opened a facet gap (%zu tets)\n", s->rank, c->owner,
-                c->ngt);
-        dbg_problems(s, stderr);
-    }
+    if (r->o.check_each_step)
+        dbg_report(s, problems0, "import", c->owner, c->ngt);
 out:
     free(loc);
     free(newt);
@@ -757,8 +769,10 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
     for (size_t i = 0; local && i < d->nbnd; i++)
         if (d->bnd[i].reason == DT_BND_REMOTE)
             local = 0;
-    if (!rc && d->status == DT_OK && !local)
+    if (!rc && d->status == DT_OK && !local) {
         rc = dt_cavity_search(m, p, start, DT_LOCK, d);
+        *remote = 1; /* the same cavity, if it is one (DT_OK) */
+    }
     for (size_t i = 0; !rc && i < d->nheld; i++)
         rc = push(&c->own.held, d->held[i]);
     d->nheld = 0;
@@ -772,9 +786,6 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
         return REPLY_DUPLICATE;
     for (size_t i = 0; !rc && i < d->ntets; i++)
         rc = push(&c->own.cav, d->tets[i]);
-    for (size_t i = 0; i < d->nbnd; i++)
-        if (d->bnd[i].reason == DT_BND_REMOTE)
-            *remote = 1;
     return rc;
 }
 
@@ -1045,7 +1056,7 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
     par_rec *rec = &cc->recs[idx];
     par_part *pt = &rec->part;
     uint32_t origin = (uint32_t)msg->src;
-    size_t gaps0 = s->r.o.check_each_step ? dbg_problems(s, NULL) : 0;
+    size_t problems0 = dbg_count(s);
     /* The subfacets on the cavity that no tetrahedron of this PE will
      * have any more: a face belongs to two tetrahedra, so one on a cavity
      * tetrahedron stays here only if the tetrahedron across it is a local
@@ -1119,11 +1130,8 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
         if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
     free(facs.a);
-    if (s->r.o.check_each_step && dbg_problems(s, NULL) > gaps0) {
-        fprintf(stderr, "PE %u: MIGRATE of %u from PE %u opened a facet gap (%zu tets)\n",
-                s->rank, owner, origin, pt->cav.n);
-        dbg_problems(s, stderr);
-    }
+    if (s->r.o.check_each_step)
+        dbg_report(s, problems0, "migration", owner, pt->cav.n);
     cc->st.tets_out += pt->cav.n;
     rec_drop(cc, (uint32_t)idx);
     am_time_end(am, cc->cat_service);

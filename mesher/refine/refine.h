@@ -381,6 +381,13 @@ int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin);
  * tetrahedra of a classified mesh (skipping stale entries); returns 1
  * with *kind, *id, *rmin set, or 0 when every queue is empty. */
 int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin);
+
+/* Calls fn on every tetrahedron around edge ab (an edge of t), starting
+ * at t, until fn returns nonzero. Returns that value, 0 when the walk
+ * came back to t, or -1 when it met a face with no local neighbour (the
+ * domain boundary, or another PE's tetrahedra in a submesh). */
+int ref_around_edge(const tm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
+                    int (*fn)(const tm_mesh *m, uint32_t t, void *arg), void *arg);
 /* Puts an item back on its queue (once, as the queues do). */
 int ref_requeue(ref_mesher *r, int kind, uint32_t id, float rmin);
 /* Queues interior tetrahedron t if it is bad. Returns 0 or PDR_ENOMEM. */

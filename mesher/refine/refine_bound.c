@@ -99,7 +99,7 @@ static uint32_t subseg_encroacher(const ref_mesher *r, uint32_t t, uint32_t a, u
 {
     const tm_mesh *m = &r->m;
     struct enc_arg e = {r, a, b, seg, X(m, a), X(m, b), TM_NONE};
-    ref__around_edge(m, t, a, b, seg_apex, &e);
+    ref_around_edge(m, t, a, b, seg_apex, &e);
     return e.found;
 }
 
@@ -411,9 +411,8 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
 static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t d,
                            uint32_t *tout)
 {
-    uint32_t start = m->vhint[a];
-    if (start == TM_NONE || start >= m->nslots || tm_is_dead(m, start) ||
-        ref__slot_in(&m->tets[start], a) < 0)
+    uint32_t start = ref__vertex_tet(m, a);
+    if (start == TM_NONE)
         return 0;
     uint32_t stackbuf[256], *stack = stackbuf;
     size_t n = 0, cap = 256, head = 0;
@@ -509,7 +508,7 @@ static int attach_subseg(ref_mesher *r, uint32_t id)
     }
     s->flags &= (uint16_t)~BD_F_MISSING;
     uint32_t ab[2] = {s->v[0], s->v[1]};
-    ref__around_edge(&r->m, t, ab[0], ab[1], set_subseg_bit, ab);
+    ref_around_edge(&r->m, t, ab[0], ab[1], set_subseg_bit, ab);
     int rc = check_subseg(r, id, t);
     return rc < 0 ? rc : 1;
 }

@@ -179,8 +179,8 @@ static void marks_reset(ref_marks *cm)
  * fn on every tetrahedron; stops when fn returns nonzero (and returns
  * that) or when the walk is back at t (returns 0). A special link (domain
  * boundary, remote face) ends the walk with -1. */
-int ref__around_edge(const tm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
-                     int (*fn)(const tm_mesh *m, uint32_t t, void *arg), void *arg)
+int ref_around_edge(const tm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
+                    int (*fn)(const tm_mesh *m, uint32_t t, void *arg), void *arg)
 {
     const tm_tet *T = &m->tets[t];
     uint32_t e = TM_NONE;
@@ -273,7 +273,7 @@ int ref_gather_marks(const tm_mesh *m, const dt_cavity *c, ref_marks *out)
             memcpy(mk->x[0], X(m, a), sizeof mk->x[0]);
             memcpy(mk->x[1], X(m, b), sizeof mk->x[1]);
             mk->facet = -1;
-            mk->deleted = ref__around_edge(m, t, a, b, not_in_cavity, NULL) == 0;
+            mk->deleted = ref_around_edge(m, t, a, b, not_in_cavity, NULL) == 0;
         }
     }
     return 0;

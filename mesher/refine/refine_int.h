@@ -39,14 +39,21 @@ int ref__in_equatorial(const double *a, const double *b, const double *c, const 
 /* Orientation of abc projected on facet f's plane. */
 int ref__orient_facet(const plc *pl, uint32_t f, const double *a, const double *b,
                       const double *c);
-/* Calls fn on every tetrahedron around edge ab, starting at t. */
-int ref__around_edge(const tm_mesh *m, uint32_t t, uint32_t a, uint32_t b,
-                     int (*fn)(const tm_mesh *m, uint32_t t, void *arg), void *arg);
 
 /* The slot (0..3) of vertex v in tetrahedron T, or -1. */
 static inline int ref__slot_in(const tm_tet *T, uint32_t v)
 {
     return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : T->v[3] == v ? 3 : -1;
+}
+
+/* A live tetrahedron having vertex v (its hint), or TM_NONE when the hint
+ * is stale or none (on one PE, v's tetrahedra may have left). */
+static inline uint32_t ref__vertex_tet(const tm_mesh *m, uint32_t v)
+{
+    uint32_t h = m->vhint[v];
+    if (h == TM_NONE || h >= m->nslots || tm_is_dead(m, h) || ref__slot_in(&m->tets[h], v) < 0)
+        return TM_NONE;
+    return h;
 }
 
 /* ------------------------------------------------------ refine_run.c */

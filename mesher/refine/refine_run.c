@@ -398,9 +398,8 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
          * tetrahedron here, which will do if it is in conflict). */
         const uint32_t v[3] = {a, b, c};
         for (int k = 0; k < 3 && !found; k++) {
-            uint32_t x = v[k], h = x == TM_NONE ? TM_NONE : m->vhint[x];
-            if (h == TM_NONE || h >= m->nslots || tm_is_dead(m, h) ||
-                ref__slot_in(&m->tets[h], x) < 0)
+            uint32_t h = v[k] == TM_NONE ? TM_NONE : ref__vertex_tet(m, v[k]);
+            if (h == TM_NONE)
                 continue;
             tm_link exit_link;
             int rc = dt_locate(m, p, h, &t, &exit_link);
@@ -838,9 +837,31 @@ int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin)
     return PDR_EINVAL;
 }
 
-int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin)
+/* Pops the next bad tetrahedron to split into *t, in the order of
+ * r->o.order (the local-first stack before the rest), skipping stale
+ * entries: dead slots, tetrahedra no longer queued, exterior ones and
+ * those given up. Returns 0 when no queue holds one. */
+static int pop_tet(ref_mesher *r, uint32_t *t)
 {
     tm_mesh *m = &r->m;
+    int lifo = r->o.order == REF_ORDER_LIFO;
+    for (;;) {
+        int local = !q_empty(&r->tetq_local);
+        if (!local && q_empty(&r->tetq))
+            return 0;
+        uint32_t x = local ? q_pop(&r->tetq_local, 1, NULL) : q_pop(&r->tetq, lifo, NULL);
+        if (tm_is_dead(m, x) || !(m->flags[x] & TM_F_QUEUED))
+            continue;
+        m->flags[x] &= (uint16_t)~TM_F_QUEUED;
+        if (m->flags[x] & (REF_F_EXTERIOR | REF_F_GIVEUP))
+            continue;
+        *t = x;
+        return 1;
+    }
+}
+
+int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin)
+{
     if (!q_empty(&r->segq)) {
         *kind = REF_SUBSEG;
         *id = q_pop(&r->segq, 0, rmin);
@@ -851,25 +872,13 @@ int ref_next(ref_mesher *r, int *kind, uint32_t *id, float *rmin)
         *id = q_pop(&r->facq, 0, rmin);
         return 1;
     }
-    if (!r->classified)
+    uint32_t t;
+    if (!r->classified || !pop_tet(r, &t))
         return 0;
-    int lifo = r->o.order == REF_ORDER_LIFO;
-    for (;;) {
-        int local = !q_empty(&r->tetq_local);
-        if (!local && q_empty(&r->tetq))
-            break;
-        uint32_t t = local ? q_pop(&r->tetq_local, 1, NULL) : q_pop(&r->tetq, lifo, NULL);
-        if (tm_is_dead(m, t) || !(m->flags[t] & TM_F_QUEUED))
-            continue;
-        m->flags[t] &= (uint16_t)~TM_F_QUEUED;
-        if (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP))
-            continue;
-        *kind = REF_TET;
-        *id = t;
-        *rmin = 0;
-        return 1;
-    }
-    return 0;
+    *kind = REF_TET;
+    *id = t;
+    *rmin = 0;
+    return 1;
 }
 
 int ref_requeue(ref_mesher *r, int kind, uint32_t id, float rmin)
@@ -897,8 +906,6 @@ int ref_check_tet(ref_mesher *r, uint32_t t)
 
 int ref_run(ref_mesher *r, int tets)
 {
-    tm_mesh *m = &r->m;
-    int lifo = r->o.order == REF_ORDER_LIFO;
     size_t iter = 0;
     int rc = 0;
     /* Debugging aids (ref_opts): trace lines every trace_every steps,
@@ -932,6 +939,7 @@ int ref_run(ref_mesher *r, int tets)
                     r->st.fac_points, r->st.tet_points, r->st.rejected, r->st.tolerated,
                     r->st.gave_up, r->st.missing_recovered, r->anomalies, r->flips);
         float rmin;
+        uint32_t t;
         if (!q_empty(&r->segq)) {
             uint32_t id = q_pop(&r->segq, 0, &rmin);
             r->last_op = "subsegment";
@@ -940,13 +948,7 @@ int ref_run(ref_mesher *r, int tets)
             uint32_t id = q_pop(&r->facq, 0, &rmin);
             r->last_op = "subfacet";
             rc = process_fac(r, id, rmin);
-        } else if (tets && r->classified && !q_empty(&r->tetq)) {
-            uint32_t t = q_pop(&r->tetq, lifo, NULL);
-            if (tm_is_dead(m, t) || !(m->flags[t] & TM_F_QUEUED))
-                continue;
-            m->flags[t] &= (uint16_t)~TM_F_QUEUED;
-            if (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP))
-                continue;
+        } else if (tets && r->classified && pop_tet(r, &t)) {
             r->last_op = "tetrahedron";
             rc = split_tet(r, t);
         } else {
