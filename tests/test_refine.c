@@ -512,6 +512,59 @@ START_TEST(gather_lists_each_subsegment_once)
 }
 END_TEST
 
+/* With busy_depth set (parallel runs), ref_next leaves a bad tetrahedron
+ * near a locked one queued and hands out the others; once only busy ones
+ * are left it returns 0 with them still queued, and after the unlock it
+ * hands them out. */
+START_TEST(busy_tetrahedra_wait)
+{
+    plc p;
+    cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 1e-4;
+    o.order = REF_ORDER_FIFO; /* the parallel runs' order for remote work */
+    ref_mesher r;
+    pdr_diag diag = {0};
+    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
+    im_opts io = {0, 0};
+    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    ck_assert_int_eq(tm_enable(&r.m, TM_FEAT_LOCKS), 0);
+    ck_assert_int_eq(ref_queue_all_tets(&r), 0);
+    int kind;
+    uint32_t t0, id;
+    float rmin;
+    ck_assert_int_eq(ref_next(&r, &kind, &t0, &rmin), 1);
+    ck_assert_int_eq(kind, REF_TET);
+    ck_assert_int_eq(ref_requeue(&r, REF_TET, t0, 0), 0);
+    /* Lock a neighbour of t0: t0 is busy at depth 1, not at depth 0. */
+    uint32_t locked = UINT32_MAX;
+    for (int k = 0; k < 4 && locked == UINT32_MAX; k++)
+        if (!tm_is_special(r.m.tets[t0].n[k]))
+            locked = tm_ltet(r.m.tets[t0].n[k]);
+    ck_assert_uint_ne(locked, UINT32_MAX);
+    r.m.lock[locked] = 7;
+    r.busy_depth = 1;
+    size_t handed = 0;
+    while (ref_next(&r, &kind, &id, &rmin)) {
+        ck_assert_uint_ne(id, t0);
+        ck_assert_uint_ne(id, locked);
+        handed++;
+    }
+    ck_assert_uint_gt(handed, 10);
+    ck_assert_uint_ge(r.st.deferred, 1);
+    ck_assert(r.m.flags[t0] & TM_F_QUEUED);
+    /* Still busy: nothing; unlocked: t0 comes out. */
+    ck_assert_int_eq(ref_next(&r, &kind, &id, &rmin), 0);
+    r.m.lock[locked] = 0;
+    ck_assert_int_eq(ref_next(&r, &kind, &id, &rmin), 1);
+    ck_assert_uint_eq(id, t0);
+    ref_free(&r);
+    plc_free(&p);
+    pdr_diag_free(&diag);
+}
+END_TEST
+
 START_TEST(mesh_cube_in_cube)
 {
     plc p;
@@ -785,6 +838,7 @@ static Suite *suite(void)
     tcase_add_test(t, mesh_cube_in_cube);
     tcase_add_test(t, mesh_cube_in_cube_paper_mo);
     tcase_add_test(t, mesh_tee);
+    tcase_add_test(t, busy_tetrahedra_wait);
     tcase_add_test(t, mesh_rotated_cube);
     tcase_add_test(t, small_angles_terminate);
     tcase_add_test(t, check_each_step_passes);

@@ -84,6 +84,10 @@ static void usage(FILE *f)
             "      --parts N        partition the initial mesh into N >= P parts (default\n"
             "                       P; parts go to PEs round robin)\n"
             "      --max-threads K  cavity threads per PE (default 8)\n"
+            "      --work-clock C   clock of Table 1's work times (completed, masked,\n"
+            "                       setback): 'wall' (monotonic), 'cpu' (the PE's CPU time:\n"
+            "                       leaves out time slices the kernel gives other PEs), or\n"
+            "                       'auto' (default: cpu where PEs outnumber the cores)\n"
             "      --seed S         seed of the partition and of the back-off (default 1)\n"
             "      --latency SPEC   with -n: inject latency per message (200us, 100us-1ms)\n"
             "      --bandwidth SPEC with -n: cap the bandwidth per link (100Mbit)\n"
@@ -146,7 +150,7 @@ static int parse_double(const char *s, double *out)
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
     O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_STATS, O_SUBMESHES,
-    O_MERGE, O_NOMERGE, O_MAXPOINTS
+    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -168,6 +172,7 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"parallel", no_argument, NULL, O_PARALLEL},
                                           {"parts", required_argument, NULL, O_PARTS},
                                           {"max-threads", required_argument, NULL, O_THREADS},
+                                          {"work-clock", required_argument, NULL, O_WORKCLOCK},
                                           {"seed", required_argument, NULL, O_SEED},
                                           {"latency", required_argument, NULL, O_LATENCY},
                                           {"bandwidth", required_argument, NULL, O_BANDWIDTH},
@@ -425,6 +430,18 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
             break;
         case O_SUBMESHES:
             po->submeshes = 1;
+            break;
+        case O_WORKCLOCK:
+            if (!strcmp(optarg, "auto"))
+                po->work_clock = MPAR_CLOCK_AUTO;
+            else if (!strcmp(optarg, "wall"))
+                po->work_clock = MPAR_CLOCK_WALL;
+            else if (!strcmp(optarg, "cpu"))
+                po->work_clock = MPAR_CLOCK_CPU;
+            else {
+                pdr_cli_error("mesh", "--work-clock is 'auto', 'wall' or 'cpu', not '%s'", optarg);
+                return PDR_EXIT_USAGE;
+            }
             break;
         case 'h':
             usage(stdout);

@@ -97,20 +97,21 @@ static int wait_job(am_ctx_t *am, job *j)
 
 /* ------------------------------------------------------- Table 1 rows */
 
-/* A row travels as 15 f64 values, then 10 u64 counters, then the
- * refinement's insertion counts. */
-#define ROW_F64 9
-#define ROW_U64 14
+/* A row travels as ROW_F64 f64 values, then ROW_U64 u64 counters, then
+ * the refinement's insertion counts. */
+#define ROW_F64 12
+#define ROW_U64 16
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
     double f[ROW_F64] = {t->exec_s,   t->completed_s, t->masked_local_s,
                          t->masked_dist_s, t->setback_s, t->service_s,
-                         t->poll_s,   t->poll_excess_s, t->idle_s};
+                         t->poll_s,   t->poll_excess_s, t->idle_s,
+                         t->completed_wall_s, t->masked_wall_s, t->setback_wall_s};
     uint64_t u[ROW_U64] = {t->steps,   t->cav_local, t->cav_dist, t->setbacks,
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
                            t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss,
-                           t->missing_segs, t->missing_facs};
+                           t->missing_segs, t->missing_facs, t->deferred, t->cpu_clock};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -139,6 +140,9 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     t->poll_s = f[6];
     t->poll_excess_s = f[7];
     t->idle_s = f[8];
+    t->completed_wall_s = f[9];
+    t->masked_wall_s = f[10];
+    t->setback_wall_s = f[11];
     t->steps = u[0];
     t->cav_local = u[1];
     t->cav_dist = u[2];
@@ -153,6 +157,8 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     t->peak_rss = u[11];
     t->missing_segs = u[12];
     t->missing_facs = u[13];
+    t->deferred = u[14];
+    t->cpu_clock = u[15];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -177,18 +183,24 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             "{\n  \"rank\": %d,\n  \"size\": %d,\n  \"execution_s\": %.9g,\n"
             "  \"completed_cavity_s\": %.9g,\n  \"masked_local_s\": %.9g,\n"
             "  \"masked_distributed_s\": %.9g,\n  \"setback_s\": %.9g,\n"
-            "  \"latency_tolerance\": %.6f,\n  \"service_s\": %.9g,\n  \"poll_s\": %.9g,\n"
+            "  \"latency_tolerance\": %.6f,\n  \"work_clock\": \"%s\",\n"
+            "  \"completed_cavity_wall_s\": %.9g,\n  \"masked_wall_s\": %.9g,\n"
+            "  \"setback_wall_s\": %.9g,\n  \"latency_tolerance_wall\": %.6f,\n"
+            "  \"service_s\": %.9g,\n  \"poll_s\": %.9g,\n"
             "  \"poll_excess_s\": %.9g,\n  \"idle_s\": %.9g,\n  \"steps\": %llu,\n"
             "  \"cavities_local\": %llu,\n  \"cavities_distributed\": %llu,\n"
-            "  \"setbacks\": %llu,\n  \"backoffs\": %llu,\n  \"tets_migrated_in\": %llu,\n"
+            "  \"setbacks\": %llu,\n  \"deferred\": %llu,\n  \"backoffs\": %llu,\n"
+            "  \"tets_migrated_in\": %llu,\n"
             "  \"tets_migrated_out\": %llu,\n  \"messages_sent\": %llu,\n"
             "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu,\n"
             "  \"tet_slots_at_end\": %llu,\n  \"peak_rss_bytes\": %llu\n}\n",
             rank, size, t->exec_s, t->completed_s, t->masked_local_s, t->masked_dist_s,
-            t->setback_s, par_table1_tolerance(t), t->service_s, t->poll_s, t->poll_excess_s,
+            t->setback_s, par_table1_tolerance(t), t->cpu_clock ? "cpu" : "wall",
+            t->completed_wall_s, t->masked_wall_s, t->setback_wall_s,
+            par_table1_tolerance_wall(t), t->service_s, t->poll_s, t->poll_excess_s,
             t->idle_s, (unsigned long long)t->steps, (unsigned long long)t->cav_local,
             (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
-            (unsigned long long)t->backoffs, (unsigned long long)t->tets_in,
+            (unsigned long long)t->deferred, (unsigned long long)t->backoffs, (unsigned long long)t->tets_in,
             (unsigned long long)t->tets_out, (unsigned long long)t->msgs_sent,
             (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end,
             (unsigned long long)t->slots_end, (unsigned long long)t->peak_rss);
@@ -197,19 +209,17 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
 
 static void print_row(const char *label, const par_table1 *t)
 {
-    double masked = t->masked_local_s + t->masked_dist_s;
     printf("  %-12s %9.3f %10.3f %9.3f (%.3f) %9.3f %8.1f%% %9.3f (%.3f)\n", label, t->exec_s,
            t->completed_s, t->masked_local_s, t->masked_dist_s, t->setback_s,
            100.0 * par_table1_tolerance(t), t->poll_s, t->poll_excess_s);
-    (void)masked;
 }
 
 /* The summary lines of the parallel run (rank 0). */
 static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_t mo_tets)
 {
     par_table1 avg = {0};
-    uint64_t local = 0, dist = 0, setbacks = 0, moved = 0;
-    int worst = 0;
+    uint64_t local = 0, dist = 0, setbacks = 0, moved = 0, deferred = 0;
+    int worst = 0, worst_wall = 0, ncpu = 0;
     for (int k = 0; k < size; k++) {
         const par_table1 *t = &rows[k];
         avg.exec_s += t->exec_s / size;
@@ -217,6 +227,10 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
         avg.masked_local_s += t->masked_local_s / size;
         avg.masked_dist_s += t->masked_dist_s / size;
         avg.setback_s += t->setback_s / size;
+        avg.masked_wall_s += t->masked_wall_s / size;
+        avg.setback_wall_s += t->setback_wall_s / size;
+        ncpu += t->cpu_clock != 0;
+        deferred += t->deferred;
         avg.poll_s += t->poll_s / size;
         avg.poll_excess_s += t->poll_excess_s / size;
         local += t->cav_local;
@@ -225,11 +239,14 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
         moved += t->tets_in;
         if (par_table1_tolerance(t) < par_table1_tolerance(&rows[worst]))
             worst = k;
+        if (par_table1_tolerance_wall(t) < par_table1_tolerance_wall(&rows[worst_wall]))
+            worst_wall = k;
     }
     printf("parallel: %d PEs, %u parts, Mo %zu tetrahedra; cavities %llu local, %llu "
-           "distributed, %llu setbacks; %llu tetrahedra migrated\n",
+           "distributed, %llu setbacks, %llu deferred; %llu tetrahedra migrated\n",
            size, parts, mo_tets, (unsigned long long)local, (unsigned long long)dist,
-           (unsigned long long)setbacks, (unsigned long long)moved);
+           (unsigned long long)setbacks, (unsigned long long)deferred,
+           (unsigned long long)moved);
     /* Rank 0's peak also holds the input, Mo and the merged mesh. */
     uint64_t worst_b = 0, rank0_b = rows[0].tets_end ? rows[0].peak_rss / rows[0].tets_end : 0;
     for (int k = 1; k < size; k++)
@@ -245,6 +262,11 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     snprintf(label, sizeof label, "worst PE %d", worst);
     print_row(label, &rows[worst]);
     print_row("average", &avg);
+    if (ncpu)
+        printf("work times on the CPU clock on %d of %d PEs (--work-clock); on the wall clock "
+               "the tolerance is %.1f%% on the worst PE (%d), %.1f%% on average\n",
+               ncpu, size, 100.0 * par_table1_tolerance_wall(&rows[worst_wall]), worst_wall,
+               100.0 * par_table1_tolerance_wall(&avg));
 }
 
 /* PDR_PAR_TRACE=SECONDS: a line per PE that often on stderr (debugging). */
@@ -462,6 +484,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_run_opts ro_run;
     memset(&ro_run, 0, sizeof ro_run);
     ro_run.max_threads = po->max_threads;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    ro_run.cpu_clock = po->work_clock == MPAR_CLOCK_CPU ||
+                       (po->work_clock == MPAR_CLOCK_AUTO && cores > 0 && size > cores);
     ro_run.seed = po->seed;
     /* PDR_PAR_ORDER=local|local-all|fifo|lifo: the order of the bad
      * tetrahedra, for comparisons. Default local: REF_ORDER_LOCAL_FIRST,

@@ -40,7 +40,13 @@ typedef struct mpar_opts {
     const char *bandwidth;/* --bandwidth (launcher) */
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
+    int work_clock;       /* --work-clock: enum mpar_clock */
 } mpar_opts;
+
+/* The clock of the work times of Table 1 (par_run.h, cpu_clock). AUTO:
+ * the CPU clock when the job has more PEs than this machine has cores
+ * (each PE decides for itself). */
+enum mpar_clock { MPAR_CLOCK_AUTO = 0, MPAR_CLOCK_WALL, MPAR_CLOCK_CPU };
 
 /* Defaults: not parallel, one part per PE, 8 threads, seed 1. */
 void mpar_default_opts(mpar_opts *o);

@@ -18,9 +18,11 @@ typedef struct par_item {
     uint32_t id;
     float rmin;
     par_cav cav;
-    double seg_start;  /* start of the current compute segment */
+    double seg_start;  /* start of the current compute segment (work clock) */
+    double seg_wall;   /* ... on the monotonic clock */
     double work;       /* compute time of the current attempt */
     double masked;     /* ... of it while another thread was blocked */
+    double work_wall, masked_wall; /* the same on the monotonic clock */
     int blocked;       /* waiting for replies */
     struct par_item *next_free;
 } par_item;
@@ -46,11 +48,20 @@ static uint64_t item_key(int kind, uint32_t id)
     return ((uint64_t)(unsigned)kind << 32 | id) + 1;
 }
 
+static double tolerance(double masked, double setback)
+{
+    double d = masked + setback;
+    return d > 0 ? masked / d : 1.0;
+}
+
 double par_table1_tolerance(const par_table1 *t)
 {
-    double masked = t->masked_local_s + t->masked_dist_s;
-    double d = masked + t->setback_s;
-    return d > 0 ? masked / d : 1.0;
+    return tolerance(t->masked_local_s + t->masked_dist_s, t->setback_s);
+}
+
+double par_table1_tolerance_wall(const par_table1 *t)
+{
+    return tolerance(t->masked_wall_s, t->setback_wall_s);
 }
 
 static double rnd(par_run *pr)
@@ -61,14 +72,26 @@ static double rnd(par_run *pr)
     return (double)(pr->rng >> 11) / 9007199254740992.0;
 }
 
-/* Closes the running thread's compute segment. */
+/* Starts the running thread's compute segment. */
+static void segment_start(par_run *pr, par_item *it)
+{
+    it->seg_wall = pdr_now();
+    it->seg_start = pr->o.cpu_clock ? pdr_cpu_now() : it->seg_wall;
+}
+
+/* Closes the running thread's compute segment (and starts the next). */
 static void segment_end(par_run *pr, par_item *it)
 {
-    double now = pdr_now(), d = now - it->seg_start;
+    double now = pdr_now(), dw = now - it->seg_wall;
+    double cnow = pr->o.cpu_clock ? pdr_cpu_now() : now, d = cnow - it->seg_start;
     it->work += d;
-    if (pr->cc.nblocked_dist > 0)
+    it->work_wall += dw;
+    if (pr->cc.nblocked_dist > 0) {
         it->masked += d;
-    it->seg_start = now;
+        it->masked_wall += dw;
+    }
+    it->seg_wall = now;
+    it->seg_start = cnow;
 }
 
 /* ------------------------------------------------------------ hooks */
@@ -122,7 +145,7 @@ static void on_resume(void *arg, par_cav *c)
     par_item *it = item_of(c);
     pr->current = it;
     it->blocked = 0;
-    it->seg_start = pdr_now();
+    segment_start(pr, it);
 }
 
 /* A new vertex v was committed: give it a global id, and point the
@@ -197,8 +220,8 @@ static void refine_thread(am_ctx_t *am, void *arg)
     uint64_t key = item_key(it->kind, it->id);
     for (;;) {
         pr->current = it;
-        it->work = it->masked = 0;
-        it->seg_start = pdr_now();
+        it->work = it->masked = it->work_wall = it->masked_wall = 0;
+        segment_start(pr, it);
         int rc = ref_step(&pr->s->r, it->kind, it->id, it->rmin);
         pr->current = it;
         segment_end(pr, it);
@@ -218,6 +241,8 @@ static void refine_thread(am_ctx_t *am, void *arg)
         }
         if (rc != REF_SETBACK) {
             row->completed_s += it->work;
+            row->completed_wall_s += it->work_wall;
+            row->masked_wall_s += it->masked_wall;
             if (dist)
                 row->masked_dist_s += it->masked;
             else
@@ -228,6 +253,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
             break;
         }
         row->setback_s += it->work;
+        row->setback_wall_s += it->work_wall;
         row->setbacks++;
         if (n != HMAP_NONE)
             hmap_del(&pr->tries, key, n);
@@ -279,6 +305,9 @@ static int start_work(am_ctx_t *am, void *arg)
     int kind;
     uint32_t id;
     float rmin;
+    /* Locks exist here only while a thread of this PE waits for replies
+     * or another PE's cavity holds some of ours. */
+    pr->s->r.busy_depth = pr->cc.nblocked_dist > 0 || pr->cc.served.n > 0 ? PAR_RUN_BUSY_DEPTH : 0;
     if (!ref_next(&pr->s->r, &kind, &id, &rmin))
         return 0;
     par_item *it = pr->free_items;
@@ -363,6 +392,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     if (!rc && pr->err)
         rc = pr->err;
     row->exec_s = pdr_now() - t0;
+    row->cpu_clock = pr->o.cpu_clock != 0;
+    row->deferred = s->r.st.deferred;
     const bd_set *bd = &s->r.bd;
     for (size_t i = 0; i < bd->nsegs; i++)
         row->missing_segs += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;

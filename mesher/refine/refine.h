@@ -209,6 +209,8 @@ typedef struct ref_stats {
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t reclassified; /* tetrahedra the final classification moved */
+    size_t deferred;     /* parallel: bad tetrahedra put back unstarted
+                            because a cavity in progress held them */
     /* after ref_count_bad() */
     size_t left_ratio;   /* interior tetrahedra with ratio >= bound */
     size_t left_ratio_angle;  /* ... left because their split needed a
@@ -319,6 +321,12 @@ typedef struct ref_mesher {
     size_t region_doubts; /* flat tetrahedra on facets met, flips after
                              classification: reasons to classify again */
     const ref_hooks *hooks; /* NULL when sequential; not owned */
+    int busy_depth;    /* parallel, set by the caller before ref_next: a bad
+                          tetrahedron with a lock at most this many
+                          neighbour steps away goes to the back of the
+                          queue unstarted (its search would be a setback);
+                          not with REF_ORDER_LIFO; 0: no check (m->lock
+                          may be NULL) */
     uint32_t last_v;   /* the vertex inserted last (0: none) */
     double min_spacing; /* no boundary split nearer than this to a vertex:
                            REF_MIN_SPACING times the bounding-box diagonal */

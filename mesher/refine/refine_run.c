@@ -837,14 +837,41 @@ int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin)
     return PDR_EINVAL;
 }
 
+/* 1 if a tetrahedron at most depth neighbour steps from t is locked by
+ * a cavity in progress (parallel runs: see ref_mesher.busy_depth). The
+ * circumcentre of t lies in its circumsphere, so its cavity holds t and
+ * its ring t's neighbours; a lock one or two steps further usually meets
+ * the search too. */
+static int tet_busy(const tm_mesh *m, uint32_t t, uint32_t from, int depth)
+{
+    if (m->lock[t])
+        return 1;
+    if (depth == 0)
+        return 0;
+    for (int k = 0; k < 4; k++) {
+        tm_link l = m->tets[t].n[k];
+        if (!tm_is_special(l) && tm_ltet(l) != from && tet_busy(m, tm_ltet(l), t, depth - 1))
+            return 1;
+    }
+    return 0;
+}
+
 /* Pops the next bad tetrahedron to split into *t, in the order of
  * r->o.order (the local-first stack before the rest), skipping stale
  * entries: dead slots, tetrahedra no longer queued, exterior ones and
- * those given up. Returns 0 when no queue holds one. */
+ * those given up. Returns 0 when no queue holds one, or when every one
+ * is busy (busy_depth). */
 static int pop_tet(ref_mesher *r, uint32_t *t)
 {
     tm_mesh *m = &r->m;
     int lifo = r->o.order == REF_ORDER_LIFO;
+    /* A busy tetrahedron goes to the back of the (FIFO) queue, once per
+     * entry pending now at most: when all are busy, nothing is started
+     * until some cavity ends, which only a message or a thread brings.
+     * (The LIFO order would pop it again at once: no check there.) */
+    size_t defer_left = r->busy_depth > 0 && !lifo
+                            ? (r->tetq.n - r->tetq.head) + (r->tetq_local.n - r->tetq_local.head)
+                            : 0;
     for (;;) {
         int local = !q_empty(&r->tetq_local);
         if (!local && q_empty(&r->tetq))
@@ -852,6 +879,12 @@ static int pop_tet(ref_mesher *r, uint32_t *t)
         uint32_t x = local ? q_pop(&r->tetq_local, 1, NULL) : q_pop(&r->tetq, lifo, NULL);
         if (tm_is_dead(m, x) || !(m->flags[x] & TM_F_QUEUED))
             continue;
+        if (defer_left && tet_busy(m, x, UINT32_MAX, r->busy_depth) && q_push(&r->tetq, x, 0.0f) == 0) {
+            r->st.deferred++;
+            if (!--defer_left)
+                return 0;
+            continue;
+        }
         m->flags[x] &= (uint16_t)~TM_F_QUEUED;
         if (m->flags[x] & (REF_F_EXTERIOR | REF_F_GIVEUP))
             continue;
