@@ -1129,6 +1129,75 @@ static int merge_subs(const par_sub *subs, const uint32_t *order, uint32_t P, co
     return rc;
 }
 
+/* A wrong exterior flag that a PE passed on (refine_bound.c: flat
+ * tetrahedra on inclined facets, flips) left a hole in the merged mesh
+ * that rank 0's output guard then refused: par_merge_reclassify puts such
+ * tetrahedra back inside, and on a finished mesh adds no point. */
+START_TEST(merge_reclassifies)
+{
+    plc p;
+    domain_plc(&p, DOM_TEE);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 2e-3;
+    ref_mesher mo;
+    pdr_diag diag = {0};
+    im_opts io = {0, 0};
+    ck_assert_int_eq(ref_init(&mo, &p, &o), 0);
+    ck_assert_int_eq(im_build(&mo, &io, NULL, &diag), 0);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    ref_release_work(&mo);
+    size_t interior = ref_interior_tets(&mo);
+    ck_assert_uint_gt(interior, 1000);
+    enum { P = 3 };
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, P, P, 7, &d), 0);
+    par_sub subs[P];
+    pr_buf back[P];
+    const void *msg[P];
+    size_t len[P];
+    for (uint32_t k = 0; k < P; k++) {
+        ck_assert_int_eq(par_wire_load(d.msg[k].data, d.msg[k].len, &p, &mo.o, &subs[k]), 0);
+        back[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&back[k], &subs[k]), 0);
+        msg[k] = back[k].data;
+        len[k] = back[k].len;
+    }
+    ref_mesher mg;
+    par_merge_report rep;
+    ck_assert_int_eq(par_merge_build(msg, len, P, &p, &mo.o, &mg, &rep), 0);
+    /* five interior tetrahedra taken for outside */
+    size_t flipped = 0;
+    for (uint32_t t = 0; t < mg.m.nslots && flipped < 5; t += 97)
+        if (!tm_is_dead(&mg.m, t) && !tm_is_ghost(&mg.m, t) &&
+            !(mg.m.flags[t] & REF_F_EXTERIOR)) {
+            mg.m.flags[t] |= REF_F_EXTERIOR;
+            flipped++;
+        }
+    ck_assert_uint_eq(flipped, 5);
+    ck_assert_uint_eq(ref_interior_tets(&mg), interior - 5);
+    size_t moved, added;
+    ck_assert_int_eq(par_merge_reclassify(&mg, &moved, &added), 0);
+    ck_assert_uint_eq(moved, 5);
+    ck_assert_uint_eq(added, 0);
+    ck_assert_uint_eq(ref_interior_tets(&mg), interior);
+    ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
+    same_export(&mo, &mg);
+    /* nothing to do the second time */
+    ck_assert_int_eq(par_merge_reclassify(&mg, &moved, &added), 0);
+    ck_assert_uint_eq(moved, 0);
+    ref_free(&mg);
+    for (uint32_t k = 0; k < P; k++) {
+        par_sub_free(&subs[k]);
+        pr_buf_free(&back[k]);
+    }
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+    pdr_diag_free(&diag);
+}
+END_TEST
+
 START_TEST(merge_counts_mismatches)
 {
     plc p;
@@ -1492,6 +1561,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_counts_mismatches);
     tcase_add_test(t, merge_counts_link_faults);
     tcase_add_test(t, merge_survives_corruption);
+    tcase_add_test(t, merge_reclassifies);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

@@ -502,10 +502,14 @@ int pdr_cmd_mesh(int argc, char **argv)
     /* The refinement's debugging aids, turned on from the environment
      * here because the library reads none: PDR_REF_CHECK checks the marks
      * against the subsegment and subfacet tables before every step (slow)
-     * and fails at the first disagreement, described on stderr;
+     * and fails at the first disagreement, described on stderr
+     * (PDR_REF_CHECK=end: with -n, once on every PE when its refinement
+     * ends, which is affordable on large meshes);
      * PDR_REF_TRACE=N prints the queues and counters every N steps. */
-    if (getenv("PDR_REF_CHECK")) {
-        o.ref.check_each_step = 1;
+    const char *check = getenv("PDR_REF_CHECK");
+    if (check) {
+        po.check_end = !strcmp(check, "end");
+        o.ref.check_each_step = !po.check_end;
         o.ref.log = stderr;
     }
     const char *trace = getenv("PDR_REF_TRACE");

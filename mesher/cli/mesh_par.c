@@ -19,6 +19,7 @@
 #include "par/par_decomp.h"
 #include "par/par_merge.h"
 #include "par/par_run.h"
+#include "par/par_verify.h"
 #include "par/par_wire.h"
 #include "pr.h"
 #include "refine/im.h"
@@ -100,7 +101,7 @@ static int wait_job(am_ctx_t *am, job *j)
 /* A row travels as ROW_F64 f64 values, then ROW_U64 u64 counters, then
  * the refinement's insertion counts. */
 #define ROW_F64 12
-#define ROW_U64 16
+#define ROW_U64 17
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
@@ -111,7 +112,8 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
     uint64_t u[ROW_U64] = {t->steps,   t->cav_local, t->cav_dist, t->setbacks,
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
                            t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss,
-                           t->missing_segs, t->missing_facs, t->deferred, t->cpu_clock};
+                           t->missing_segs, t->missing_facs, t->deferred, t->cpu_clock,
+                           t->region_doubts};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -159,6 +161,7 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     t->missing_facs = u[13];
     t->deferred = u[14];
     t->cpu_clock = u[15];
+    t->region_doubts = u[16];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -516,6 +519,14 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         _exit(PDR_EXIT_FAIL);
     }
     t_end = pdr_now();
+    if (po->check_end) {
+        par_verify_report rep;
+        memset(&rep, 0, sizeof rep);
+        size_t bad = ref_consistency(&s.r, stderr, 0) + par_verify_facets(&s, stderr) +
+                     par_verify_sub(&s, &rep);
+        fprintf(stderr, "pdr mesh: PE %d: check at the end of the refinement: %zu problem%s\n",
+                rank, bad, bad == 1 ? "" : "s");
+    }
     if (po->stats && write_row_json(po->stats, rank, size, &row))
         fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
                 rank);
@@ -610,6 +621,25 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     c.have_r = 1;
     c.refined = 1;
     c.r.st = sum;
+    /* When some PE may have passed on a wrong region or exterior flag,
+     * rank 0 classifies the merged mesh again (par_merge_reclassify). */
+    double t_cls = pdr_now();
+    size_t moved = 0, added = 0;
+    uint64_t doubts = 0;
+    for (int k = 0; k < size; k++)
+        doubts += rows[k].region_doubts;
+    if (doubts)
+        rc = par_merge_reclassify(&c.r, &moved, &added);
+    if (!rc && moved && !c.o.quiet)
+        printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu points "
+               "added at rank 0 after that\n",
+               moved, added);
+    if (rc) {
+        fprintf(stderr, "pdr mesh: the classification of the merged mesh failed: %s\n",
+                pdr_strerror(rc));
+        goto done;
+    }
+    t_cls = pdr_now() - t_cls;
     double t_merged = pdr_now();
     /* The parallel stage, for the summary's rate: from Mo to the merged
      * mesh (distribution, refinement, gathering, merge). */
@@ -618,8 +648,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
     if (!c.o.quiet) {
         print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
-        printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s\n",
-               t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm);
+        printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s (of "
+               "which classification %.3f)\n",
+               t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm, t_cls);
         /* The distribution's parts, for the paper's Table 2. */
         printf("distribute: Mo %.3f, partition %.3f, send %.3f s\n", t_prep[1] - t_prep[0],
                t_prep[2] - t_prep[1], t_start - t_prep[2]);

@@ -41,6 +41,9 @@ typedef struct mpar_opts {
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
     int work_clock;       /* --work-clock: enum mpar_clock */
+    int check_end;        /* PDR_REF_CHECK=end: every PE checks its tables,
+                             facet triangulations and links once, when its
+                             refinement ends */
 } mpar_opts;
 
 /* The clock of the work times of Table 1 (par_run.h, cpu_clock). AUTO:

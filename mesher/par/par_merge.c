@@ -804,3 +804,17 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
     }
     return rc;
 }
+
+int par_merge_reclassify(ref_mesher *r, size_t *moved, size_t *added)
+{
+    *moved = *added = 0;
+    int rc = ref_classify(r, NULL, moved, NULL);
+    if (rc || !*moved)
+        return rc;
+    r->st.reclassified += *moved;
+    uint32_t nv0 = r->m.nv;
+    r->region_doubts = 1; /* ref_refine classifies again after its run */
+    rc = ref_refine(r);
+    *added = (size_t)(r->m.nv - nv0);
+    return rc;
+}

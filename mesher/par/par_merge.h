@@ -79,4 +79,15 @@ int par_merge_encode(pr_buf *b, const par_sub *s);
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
                     const ref_opts *o, ref_mesher *out, par_merge_report *rep);
 
+/* The exterior flag and the regions follow the tetrahedra through every
+ * insertion, and a flat tetrahedron on an inclined facet or a flip of
+ * subfacets can pass on the wrong one (refine_bound.c); the sequential
+ * mesher classifies its finished mesh again (ref_refine), which a PE
+ * cannot do across the others. This does it on the merged mesh r: the
+ * flood fill of ref_classify, then, when a tetrahedron moved, ref_refine
+ * (sequential: what the move made bad is split here). *moved gets the
+ * tetrahedra whose exterior flag or region changed, *added the vertices
+ * inserted. Returns 0 or a negative code. */
+int par_merge_reclassify(ref_mesher *r, size_t *moved, size_t *added);
+
 #endif /* PDR_PAR_MERGE_H */

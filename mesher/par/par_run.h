@@ -82,6 +82,8 @@ typedef struct par_table1 {
     uint64_t deferred;       /* bad tetrahedra put back unstarted, held by
                                 a cavity in progress */
     uint64_t cpu_clock;      /* 1: the work times are CPU times */
+    uint64_t region_doubts;  /* steps that may have passed on a wrong region
+                                or exterior flag (ref_mesher.region_doubts) */
 } par_table1;
 
 typedef struct par_run_opts {
