@@ -13,8 +13,8 @@
 #    timeout (AM_BOOT_TIMEOUT=5 s), rank 0 names PE 3 as the one whose
 #    hello never came, and no mesh is written.
 # The namespaces and the veth pair are removed at the end, also when the
-# test fails or is killed. Skipped unless root and 'ip netns add' works,
-# and where libzmq has no CURVE.
+# test fails or is killed. Skipped unless root and 'ip netns add' and
+# 'ip link add ... type veth' work, and where libzmq has no CURVE.
 . "$top_srcdir/tests/launch-lib.sh"
 
 [ "$(id -u)" -eq 0 ] || skip "not root: network namespaces need root"
@@ -39,7 +39,8 @@ ip netns add "$nsb" || fail "ip netns add $nsb"
 at_exit "ip netns delete $nsb 2>/dev/null"
 # The pair is made in this namespace and moved at once; should the test
 # end in between, deleting one end deletes both.
-ip link add "$va" type veth peer name "$vb" || fail "cannot make a veth pair"
+ip link add "$va" type veth peer name "$vb" 2>"$work/veth.err" ||
+    skip "cannot make a veth pair: $(head -n 1 "$work/veth.err")"
 at_exit "ip link delete $va 2>/dev/null"
 ip link set "$va" netns "$nsa" && ip link set "$vb" netns "$nsb" ||
     fail "cannot move the veth ends into the namespaces"
