@@ -47,6 +47,7 @@ ip link set "$va" netns "$nsa" && ip link set "$vb" netns "$nsb" ||
 # IPv6 off on the veth ends, so nothing (router solicitations, duplicate
 # address probes) is sent besides the job's own traffic.
 for x in "$nsa $va 169.254.77.1/30" "$nsb $vb 169.254.77.2/30"; do
+    # shellcheck disable=SC2086
     set -- $x
     ip netns exec "$1" sysctl -q -w "net.ipv6.conf.$2.disable_ipv6=1" >/dev/null 2>&1
     ip -n "$1" addr add "$3" dev "$2" && ip -n "$1" link set "$2" up &&
@@ -60,6 +61,7 @@ pes=
 pe() {
     pub=${5% *}
     sec=${5#* }
+    # shellcheck disable=SC2086
     timeout --kill-after=5 60 ip netns exec "$3" env AM_RANK="$2" AM_SIZE=4 \
         AM_JOB=$$ AM_TRANSPORT=tcp AM_ROOT=tcp://169.254.77.1:7000 AM_BIND="$4" \
         AM_CURVE_SERVER_PUBLIC="$pub" AM_CURVE_SERVER_SECRET="$sec" \

@@ -10,6 +10,7 @@
 start=$(date +%s.%N)
 if command -v srun >/dev/null 2>&1 && timeout 10 sinfo -h >/dev/null 2>&1; then
     how="srun -N 1 -n 3"
+    # shellcheck disable=SC2086
     timeout --kill-after=5 120 srun -N 1 -n 3 --time=2 \
         env AM_RENDEZVOUS="file:$work/rdv" AM_BOOT_TIMEOUT=60 \
         "$PDR" mesh --parallel $MESH_OPTS -o "$work/slurm" "$work/cic.poly" \
@@ -24,6 +25,7 @@ else
     how="3 tasks with SLURM_PROCID/SLURM_NTASKS"
     pids=
     for r in 0 1 2; do
+        # shellcheck disable=SC2086
         env SLURM_PROCID=$r SLURM_NTASKS=3 SLURM_NPROCS=3 SLURM_LOCALID=$r \
             SLURM_NODEID=0 SLURM_JOB_ID=$$ SLURM_STEP_ID=0 \
             AM_RENDEZVOUS="file:$work/rdv" AM_BOOT_TIMEOUT=30 \
