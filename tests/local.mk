@@ -15,6 +15,23 @@ dist_check_SCRIPTS += tests/tables.sh
 TESTS += tests/layering.sh
 dist_check_SCRIPTS += tests/layering.sh
 
+# The launchers for real (Open MPI's mpirun, ssh to an sshd the test starts,
+# Slurm) and a job across two network namespaces over tcp with CURVE, each
+# running pdr mesh --parallel. They skip where the launcher is missing or
+# the test is not root. curve_keypair gives lan-netns.sh the job's keys.
+check_PROGRAMS += tests/curve_keypair
+tests_curve_keypair_SOURCES = tests/curve_keypair.c
+tests_curve_keypair_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
+tests_curve_keypair_LDADD = $(ZMQ_LIBS)
+EXTRA_DIST += tests/launch-lib.sh
+LAUNCH_TESTS = \
+	tests/launch-mpirun.sh \
+	tests/launch-ssh.sh \
+	tests/launch-slurm.sh \
+	tests/lan-netns.sh
+TESTS += $(LAUNCH_TESTS)
+dist_check_SCRIPTS += $(LAUNCH_TESTS)
+
 # 'make installcheck' (run by distcheck) compiles and runs a program against
 # the installed libam using nothing but pkg-config.
 EXTRA_DIST += tests/installcheck.c
