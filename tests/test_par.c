@@ -1177,15 +1177,44 @@ START_TEST(merge_reclassifies)
     ck_assert_uint_eq(flipped, 5);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior - 5);
     size_t moved, added;
-    ck_assert_int_eq(par_merge_reclassify(&mg, &moved, &added), 0);
+    ck_assert_int_eq(par_merge_reclassify(&mg, 0, &moved, &added), 0);
     ck_assert_uint_eq(moved, 5);
     ck_assert_uint_eq(added, 0);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior);
     ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
     same_export(&mo, &mg);
     /* nothing to do the second time */
-    ck_assert_int_eq(par_merge_reclassify(&mg, &moved, &added), 0);
+    ck_assert_int_eq(par_merge_reclassify(&mg, 0, &moved, &added), 0);
     ck_assert_uint_eq(moved, 0);
+    /* A PE's list of missing pieces: one subfacet of PE 0 flagged
+     * missing there travels by gids; the merged mesh has it present, so
+     * nothing is added. Damaged lists are refused. */
+    bd_set *bd0 = &subs[0].r.bd;
+    uint32_t f0 = 0;
+    while (f0 < bd0->nfacs && (bd0->facs[f0].flags & BD_F_DEAD))
+        f0++;
+    ck_assert_uint_lt(f0, bd0->nfacs);
+    bd0->facs[f0].flags |= BD_F_MISSING;
+    pr_buf lb = PR_BUF_INIT;
+    size_t nmiss;
+    ck_assert_int_eq(par_merge_put_missing(&lb, &subs[0], &nmiss), 0);
+    ck_assert_uint_eq(nmiss, 1);
+    size_t nadd = 99;
+    ck_assert_int_eq(par_merge_add_missing(&mg, lb.data, lb.len, &nadd), 0);
+    ck_assert_uint_eq(nadd, 0);
+    for (size_t cut = 0; cut < lb.len; cut++)
+        ck_assert_int_eq(par_merge_add_missing(&mg, lb.data, cut, &nadd), PDR_EPARSE);
+    uint8_t *bad = malloc(lb.len + 1);
+    memcpy(bad, lb.data, lb.len);
+    bad[lb.len] = 0;
+    ck_assert_int_eq(par_merge_add_missing(&mg, bad, lb.len + 1, &nadd), PDR_EPARSE);
+    bad[4] = 4; /* nv */
+    ck_assert_int_eq(par_merge_add_missing(&mg, bad, lb.len, &nadd), PDR_EPARSE);
+    memcpy(bad, lb.data, lb.len);
+    memset(bad + 5, 0xEE, 8); /* a gid nobody has */
+    ck_assert_int_eq(par_merge_add_missing(&mg, bad, lb.len, &nadd), PDR_EPARSE);
+    free(bad);
+    pr_buf_free(&lb);
     ref_free(&mg);
     for (uint32_t k = 0; k < P; k++) {
         par_sub_free(&subs[k]);

@@ -121,7 +121,9 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
     pr_put_u64_array(b, s, 7);
 }
 
-static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
+/* Reads a row from data[0..len); *rest gets where the PE's list of
+ * missing pieces (par_merge_put_missing) starts. */
+static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st, size_t *rest)
 {
     pr_reader r;
     pr_reader_init(&r, data, len);
@@ -130,8 +132,9 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st)
     pr_get_f64_array(&r, f, ROW_F64);
     pr_get_u64_array(&r, u, ROW_U64);
     pr_get_u64_array(&r, s, 7);
-    if (pr_reader_finish(&r))
+    if (r.err)
         return PDR_EPARSE;
+    *rest = len - r.left;
     memset(t, 0, sizeof *t);
     t->exec_s = f[0];
     t->completed_s = f[1];
@@ -538,8 +541,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     /* Gather the rows and the submeshes to rank 0. */
     pr_buf rb = PR_BUF_INIT, mb = PR_BUF_INIT;
+    size_t nmissing;
     put_row(&rb, &row, &s.r.st);
-    rc = rb.err ? PDR_ENOMEM : par_merge_encode(&mb, &s);
+    rc = rb.err ? PDR_ENOMEM : par_merge_put_missing(&rb, &s, &nmissing);
+    if (!rc)
+        rc = par_merge_encode(&mb, &s);
     par_sub_free(&s);
     have_sub = 0;
     void *all_rows = NULL, *all_mesh = NULL;
@@ -565,47 +571,51 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     t_gathered = pdr_now();
     rows = calloc((size_t)size, sizeof *rows);
     const void **msgs = calloc((size_t)size, sizeof *msgs);
-    rc = rows && msgs ? 0 : PDR_ENOMEM;
+    size_t *rests = calloc((size_t)size, sizeof *rests);
+    rc = rows && msgs && rests ? 0 : PDR_ENOMEM;
     const uint8_t *pr = all_rows, *pm = all_mesh;
     for (int k = 0; k < size && !rc; k++) {
-        rc = get_row(pr, row_lens[k], &rows[k], &sum);
+        rc = get_row(pr, row_lens[k], &rows[k], &sum, &rests[k]);
         pr += row_lens[k];
         msgs[k] = k ? (const void *)pm : mb.data;
         pm += mesh_lens[k];
     }
     mesh_lens[0] = mb.len;
-    /* A subsegment or subfacet still missing on some PE is a hole in the
-     * boundary of the merged mesh: say so and write nothing. */
     uint64_t miss_s = 0, miss_f = 0;
     for (int k = 0; k < size && !rc; k++) {
         miss_s += rows[k].missing_segs;
         miss_f += rows[k].missing_facs;
-    }
-    if (!rc && (miss_s || miss_f)) {
-        fprintf(stderr,
-                "pdr mesh: the parallel refinement ended with %llu subsegments and %llu "
-                "subfacets missing from the mesh: it does not conform to the input; "
-                "nothing written\n",
-                (unsigned long long)miss_s, (unsigned long long)miss_f);
-        for (int k = 0; k < size; k++)
-            if (rows[k].missing_segs || rows[k].missing_facs)
-                fprintf(stderr, "pdr mesh: PE %d: %llu subsegments, %llu subfacets missing\n", k,
-                        (unsigned long long)rows[k].missing_segs,
-                        (unsigned long long)rows[k].missing_facs);
-        rc = PDR_ETOPOLOGY;
     }
     par_merge_report rep;
     memset(&rep, 0, sizeof rep);
     double tm = pdr_now();
     if (!rc)
         rc = par_merge_build(msgs, mesh_lens, (uint32_t)size, &c.p, &c.o.ref, &c.r, &rep);
+    /* A subsegment or subfacet still missing on some PE (its split point
+     * lay on a PE that did not know of it) goes into the merged mesh as
+     * missing, for rank 0 to recover below. */
+    size_t recovered = 0;
+    int rc_missing = 0;
+    pr = all_rows;
+    for (int k = 0; k < size && !rc && !rc_missing; k++) {
+        size_t n = 0;
+        rc_missing = par_merge_add_missing(&c.r, pr + rests[k], row_lens[k] - rests[k], &n);
+        if (rc_missing)
+            fprintf(stderr, "pdr mesh: PE %d's list of missing pieces: %s\n", k,
+                    pdr_strerror(rc_missing));
+        recovered += n;
+        pr += row_lens[k];
+    }
     free(msgs);
+    free(rests);
     free(all_rows);
     free(all_mesh);
     pr_buf_free(&mb);
     free(row_lens);
     free(mesh_lens);
-    if (rc == PDR_ETOPOLOGY && (miss_s || miss_f)) {
+    if (!rc && rc_missing) {
+        rc = rc_missing;
+        ref_free(&c.r);
         goto done;
     } else if (rc) {
         fprintf(stderr,
@@ -621,19 +631,44 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     c.have_r = 1;
     c.refined = 1;
     c.r.st = sum;
-    /* When some PE may have passed on a wrong region or exterior flag,
-     * rank 0 classifies the merged mesh again (par_merge_reclassify). */
+    /* When some PE may have passed on a wrong region or exterior flag, or
+     * left a piece missing, rank 0 finishes the merged mesh itself
+     * (par_merge_reclassify): a few sequential steps. */
     double t_cls = pdr_now();
+    if (po->check_end) {
+        size_t bad = ref_consistency(&c.r, stderr, 0);
+        fprintf(stderr, "pdr mesh: the merged mesh, before rank 0 finishes it: %zu problem%s\n",
+                bad, bad == 1 ? "" : "s");
+    }
     size_t moved = 0, added = 0;
     uint64_t doubts = 0;
     for (int k = 0; k < size; k++)
         doubts += rows[k].region_doubts;
-    if (doubts)
-        rc = par_merge_reclassify(&c.r, &moved, &added);
-    if (!rc && moved && !c.o.quiet)
-        printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu points "
-               "added at rank 0 after that\n",
-               moved, added);
+    if (doubts || recovered)
+        rc = par_merge_reclassify(&c.r, recovered > 0, &moved, &added);
+    if (!rc && (moved || recovered) && !c.o.quiet)
+        printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu "
+               "missing pieces recovered (from %llu subsegments and %llu subfacets left on the "
+               "PEs), %zu points added at rank 0\n",
+               moved, recovered, (unsigned long long)miss_s, (unsigned long long)miss_f, added);
+    if (!rc) {
+        /* Still missing after that: a hole in the boundary; nothing is
+         * written. */
+        size_t left_s = 0, left_f = 0;
+        const bd_set *bd = &c.r.bd;
+        for (size_t i = 0; i < bd->nsegs; i++)
+            left_s += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+        for (size_t i = 0; i < bd->nfacs; i++)
+            left_f += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+        if (left_s || left_f) {
+            fprintf(stderr,
+                    "pdr mesh: %zu subsegments and %zu subfacets are still missing from the "
+                    "merged mesh: it does not conform to the input; nothing written\n",
+                    left_s, left_f);
+            rc = PDR_ETOPOLOGY;
+            goto done;
+        }
+    }
     if (rc) {
         fprintf(stderr, "pdr mesh: the classification of the merged mesh failed: %s\n",
                 pdr_strerror(rc));

@@ -805,16 +805,125 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
     return rc;
 }
 
-int par_merge_reclassify(ref_mesher *r, size_t *moved, size_t *added)
+int par_merge_reclassify(ref_mesher *r, int missing, size_t *moved, size_t *added)
 {
     *moved = *added = 0;
-    int rc = ref_classify(r, NULL, moved, NULL);
-    if (rc || !*moved)
-        return rc;
-    r->st.reclassified += *moved;
+    size_t before = r->st.reclassified;
+    int rc = 0;
+    if (!missing) {
+        /* Classified while nothing is missing: the flood fill is right. */
+        rc = ref_classify(r, NULL, moved, NULL);
+        if (rc || !*moved)
+            return rc;
+        r->st.reclassified += *moved;
+    }
     uint32_t nv0 = r->m.nv;
     r->region_doubts = 1; /* ref_refine classifies again after its run */
     rc = ref_refine(r);
     *added = (size_t)(r->m.nv - nv0);
+    *moved = r->st.reclassified - before;
     return rc;
+}
+
+int par_merge_put_missing(pr_buf *b, const par_sub *s, size_t *n)
+{
+    const bd_set *bd = &s->r.bd;
+    const uint64_t *gid = s->r.m.gid;
+    size_t count = 0;
+    for (size_t i = 0; i < bd->nsegs; i++)
+        count += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+    for (size_t i = 0; i < bd->nfacs; i++)
+        count += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+    *n = count;
+    pr_put_u32(b, (uint32_t)count);
+    for (size_t i = 0; i < bd->nsegs; i++) {
+        const bd_subseg *g = &bd->segs[i];
+        if ((g->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
+            continue;
+        uint64_t k[3] = {gid[g->v[0]], gid[g->v[1]], 0};
+        pr_put_u8(b, 2);
+        pr_put_u64_array(b, k, 3);
+        pr_put_u32(b, g->seg);
+        pr_put_u16(b, g->flags);
+    }
+    for (size_t i = 0; i < bd->nfacs; i++) {
+        const bd_subfac *g = &bd->facs[i];
+        if ((g->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
+            continue;
+        uint64_t k[3] = {gid[g->v[0]], gid[g->v[1]], gid[g->v[2]]};
+        pr_put_u8(b, 3);
+        pr_put_u64_array(b, k, 3);
+        pr_put_u32(b, g->facet);
+        pr_put_u16(b, g->flags);
+    }
+    return b->err ? PDR_ENOMEM : 0;
+}
+
+/* The merged mesh's vertex with this gid (vertices 1.. hold the gids in
+ * ascending order, see the top of par_merge.h), or TM_NONE. */
+static uint32_t merged_vertex(const tm_mesh *m, uint64_t g)
+{
+    uint32_t lo = 1, hi = m->nv;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (m->gid[mid] < g)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return g != 0 && lo < m->nv && m->gid[lo] == g ? lo : TM_NONE;
+}
+
+int par_merge_add_missing(ref_mesher *r, const void *data, size_t len, size_t *added)
+{
+    *added = 0;
+    pr_reader rd;
+    pr_reader_init(&rd, data, len);
+    uint32_t n;
+    if (pr_get_count(&rd, UINT32_C(1) << 24, 31, &n))
+        return PDR_EPARSE;
+    for (uint32_t i = 0; i < n; i++) {
+        uint8_t nv;
+        uint64_t g[3];
+        uint32_t feat;
+        uint16_t flags;
+        pr_get_u8(&rd, &nv);
+        pr_get_u64_array(&rd, g, 3);
+        pr_get_u32(&rd, &feat);
+        pr_get_u16(&rd, &flags);
+        if (rd.err || (nv != 2 && nv != 3))
+            return PDR_EPARSE;
+        uint32_t v[3] = {merged_vertex(&r->m, g[0]), merged_vertex(&r->m, g[1]),
+                         nv == 3 ? merged_vertex(&r->m, g[2]) : TM_NONE};
+        if (v[0] == TM_NONE || v[1] == TM_NONE || v[0] == v[1] ||
+            (nv == 3 && (v[2] == TM_NONE || v[2] == v[0] || v[2] == v[1])))
+            return PDR_EPARSE;
+        uint32_t id;
+        int rc;
+        if (nv == 2) {
+            if (feat >= r->p->nseg)
+                return PDR_EPARSE;
+            if (bd_find_subseg(&r->bd, v[0], v[1]) != BD_NONE)
+                continue;
+            rc = bd_add_subseg(&r->bd, v[0], v[1], feat, &id);
+            if (!rc) {
+                r->bd.segs[id].flags |= BD_F_MISSING;
+                rc = ref_requeue(r, REF_SUBSEG, id, 0.0f);
+            }
+        } else {
+            if (feat >= r->p->nfacet)
+                return PDR_EPARSE;
+            if (bd_find_subfac(&r->bd, v[0], v[1], v[2]) != BD_NONE)
+                continue;
+            rc = bd_add_subfac(&r->bd, v[0], v[1], v[2], feat, &id);
+            if (!rc) {
+                r->bd.facs[id].flags |= BD_F_MISSING;
+                rc = ref_requeue(r, REF_SUBFACET, id, 0.0f);
+            }
+        }
+        if (rc)
+            return rc;
+        (*added)++;
+    }
+    return pr_reader_finish(&rd) ? PDR_EPARSE : 0;
 }

@@ -79,15 +79,31 @@ int par_merge_encode(pr_buf *b, const par_sub *s);
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
                     const ref_opts *o, ref_mesher *out, par_merge_report *rep);
 
+/* The subsegments and subfacets still missing on PE s when its
+ * refinement ends (a piece whose split point lay on another PE, which
+ * did not know of it): appended to b as u32 n, then n times u8 nv (2 or
+ * 3), 3 x u64 vertex gids (the third 0 for a subsegment; a subfacet in
+ * its table's orientation), u32 input feature, u16 flags. *n gets the
+ * count. Returns 0 or PDR_ENOMEM. */
+int par_merge_put_missing(pr_buf *b, const par_sub *s, size_t *n);
+/* Adds the pieces of such a list (data[0..len), exactly) to the merged
+ * mesh r as missing and queues them, so that ref_refine recovers them;
+ * pieces r holds present already are skipped. *added gets the pieces
+ * added. Returns 0, PDR_EPARSE (malformed: a gid r does not have, a
+ * feature out of range, trailing bytes), or PDR_ENOMEM. */
+int par_merge_add_missing(ref_mesher *r, const void *data, size_t len, size_t *added);
+
 /* The exterior flag and the regions follow the tetrahedra through every
  * insertion, and a flat tetrahedron on an inclined facet or a flip of
  * subfacets can pass on the wrong one (refine_bound.c); the sequential
  * mesher classifies its finished mesh again (ref_refine), which a PE
  * cannot do across the others. This does it on the merged mesh r: the
  * flood fill of ref_classify, then, when a tetrahedron moved, ref_refine
- * (sequential: what the move made bad is split here). *moved gets the
- * tetrahedra whose exterior flag or region changed, *added the vertices
- * inserted. Returns 0 or a negative code. */
-int par_merge_reclassify(ref_mesher *r, size_t *moved, size_t *added);
+ * (sequential: what the move made bad is split here). With missing set
+ * (pieces added by par_merge_add_missing, queued), ref_refine first
+ * recovers them and classifies after that. *moved gets the tetrahedra
+ * whose exterior flag or region changed, *added the vertices inserted.
+ * Returns 0 or a negative code. */
+int par_merge_reclassify(ref_mesher *r, int missing, size_t *moved, size_t *added);
 
 #endif /* PDR_PAR_MERGE_H */
