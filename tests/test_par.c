@@ -1177,14 +1177,14 @@ START_TEST(merge_reclassifies)
     ck_assert_uint_eq(flipped, 5);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior - 5);
     size_t moved, added;
-    ck_assert_int_eq(par_merge_reclassify(&mg, 0, &moved, &added), 0);
+    ck_assert_int_eq(par_merge_reclassify(&mg, 0, 0, &moved, &added), 0);
     ck_assert_uint_eq(moved, 5);
     ck_assert_uint_eq(added, 0);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior);
     ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
     same_export(&mo, &mg);
     /* nothing to do the second time */
-    ck_assert_int_eq(par_merge_reclassify(&mg, 0, &moved, &added), 0);
+    ck_assert_int_eq(par_merge_reclassify(&mg, 0, 0, &moved, &added), 0);
     ck_assert_uint_eq(moved, 0);
     /* A PE's list of missing pieces: one subfacet of PE 0 flagged
      * missing there travels by gids; the merged mesh has it present, so

@@ -101,7 +101,7 @@ static int wait_job(am_ctx_t *am, job *j)
 /* A row travels as ROW_F64 f64 values, then ROW_U64 u64 counters, then
  * the refinement's insertion counts. */
 #define ROW_F64 12
-#define ROW_U64 17
+#define ROW_U64 18
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
@@ -113,7 +113,7 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
                            t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss,
                            t->missing_segs, t->missing_facs, t->deferred, t->cpu_clock,
-                           t->region_doubts};
+                           t->region_doubts, t->left_elsewhere};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -165,6 +165,7 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st, s
     t->deferred = u[14];
     t->cpu_clock = u[15];
     t->region_doubts = u[16];
+    t->left_elsewhere = u[17];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -641,16 +642,20 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                 bad, bad == 1 ? "" : "s");
     }
     size_t moved = 0, added = 0;
-    uint64_t doubts = 0;
-    for (int k = 0; k < size; k++)
+    uint64_t doubts = 0, elsewhere = 0;
+    for (int k = 0; k < size; k++) {
         doubts += rows[k].region_doubts;
-    if (doubts || recovered)
-        rc = par_merge_reclassify(&c.r, recovered > 0, &moved, &added);
-    if (!rc && (moved || recovered) && !c.o.quiet)
+        elsewhere += rows[k].left_elsewhere;
+    }
+    if (doubts || recovered || elsewhere)
+        rc = par_merge_reclassify(&c.r, recovered > 0, elsewhere > 0, &moved, &added);
+    if (!rc && (moved || recovered || elsewhere) && !c.o.quiet)
         printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu "
                "missing pieces recovered (from %llu subsegments and %llu subfacets left on the "
-               "PEs), %zu points added at rank 0\n",
-               moved, recovered, (unsigned long long)miss_s, (unsigned long long)miss_f, added);
+               "PEs), %llu bad tetrahedra left by the PEs for a split on another PE, %zu points "
+               "added at rank 0\n",
+               moved, recovered, (unsigned long long)miss_s, (unsigned long long)miss_f,
+               (unsigned long long)elsewhere, added);
     if (!rc) {
         /* Still missing after that: a hole in the boundary; nothing is
          * written. */

@@ -805,7 +805,7 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
     return rc;
 }
 
-int par_merge_reclassify(ref_mesher *r, int missing, size_t *moved, size_t *added)
+int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, size_t *added)
 {
     *moved = *added = 0;
     size_t before = r->st.reclassified;
@@ -813,7 +813,7 @@ int par_merge_reclassify(ref_mesher *r, int missing, size_t *moved, size_t *adde
     if (!missing) {
         /* Classified while nothing is missing: the flood fill is right. */
         rc = ref_classify(r, NULL, moved, NULL);
-        if (rc || !*moved)
+        if (rc || (!*moved && !refine))
             return rc;
         r->st.reclassified += *moved;
     }

@@ -101,9 +101,12 @@ int par_merge_add_missing(ref_mesher *r, const void *data, size_t len, size_t *a
  * flood fill of ref_classify, then, when a tetrahedron moved, ref_refine
  * (sequential: what the move made bad is split here). With missing set
  * (pieces added by par_merge_add_missing, queued), ref_refine first
- * recovers them and classifies after that. *moved gets the tetrahedra
+ * recovers them and classifies after that; with refine set, ref_refine
+ * runs even when the classification moved nothing (bad tetrahedra that a
+ * PE left, ref_stats.left_elsewhere). *moved gets the tetrahedra
  * whose exterior flag or region changed, *added the vertices inserted.
  * Returns 0 or a negative code. */
-int par_merge_reclassify(ref_mesher *r, int missing, size_t *moved, size_t *added);
+int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved,
+                         size_t *added);
 
 #endif /* PDR_PAR_MERGE_H */

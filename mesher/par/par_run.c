@@ -395,6 +395,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->cpu_clock = pr->o.cpu_clock != 0;
     row->deferred = s->r.st.deferred;
     row->region_doubts = s->r.region_doubts;
+    row->left_elsewhere = s->r.st.left_elsewhere;
     const bd_set *bd = &s->r.bd;
     for (size_t i = 0; i < bd->nsegs; i++)
         row->missing_segs += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;

@@ -84,6 +84,8 @@ typedef struct par_table1 {
     uint64_t cpu_clock;      /* 1: the work times are CPU times */
     uint64_t region_doubts;  /* steps that may have passed on a wrong region
                                 or exterior flag (ref_mesher.region_doubts) */
+    uint64_t left_elsewhere; /* bad tetrahedra dropped: their split lay on
+                                another PE (ref_stats.left_elsewhere) */
 } par_table1;
 
 typedef struct par_run_opts {

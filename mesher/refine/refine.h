@@ -211,6 +211,9 @@ typedef struct ref_stats {
     size_t reclassified; /* tetrahedra the final classification moved */
     size_t deferred;     /* parallel: bad tetrahedra put back unstarted
                             because a cavity in progress held them */
+    size_t left_elsewhere; /* parallel: bad tetrahedra dropped because the
+                            split they needed lay on another PE (not given
+                            up: the merged mesh is refined once more) */
     /* after ref_count_bad() */
     size_t left_ratio;   /* interior tetrahedra with ratio >= bound */
     size_t left_ratio_angle;  /* ... left because their split needed a

@@ -326,7 +326,9 @@ static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, d
 
 /* ------------------------------------------------------------- splits */
 
-enum { SPLIT_DONE = 0, SPLIT_DEFERRED = 1, SPLIT_REFUSED = 2 };
+/* SPLIT_ELSEWHERE (parallel only): the piece or its split point is not on
+ * this PE; nothing was decided about it here. */
+enum { SPLIT_DONE = 0, SPLIT_DEFERRED = 1, SPLIT_REFUSED = 2, SPLIT_ELSEWHERE = 3 };
 
 /* Slivers (small dihedral angles, good radius-edge ratio) are split only
  * when their circumradius is at least this times their shortest edge. */
@@ -376,24 +378,30 @@ static int add_root(void *arg, uint32_t s)
  * tetrahedron to p. With the parallel hooks, it starts from a tetrahedron
  * of this PE in conflict with p, found around the piece being split (edge
  * ab, or face abc when c is not TM_NONE), after the cavity hook made p's
- * cavity local; a present piece no tetrahedron of this PE has is not
- * split here, and a missing one (no face or edge) is found by walking to
- * p from the star of one of its vertices.
+ * cavity local: the piece's face or edge found around one of its
+ * vertices, or else (a missing piece has none) the end of a walk to p
+ * from the star of one of them; when that walk leaves the PE before
+ * reaching a tetrahedron in conflict, the piece is not split here.
  * Returns 0 with r->cav searched, 1 when the piece is not on this PE any more (nothing
  * searched: the PE holding it splits it), REF_SETBACK via *setback, or a
  * negative code. */
 static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
-                        int missing, int *setback)
+                        int *setback)
 {
     tm_mesh *m = &r->m;
     *setback = 0;
     if (!r->hooks)
         return dt_cavity_search(m, p, m->vhint[a], DT_LOCATE, &r->cav);
     uint32_t t = TM_NONE;
-    int found = ref__find_in_star(m, a, b, c, &t);
-    if (!found && missing) {
-        /* A missing piece is no face or edge to start from: walk to p
-         * from the star of one of its vertices, without leaving this PE
+    /* On a PE the star of a vertex can come in pieces (some of its
+     * tetrahedra elsewhere): the face or edge may be found from another
+     * of its vertices. */
+    int found = ref__find_in_star(m, a, b, c, &t) || ref__find_in_star(m, b, a, c, &t) ||
+                (c != TM_NONE && ref__find_in_star(m, c, a, b, &t));
+    if (!found) {
+        /* A missing piece is no face or edge to start from, and a present
+         * one may lie beyond the parts of its stars this PE holds: walk to
+         * p from the star of one of its vertices, without leaving this PE
          * (a walk that meets another PE's face stops on the last
          * tetrahedron here, which will do if it is in conflict). */
         const uint32_t v[3] = {a, b, c};
@@ -454,11 +462,13 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     double p[3];
     ref__split_point(r, S.v[0], S.v[1], p);
     int setback;
-    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing, &setback);
+    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
     if (setback)
         return REF_SETBACK;
-    if (rc > 0)
-        return 0; /* not on this PE any more */
+    if (rc > 0) {
+        *result = SPLIT_ELSEWHERE; /* not on this PE any more */
+        return 0;
+    }
     if (rc)
         return rc;
     if (r->hooks) {
@@ -528,9 +538,10 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
 
 /* Splits, at once, the subsegments flagged encroached in r->marks, each
  * with the floor rmin; *done counts those split. */
-static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done)
+static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done, int *elsewhere)
 {
     *done = 0;
+    *elsewhere = 0;
     uint32_t ids[64];
     size_t n = 0;
     for (size_t k = 0; k < r->marks.n && n < 64; k++) {
@@ -549,6 +560,8 @@ static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done)
             return rc;
         if (res == SPLIT_DONE)
             (*done)++;
+        else if (res == SPLIT_ELSEWHERE)
+            *elsewhere = 1;
     }
     return 0;
 }
@@ -571,11 +584,13 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         return 0;
     }
     int setback;
-    int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], missing, &setback);
+    int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], &setback);
     if (setback)
         return REF_SETBACK;
-    if (rc > 0)
-        return 0; /* not on this PE any more */
+    if (rc > 0) {
+        *result = SPLIT_ELSEWHERE; /* not on this PE any more */
+        return 0;
+    }
     if (rc)
         return rc;
     if (r->hooks) {
@@ -603,9 +618,10 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
     if (d.action == REF_SPLIT_SUBSEGS) {
         dt_cavity_abandon(m, &r->cav);
         size_t done;
-        rc = split_encroached_subsegs(r, rmin, &done);
-        *result = done ? SPLIT_DEFERRED : SPLIT_REFUSED;
-        if (!done)
+        int elsewhere;
+        rc = split_encroached_subsegs(r, rmin, &done, &elsewhere);
+        *result = done ? SPLIT_DEFERRED : elsewhere ? SPLIT_ELSEWHERE : SPLIT_REFUSED;
+        if (*result == SPLIT_REFUSED)
             r->bd.facs[id].flags |= BD_F_TOLERATED;
         return rc;
     }
@@ -627,7 +643,9 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
         int res;
         rc = split_subseg(r, sid, rmin, &res);
-        *result = res == SPLIT_DONE ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
+                  : res == SPLIT_ELSEWHERE ? SPLIT_ELSEWHERE
+                                           : SPLIT_REFUSED;
         return rc;
     }
     double rins = insertion_radius(r);
@@ -707,6 +725,10 @@ static int split_tet(ref_mesher *r, uint32_t t)
             if (g != BD_NONE)
                 rc = split_subfac(r, g, 0.0, &outcome);
         }
+        if (!rc && outcome == SPLIT_ELSEWHERE) {
+            r->st.left_elsewhere++;
+            return 0; /* for the merge to finish */
+        }
         if (rc || outcome != SPLIT_REFUSED) {
             if (!rc && !tm_is_dead(m, t))
                 rc = queue_tet(r, t);
@@ -763,8 +785,9 @@ static int split_tet(ref_mesher *r, uint32_t t)
             memcpy(was, m->tets[t].v, sizeof was);
             if (d.action == REF_SPLIT_SUBSEGS) {
                 size_t done;
-                rc = split_encroached_subsegs(r, floor, &done);
-                outcome = done ? SPLIT_DONE : SPLIT_REFUSED;
+                int elsewhere;
+                rc = split_encroached_subsegs(r, floor, &done, &elsewhere);
+                outcome = done ? SPLIT_DONE : elsewhere ? SPLIT_ELSEWHERE : SPLIT_REFUSED;
             } else {
                 const ref_mark *mk = &r->marks.m[d.which];
                 uint32_t g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
@@ -777,6 +800,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
                 return 0;
             if (outcome == SPLIT_REFUSED)
                 give_up(r, t, 0);
+            else if (outcome == SPLIT_ELSEWHERE)
+                r->st.left_elsewhere++; /* not given up: the merge finishes it */
             else
                 rc = queue_tet(r, t);
             return rc;
