@@ -90,8 +90,11 @@ int am__table_get(pr_reader *r, uint64_t *job, uint32_t max, uint32_t *size,
     for (uint32_t i = 0; i < n; i++)
         if (get_str(r, AM__EP_MAX, &eps[i]))
             return r->err;
-    *size = n;
-    return pr_reader_finish(r);
+    /* The count only for a body that ends where it should. */
+    int rc = pr_reader_finish(r);
+    if (!rc)
+        *size = n;
+    return rc;
 }
 
 void am__peer_hello_put(pr_buf *b, const am__peer_hello *m)

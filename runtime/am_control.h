@@ -64,8 +64,9 @@ void am__hello_put(pr_buf *b, const am__hello *m);
 int am__hello_get(pr_reader *r, am__hello *m);
 
 /* TABLE: job, then size endpoint strings. ep[i] is read into eps[i] by the
- * decoder, which allocates nothing: it first returns the count with
- * am__table_get_count, then fills a caller array of that many entries. */
+ * decoder, which allocates nothing: eps is the caller's array of max
+ * entries, and a table of more than max (or of none) is refused. *size is
+ * the count on success and 0 otherwise. */
 void am__table_put(pr_buf *b, uint64_t job, uint32_t size,
                    char *const *endpoints);
 int am__table_get(pr_reader *r, uint64_t *job, uint32_t max, uint32_t *size,

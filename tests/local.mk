@@ -43,3 +43,50 @@ installcheck-local:
 	$(CC) -o am-installcheck$(EXEEXT) $(srcdir)/tests/installcheck.c $$flags \
 		-Wl,-rpath,'$(DESTDIR)$(libdir)' && ./am-installcheck$(EXEEXT); \
 	rc=$$?; rm -f am-installcheck$(EXEEXT); exit $$rc
+
+# Fuzz targets of the readers, libam's control frames and the command line
+# (tests/fuzz/fuzz_<target>.c on tests/fuzz/fuzz_input.h). tools/fuzz
+# builds and runs them with libFuzzer (also proto's, tests/proto.mk); here
+# each is linked with a plain driver that replays its regression corpus
+# tests/corpus/<dir>/ (hand-written seeds, plus what fuzzing found).
+noinst_HEADERS += tests/fuzz/fuzz_input.h tests/fuzz/fuzz_plc.h
+EXTRA_DIST += tests/corpus/plc tests/corpus/runtime tests/corpus/cli
+dist_noinst_SCRIPTS += tools/fuzz
+FUZZ_REPLAY = \
+	tests/fuzz/replay_poly \
+	tests/fuzz/replay_smesh \
+	tests/fuzz/replay_off \
+	tests/fuzz/replay_stl \
+	tests/fuzz/replay_node \
+	tests/fuzz/replay_control \
+	tests/fuzz/replay_cli
+check_PROGRAMS += $(FUZZ_REPLAY)
+TESTS += $(FUZZ_REPLAY)
+FUZZ_MESH_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
+FUZZ_MESH_LIBS = libpdrmesh.la -lm
+tests_fuzz_replay_poly_SOURCES = tests/fuzz/fuzz_poly.c tests/fuzz/replay_input.c
+tests_fuzz_replay_poly_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_smesh_SOURCES = tests/fuzz/fuzz_smesh.c tests/fuzz/replay_input.c
+tests_fuzz_replay_smesh_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_off_SOURCES = tests/fuzz/fuzz_off.c tests/fuzz/replay_input.c
+tests_fuzz_replay_off_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_stl_SOURCES = tests/fuzz/fuzz_stl.c tests/fuzz/replay_input.c
+tests_fuzz_replay_stl_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_node_SOURCES = tests/fuzz/fuzz_node.c tests/fuzz/replay_input.c
+tests_fuzz_replay_node_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_control_SOURCES = tests/fuzz/fuzz_control.c tests/fuzz/replay_input.c
+tests_fuzz_replay_control_LDADD = libam.la libpdrproto.la $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_control_LDFLAGS = $(AM_LDFLAGS) -static
+tests_fuzz_replay_cli_SOURCES = tests/fuzz/fuzz_cli.c tests/fuzz/replay_input.c \
+	mesher/cli/cli_util.c mesher/cli/cmd_check.c mesher/cli/cmd_delaunay.c \
+	mesher/cli/cmd_domain.c mesher/cli/cmd_mesh.c mesher/cli/mesh_par.c \
+	mesher/cli/mesh_pipeline.c
+tests_fuzz_replay_cli_CFLAGS = $(FUZZ_MESH_CFLAGS)
+tests_fuzz_replay_cli_LDADD = libpdrmesh.la libam.la libpdrproto.la \
+	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_cli_LDFLAGS = $(AM_LDFLAGS) -static
+
+# Absurd counts in headers are refused before anything is allocated for
+# them (run under a small ulimit -v).
+TESTS += tests/huge-counts.sh
+dist_check_SCRIPTS += tests/huge-counts.sh

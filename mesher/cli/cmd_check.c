@@ -79,7 +79,10 @@ int pdr_cmd_check(int argc, char **argv)
     int quiet = 0, hull = 1, c, quality = 1;
     const char *plc_path = NULL, *face_path = NULL, *plot = NULL;
     double max_ratio = 0, merge_angle = FM_MERGE_ANGLE;
-    optind = 1;
+    /* 0, not 1: glibc (and musl) then also forget where an earlier parse
+     * stopped inside a cluster of short options ("-Qh"), which would
+     * otherwise be read from that parse's argv. */
+    optind = 0;
     while ((c = getopt_long(argc, argv, "qh", opts, NULL)) != -1) {
         switch (c) {
         case 'D':
@@ -133,6 +136,8 @@ int pdr_cmd_check(int argc, char **argv)
                                               : "more than one mesh given");
         return PDR_EXIT_USAGE;
     }
+    if (pdr_cli_parse_only)
+        return PDR_EXIT_OK;
     const char *arg = argv[optind];
     size_t n = strlen(arg);
     if (n > 5 && (!strcmp(arg + n - 5, ".node")))

@@ -71,7 +71,10 @@ int pdr_cmd_delaunay(int argc, char **argv)
     unsigned long long seed = 1;
     int c;
     char *end;
-    optind = 1;
+    /* 0, not 1: glibc (and musl) then also forget where an earlier parse
+     * stopped inside a cluster of short options ("-Qh"), which would
+     * otherwise be read from that parse's argv. */
+    optind = 0;
     while ((c = getopt_long(argc, argv, "o:qh", opts, NULL)) != -1) {
         switch (c) {
         case 'o':
@@ -129,6 +132,8 @@ int pdr_cmd_delaunay(int argc, char **argv)
         pdr_cli_error("delaunay", "--%s needs -o BASE", faces ? "faces" : "points-only");
         return PDR_EXIT_USAGE;
     }
+    if (pdr_cli_parse_only)
+        return PDR_EXIT_OK;
 
     int status = PDR_EXIT_FAIL;
     pdr_diag diag = {0};

@@ -101,7 +101,10 @@ int pdr_cmd_domain(int argc, char **argv)
     double level = sphere.level;
     /* how many options of each domain were given */
     int given[DOM_COUNT] = {0}, c, idx;
-    optind = 1;
+    /* 0, not 1: glibc (and musl) then also forget where an earlier parse
+     * stopped inside a cluster of short options ("-Qh"), which would
+     * otherwise be read from that parse's argv. */
+    optind = 0;
     while ((c = getopt_long(argc, argv, "o:h", opts, &idx)) != -1) {
         double *dst = NULL;
         switch (c) {
@@ -156,6 +159,8 @@ int pdr_cmd_domain(int argc, char **argv)
         out = defname;
     }
 
+    if (pdr_cli_parse_only)
+        return PDR_EXIT_OK;
     plc p;
     pdr_diag d = {0};
     int rc = plc_init(&p, out);

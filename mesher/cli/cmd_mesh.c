@@ -363,7 +363,10 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
     int have_a = 0, c, rc = 0;
     mp_default_opts(o);
     mpar_default_opts(po);
-    optind = 1;
+    /* 0, not 1: glibc (and musl) then also forget where an earlier parse
+     * stopped inside a cluster of short options ("-Qh"), which would
+     * otherwise be read from that parse's argv. */
+    optind = 0;
     while (!rc && (c = getopt_long(argc, argv, "q:a:L:o:f:Qhn:", long_opts, NULL)) != -1) {
         switch (c) {
         case 'q':
@@ -497,6 +500,8 @@ int pdr_cmd_mesh(int argc, char **argv)
         pdr_cli_error("mesh", "--latency and --bandwidth go with -n (the launcher injects them)");
         return PDR_EXIT_USAGE;
     }
+    if (pdr_cli_parse_only)
+        return PDR_EXIT_OK;
     if (po.nprocs && !po.parallel)
         return mpar_launch(argc, argv, &po);
     /* The refinement's debugging aids, turned on from the environment

@@ -5,6 +5,7 @@
 noinst_HEADERS += mesher/cli/mesh_par.h mesher/cli/mesh_pipeline.h mesher/cli/pdr_cli.h
 pdr_SOURCES += \
 	mesher/cli/pdr.c \
+	mesher/cli/cli_util.c \
 	mesher/cli/cmd_check.c \
 	mesher/cli/cmd_delaunay.c \
 	mesher/cli/cmd_domain.c \

@@ -21,29 +21,6 @@ static const struct command commands[] = {
 #undef PDR_CMD_ENTRY
 };
 
-void pdr_cli_error(const char *cmd, const char *fmt, ...)
-{
-    va_list ap;
-    fprintf(stderr, "pdr %s: ", cmd);
-    va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
-    va_end(ap);
-    fputc('\n', stderr);
-}
-
-int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out)
-{
-    char *end;
-    errno = 0;
-    double x = strtod(arg, &end);
-    if (errno || end == arg || *end || !(x >= 0 && x < 90)) {
-        pdr_cli_error(cmd, "--merge-angle needs an angle in [0, 90) degrees, not '%s'", arg);
-        return -1;
-    }
-    *out = x;
-    return 0;
-}
-
 static void usage(FILE *out)
 {
     fprintf(out,

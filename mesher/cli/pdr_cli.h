@@ -33,4 +33,10 @@ void pdr_cli_error(const char *cmd, const char *fmt, ...)
  * into *out. Returns 0, or -1 after a usage message naming cmd. */
 int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out);
 
+/* When nonzero, the commands mesh, check, delaunay and domain stop after
+ * parsing their command line: they print the same usage errors and return
+ * the same usage status, but return PDR_EXIT_OK instead of running the
+ * job (no file is read or written). For the command-line fuzz target. */
+extern int pdr_cli_parse_only;
+
 #endif /* PDR_CLI_H */

@@ -52,16 +52,31 @@ int face_read(const char *path, size_t nnodes, long first, uint32_t **tri, int *
         rc = textin_error(&t, "unexpected values after the header");
         goto done;
     }
-    out = malloc(((size_t)n * 3 + 1) * sizeof *out);
-    if (nm)
-        mk = malloc(((size_t)n + 1) * sizeof *mk);
-    if (!out || (nm && !mk)) {
-        pdr_diag_add(diag, path, 0, "out of memory for %ld faces", n);
-        rc = PDR_ENOMEM;
-        goto done;
-    }
+    /* The arrays grow with the faces read (one spare entry, so that they
+     * exist for n = 0): the header's count alone is not trusted with an
+     * allocation. */
+    size_t cap = 0;
     long lo = first, hi = first + (long)nnodes - 1, ffirst = 0;
-    for (long i = 0; i < n; i++) {
+    for (long i = 0; i <= n; i++) {
+        if ((size_t)i == cap) {
+            size_t ncap = cap ? 2 * cap : 1024;
+            if (ncap > (size_t)n + 1)
+                ncap = (size_t)n + 1;
+            uint32_t *q = realloc(out, ncap * 3 * sizeof *out);
+            if (q)
+                out = q;
+            int *qm = q && nm ? realloc(mk, ncap * sizeof *mk) : NULL;
+            if (qm)
+                mk = qm;
+            if (!q || (nm && !qm)) {
+                pdr_diag_add(diag, path, t.line, "out of memory for %ld faces", n);
+                rc = PDR_ENOMEM;
+                goto done;
+            }
+            cap = ncap;
+        }
+        if (i == n)
+            break;
         rc = textin_next(&t);
         if (rc == 0) {
             pdr_diag_add(diag, path, t.line, "file ends after %ld of %ld faces", i, n);

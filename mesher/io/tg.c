@@ -1,6 +1,7 @@
 /* io/tg.c -- reading and writing TetGen .node/.ele/.face files. */
 #include "config.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,13 +29,57 @@ static int no_more_values(textin *t, const char *what)
     return 0;
 }
 
+/* Makes room for point i (0-based) of n in out, growing the arrays
+ * geometrically: a header's count is not trusted with an allocation before
+ * the points are there, so a tiny file that promises billions of points
+ * fails at its end ("file ends after ...") instead of in malloc. */
+static int node_room(tg_nodes *out, size_t i, size_t n, size_t *cap)
+{
+    if (i < *cap)
+        return 0;
+    size_t ncap = *cap ? *cap * 2 : 1024;
+    if (ncap > n)
+        ncap = n;
+    double *xyz = realloc(out->xyz, ncap * 3 * sizeof *xyz);
+    if (!xyz)
+        return PDR_ENOMEM;
+    out->xyz = xyz;
+    if (out->nattr) {
+        double *a = realloc(out->attr, ncap * (size_t)out->nattr * sizeof *a);
+        if (!a)
+            return PDR_ENOMEM;
+        out->attr = a;
+    }
+    if (out->markers) {
+        long *m = realloc(out->marker, ncap * sizeof *m);
+        if (!m)
+            return PDR_ENOMEM;
+        out->marker = m;
+    }
+    *cap = ncap;
+    return 0;
+}
+
 int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag)
 {
     memset(out, 0, sizeof *out);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        pdr_diag_add(diag, path, 0, "cannot open: %s", strerror(errno));
+        return PDR_EIO;
+    }
+    int rc = tg_read_node_stream(f, path, out, diag);
+    fclose(f);
+    return rc;
+}
+
+int tg_read_node_stream(FILE *f, const char *path, tg_nodes *out, pdr_diag *diag)
+{
+    memset(out, 0, sizeof *out);
     textin t;
-    int rc = textin_open(&t, path, diag);
-    if (rc)
-        return rc;
+    textin_attach(&t, f, path, diag);
+    int rc;
+    size_t cap = 0;
     long n = 0, dim = 0, nattr = 0, markers = 0;
     if ((rc = textin_header(&t, "<#points> 3 <#attributes> <markers 0|1>")))
         goto done;
@@ -49,19 +94,8 @@ int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag)
         (rc = textin_opt_long(&t, "boundary marker flag", 0, 1, &markers)) < 0 ||
         (rc = no_more_values(&t, "header")))
         goto done;
-    out->n = (size_t)n;
     out->nattr = (int)nattr;
     out->markers = (int)markers;
-    out->xyz = malloc(((size_t)n * 3 + 1) * sizeof(double));
-    if (nattr)
-        out->attr = malloc(((size_t)n * (size_t)nattr + 1) * sizeof(double));
-    if (markers)
-        out->marker = malloc(((size_t)n + 1) * sizeof(long));
-    if (!out->xyz || (nattr && !out->attr) || (markers && !out->marker)) {
-        pdr_diag_add(diag, path, 0, "out of memory for %ld points", n);
-        rc = PDR_ENOMEM;
-        goto done;
-    }
     for (long i = 0; i < n; i++) {
         rc = textin_next(&t);
         if (rc == 0) {
@@ -71,6 +105,12 @@ int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag)
         }
         if (rc < 0)
             goto done;
+        if (node_room(out, (size_t)i, (size_t)n, &cap)) {
+            pdr_diag_add(diag, path, t.line, "out of memory for %ld points", n);
+            rc = PDR_ENOMEM;
+            goto done;
+        }
+        out->n = (size_t)i + 1;
         long idx;
         if ((rc = textin_long(&t, "point index", -(1L << 40), 1L << 40, &idx)))
             goto done;
@@ -100,6 +140,14 @@ int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag)
             goto done;
     }
     rc = 0;
+    if (!out->xyz) {
+        /* No points: still a valid (empty) array for the callers. */
+        out->xyz = malloc(sizeof *out->xyz);
+        if (!out->xyz) {
+            pdr_diag_add(diag, path, 0, "out of memory");
+            rc = PDR_ENOMEM;
+        }
+    }
 done:
     textin_close(&t);
     if (rc)
@@ -130,15 +178,27 @@ int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, si
     if ((rc = textin_opt_long(&t, "attribute count", 0, 1000, &nattr)) < 0 ||
         (rc = no_more_values(&t, "header")))
         goto done;
-    out = malloc(((size_t)n * 4 + 1) * sizeof *out);
-    if (!out) {
-        pdr_diag_add(diag, path, 0, "out of memory for %ld tetrahedra", n);
-        rc = PDR_ENOMEM;
-        goto done;
-    }
+    /* The array grows with the tetrahedra read, as in tg_read_node: the
+     * header's count alone is not trusted with an allocation. */
+    size_t cap = 0;
     long lo = first, hi = first + (long)nnodes - 1;
     long efirst = 0;
-    for (long i = 0; i < n; i++) {
+    for (long i = 0; i <= n; i++) {
+        if ((size_t)i == cap) {
+            size_t ncap = cap ? 2 * cap : 1024;
+            if (ncap > (size_t)n + 1)
+                ncap = (size_t)n + 1;
+            uint32_t *q = realloc(out, ncap * 4 * sizeof *out);
+            if (!q) {
+                pdr_diag_add(diag, path, t.line, "out of memory for %ld tetrahedra", n);
+                rc = PDR_ENOMEM;
+                goto done;
+            }
+            out = q;
+            cap = ncap;
+        }
+        if (i == n)
+            break;
         rc = textin_next(&t);
         if (rc == 0) {
             pdr_diag_add(diag, path, t.line, "file ends after %ld of %ld tetrahedra", i, n);

@@ -21,6 +21,7 @@
 #define PDR_IO_TETGEN_H
 
 #include <stddef.h>
+#include <stdio.h>
 #include <stdint.h>
 
 #include "mesh/mesh_export.h"
@@ -39,6 +40,8 @@ typedef struct tg_nodes {
 
 /* Reads a .node file; the caller owns *out (tg_nodes_free). */
 int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag);
+/* The same from an open stream (not closed); path names it in messages. */
+int tg_read_node_stream(FILE *f, const char *path, tg_nodes *out, pdr_diag *diag);
 void tg_nodes_free(tg_nodes *nodes);
 int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag);
 

@@ -54,6 +54,7 @@
 #define PDR_PLC_H
 
 #include <stddef.h>
+#include <stdio.h>
 #include <stdint.h>
 
 #include "base/pdr_error.h"
@@ -196,6 +197,11 @@ int plc_add_region(plc *p, const double xyz[3], double attr, double maxvol,
  * geometry: call plc_validate(). See plc/plc_read.c for the format details
  * and limitations. */
 int plc_read(plc *p, const char *path, pdr_diag *diag);
+/* The same from an open stream (read from its start, not closed; it must
+ * be seekable to tell binary STL by its size). path names the input in
+ * messages, its extension picks the format, and a .poly/.smesh with a
+ * vertex count of 0 reads the .node file next to it. */
+int plc_read_stream(plc *p, FILE *f, const char *path, pdr_diag *diag);
 
 /* Writes p as a TetGen .poly (1-based, facet markers, holes, regions),
  * atomically. Returns 0, PDR_EIO or PDR_ENOMEM with a message in diag. */

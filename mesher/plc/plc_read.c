@@ -44,7 +44,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
+#include <sys/types.h>
 
 #include "base/pdr_util.h"
 #include "plc/plc.h"
@@ -219,11 +219,15 @@ static int read_polygon(plc *p, textin *t, struct corner_buf *cb, int smesh,
         return rc;
     if (smesh && n < 3)
         return textin_error(t, "a facet needs at least 3 corners, not %ld", n);
-    if (plc__grow((void **)&cb->c, &cb->cap, (size_t)n, sizeof *cb->c))
-        return oom(t);
-    for (long i = 0; i < n; i++)
+    /* The buffer grows with the corners read, not to the count: a count
+     * of a billion in a small file must end in "unexpected end of file",
+     * not in an allocation of gigabytes. */
+    for (long i = 0; i < n; i++) {
+        if (plc__grow((void **)&cb->c, &cb->cap, (size_t)i + 1, sizeof *cb->c))
+            return oom(t);
         if ((rc = read_corner(p, t, &cb->c[i])))
             return rc;
+    }
     if (smesh && markers) {
         long m = 0;
         if ((rc = textin_opt_long(t, "facet marker", -MAX_COUNT, MAX_COUNT, &m)) < 0)
@@ -368,12 +372,11 @@ static int read_holes_regions(plc *p, textin *t)
     return rc;
 }
 
-static int read_tetgen(plc *p, const char *path, pdr_diag *diag, int smesh)
+static int read_tetgen(plc *p, FILE *f, const char *path, pdr_diag *diag, int smesh)
 {
     textin t;
-    int rc = textin_open(&t, path, diag);
-    if (rc)
-        return rc;
+    int rc;
+    textin_attach(&t, f, path, diag);
     if (!(rc = read_part1(p, &t)) && !(rc = read_poly_facets(p, &t, smesh)))
         rc = read_holes_regions(p, &t);
     textin_close(&t);
@@ -382,12 +385,11 @@ static int read_tetgen(plc *p, const char *path, pdr_diag *diag, int smesh)
 
 /* --------------------------------------------------------------------- OFF */
 
-static int read_off(plc *p, const char *path, pdr_diag *diag)
+static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
 {
     textin t;
-    int rc = textin_open(&t, path, diag);
-    if (rc)
-        return rc;
+    int rc;
+    textin_attach(&t, in, path, diag);
     p->base = 0;
     long nv, nf, ne;
     uint32_t *c = NULL;
@@ -428,13 +430,15 @@ static int read_off(plc *p, const char *path, pdr_diag *diag)
         if ((rc = need_line(&t, "the face list")) ||
             (rc = textin_long(&t, "corner count", 3, MAX_COUNT, &n)))
             goto out;
-        if (plc__grow((void **)&c, &cap, (size_t)n, sizeof *c)) {
-            rc = oom(&t);
-            goto out;
-        }
-        for (long i = 0; i < n; i++)
+        for (long i = 0; i < n; i++) {
+            /* Grown with the corners read, as in read_polygon. */
+            if (plc__grow((void **)&c, &cap, (size_t)i + 1, sizeof *c)) {
+                rc = oom(&t);
+                goto out;
+            }
             if ((rc = read_corner(p, &t, &c[i])))
                 goto out;
+        }
         /* Anything after the corners is a colour: ignored. */
         if (plc_begin_facet(p, 0, t.line) || plc_add_polygon(p, c, (uint32_t)n, t.line)) {
             rc = oom(&t);
@@ -648,42 +652,55 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
     return rc;
 }
 
-static int read_stl(plc *p, const char *path, pdr_diag *diag)
+/* The size of the stream in bytes, or -1 if it cannot be told (a pipe).
+ * Leaves the position at the start. */
+static long long stream_size(FILE *f)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        pdr_diag_add(diag, path, 0, "cannot open: %s", strerror(errno));
-        return PDR_EIO;
-    }
-    struct stat st;
+    if (fseeko(f, 0, SEEK_END) != 0)
+        return -1;
+    off_t end = ftello(f);
+    if (fseeko(f, 0, SEEK_SET) != 0)
+        return -1;
+    return end < 0 ? -1 : (long long)end;
+}
+
+static int read_stl(plc *p, FILE *f, const char *path, pdr_diag *diag)
+{
     unsigned char head[84];
-    int rc;
+    long long size = stream_size(f);
     size_t got = fread(head, 1, sizeof head, f);
-    if (fstat(fileno(f), &st) == 0 && got == sizeof head) {
-        unsigned long n = (unsigned long)head[80] | (unsigned long)head[81] << 8 |
-                          (unsigned long)head[82] << 16 | (unsigned long)head[83] << 24;
-        if ((unsigned long long)st.st_size == 84ull + 50ull * n) {
-            rc = read_stl_binary(p, f, path, n, diag);
-            fclose(f);
-            return rc;
-        }
+    unsigned long n = 0;
+    if (got == sizeof head) {
+        n = (unsigned long)head[80] | (unsigned long)head[81] << 8 |
+            (unsigned long)head[82] << 16 | (unsigned long)head[83] << 24;
+        if (size >= 0 && (unsigned long long)size == 84ull + 50ull * n)
+            return read_stl_binary(p, f, path, n, diag);
     }
     if (got < 5 || memcmp(head, "solid", 5) != 0) {
-        pdr_diag_add(diag, path, 0, "neither ASCII STL (no 'solid' at the start) "
-                                    "nor binary STL (the size does not match the "
-                                    "triangle count)");
-        fclose(f);
+        /* Say what the header promised: a count that does not fit the
+         * file is refused here, before anything is allocated for it. */
+        if (got == sizeof head && size >= 0)
+            pdr_diag_add(diag, path, 0, "neither ASCII STL (no 'solid' at the start) "
+                                        "nor binary STL (the header's %lu triangles "
+                                        "need %llu bytes, the file has %lld)",
+                         n, 84ull + 50ull * n, size);
+        else
+            pdr_diag_add(diag, path, 0, "neither ASCII STL (no 'solid' at the start) "
+                                        "nor binary STL (the size does not match the "
+                                        "triangle count)");
         return PDR_EPARSE;
     }
-    rewind(f);
-    rc = read_stl_ascii(p, f, path, diag);
-    fclose(f);
-    return rc;
+    if (fseeko(f, 0, SEEK_SET) != 0) {
+        pdr_diag_add(diag, path, 0, "cannot rewind: %s", strerror(errno));
+        return PDR_EIO;
+    }
+    return read_stl_ascii(p, f, path, diag);
 }
 
 /* ---------------------------------------------------------------- dispatch */
 
-int plc_read(plc *p, const char *path, pdr_diag *diag)
+/* Records the names of the input in p. */
+static int set_paths(plc *p, const char *path, pdr_diag *diag)
 {
     free(p->path);
     free(p->vfile);
@@ -696,19 +713,61 @@ int plc_read(plc *p, const char *path, pdr_diag *diag)
     }
     memcpy(p->path, path, n);
     memcpy(p->vfile, path, n);
+    return 0;
+}
 
+/* The reader of path's extension; set *fmt to it, or report it unknown. */
+enum { FMT_POLY, FMT_SMESH, FMT_OFF, FMT_STL };
+static int format_of(const char *path, pdr_diag *diag, int *fmt)
+{
     const char *slash = strrchr(path, '/');
     const char *dot = strrchr(path, '.');
     const char *ext = dot && (!slash || dot > slash) ? dot : "";
     if (!strcasecmp(ext, ".poly"))
-        return read_tetgen(p, path, diag, 0);
-    if (!strcasecmp(ext, ".smesh"))
-        return read_tetgen(p, path, diag, 1);
-    if (!strcasecmp(ext, ".off"))
-        return read_off(p, path, diag);
-    if (!strcasecmp(ext, ".stl"))
-        return read_stl(p, path, diag);
-    pdr_diag_add(diag, path, 0, "unknown input format '%s': expected .poly, "
-                                ".smesh, .off or .stl", *ext ? ext : "(no extension)");
-    return PDR_EUNSUPPORTED;
+        *fmt = FMT_POLY;
+    else if (!strcasecmp(ext, ".smesh"))
+        *fmt = FMT_SMESH;
+    else if (!strcasecmp(ext, ".off"))
+        *fmt = FMT_OFF;
+    else if (!strcasecmp(ext, ".stl"))
+        *fmt = FMT_STL;
+    else {
+        pdr_diag_add(diag, path, 0, "unknown input format '%s': expected .poly, "
+                                    ".smesh, .off or .stl", *ext ? ext : "(no extension)");
+        return PDR_EUNSUPPORTED;
+    }
+    return 0;
+}
+
+int plc_read_stream(plc *p, FILE *f, const char *path, pdr_diag *diag)
+{
+    int fmt, rc;
+    if ((rc = set_paths(p, path, diag)) || (rc = format_of(path, diag, &fmt)))
+        return rc;
+    switch (fmt) {
+    case FMT_POLY:
+        return read_tetgen(p, f, path, diag, 0);
+    case FMT_SMESH:
+        return read_tetgen(p, f, path, diag, 1);
+    case FMT_OFF:
+        return read_off(p, f, path, diag);
+    default:
+        return read_stl(p, f, path, diag);
+    }
+}
+
+int plc_read(plc *p, const char *path, pdr_diag *diag)
+{
+    int fmt, rc;
+    if ((rc = set_paths(p, path, diag)) || (rc = format_of(path, diag, &fmt)))
+        return rc;
+    /* Binary for STL; the text formats read the same either way. */
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        pdr_diag_add(diag, path, 0, "cannot open: %s", strerror(errno));
+        return PDR_EIO;
+    }
+    rc = plc_read_stream(p, f, path, diag);
+    fclose(f);
+    return rc;
 }
