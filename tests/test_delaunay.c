@@ -6,6 +6,8 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "mesh/dt.h"
 #include "geom/pred.h"
@@ -449,6 +451,310 @@ START_TEST(marked_faces_stop_the_search_and_move_with_commit)
 }
 END_TEST
 
+/* The constrained cavity (DT_STOP_MARKED with may_cross). Set-up: an
+ * interior face (t, f) of a random mesh, its neighbour u across it, and
+ * a point p just inside t next to the face's centroid (so that u is in
+ * conflict with p too). All four faces of u are marked, so the search can
+ * reach u only through a face it is allowed to cross. */
+struct cross_face {
+    uint32_t v[3];
+    int calls;
+};
+
+static int cross_if_face(void *arg, const tm_mesh *m, uint32_t t, int f)
+{
+    struct cross_face *x = arg;
+    x->calls++;
+    int hit = 0;
+    for (int k = 0; k < 3; k++) {
+        uint32_t w = m->tets[t].v[tm_face_vtx[f][k]];
+        hit += w == x->v[0] || w == x->v[1] || w == x->v[2];
+    }
+    return hit == 3;
+}
+
+static int in_list(const uint32_t *a, size_t n, uint32_t x)
+{
+    for (size_t i = 0; i < n; i++)
+        if (a[i] == x)
+            return 1;
+    return 0;
+}
+
+/* A mesh with a wall: random points off the slab |z - 1/2| < 0.15 and a
+ * jittered 8 x 8 grid on the plane z = 1/2, whose triangles (circumradii
+ * below 0.15) are then faces of the Delaunay tetrahedralization; every
+ * face with its three vertices on the plane is marked, like the subfacets
+ * of a facet. */
+static void wall_mesh(tm_mesh *m, uint64_t seed, int32_t marker)
+{
+    ck_assert_int_eq(tm_init(m, TM_FEAT_MARKERS), 0);
+    rng_state = seed;
+    for (int i = 0; i < 400; i++) {
+        double z = rnd01();
+        if (fabs(z - 0.5) < 0.15)
+            continue;
+        add(m, rnd01(), rnd01(), z);
+    }
+    for (int i = 0; i < 8; i++)
+        for (int j = 0; j < 8; j++)
+            add(m, (i + 0.5 + 0.3 * (rnd01() - 0.5)) / 8, (j + 0.5 + 0.3 * (rnd01() - 0.5)) / 8,
+                0.5);
+    ck_assert_int_eq(dt_build(m, NULL, NULL), 0);
+    for (uint32_t x = 0; x < m->nslots; x++) {
+        if (tm_is_dead(m, x))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            int on = 1;
+            for (int s = 0; s < 3; s++) {
+                uint32_t w = m->tets[x].v[tm_face_vtx[k][s]];
+                on &= w != TM_VINF && tm_xyz(m, w)[2] == 0.5;
+            }
+            if (on)
+                tm_mark_face(m, x, k, marker);
+        }
+    }
+}
+
+/* A marked face (t, f) near the middle of the wall, with t above it and u
+ * below; p at height h above its centroid (h = 0: on it exactly). */
+static void wall_face(const tm_mesh *m, uint32_t *t, int *f, uint32_t *u, double p[3], double h)
+{
+    for (uint32_t x = 0; x < m->nslots; x++) {
+        if (tm_is_dead(m, x) || tm_is_ghost(m, x))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            if (!(m->flags[x] & TM_F_FACEMARK(k)) || tm_xyz(m, m->tets[x].v[k])[2] < 0.5)
+                continue;
+            double c[3] = {0, 0, 0};
+            for (int s = 0; s < 3; s++)
+                for (int d = 0; d < 3; d++)
+                    c[d] += tm_xyz(m, m->tets[x].v[tm_face_vtx[k][s]])[d];
+            if (fabs(c[0] / 3 - 0.5) > 0.15 || fabs(c[1] / 3 - 0.5) > 0.15)
+                continue;
+            *t = x;
+            *f = k;
+            *u = tm_ltet(m->tets[x].n[k]);
+            p[0] = c[0] / 3;
+            p[1] = c[1] / 3;
+            p[2] = 0.5 + h;
+            return;
+        }
+    }
+    ck_abort_msg("no face on the wall");
+}
+
+/* may_cross for a point on the wall: the wall faces whose circumcircle
+ * holds the point (its 2D cavity). */
+struct cross_disc {
+    const double *p;
+    int calls;
+};
+
+static int cross_if_in_circle(void *arg, const tm_mesh *m, uint32_t t, int f)
+{
+    struct cross_disc *x = arg;
+    x->calls++;
+    const uint32_t *v = m->tets[t].v;
+    const uint8_t *fv = tm_face_vtx[f];
+    return pred_incircle3d_sos(tm_xyz(m, v[fv[0]]), tm_xyz(m, v[fv[1]]), tm_xyz(m, v[fv[2]]),
+                               x->p) > 0;
+}
+
+static void assert_valid(const tm_mesh *m)
+{
+    vf_report r = {0};
+    vf_check(m, VF_TOPOLOGY | VF_ORIENTATION | VF_HULL, &r);
+    if (vf_defects(&r))
+        vf_print(&r, stderr);
+    ck_assert_uint_eq(vf_defects(&r), 0);
+    for (uint32_t t = 0; t < m->nslots; t++)
+        ck_assert(!(m->flags[t] & TM_F_CAVITY));
+}
+
+static size_t count_marks(const tm_mesh *m)
+{
+    size_t n = 0;
+    for (uint32_t x = 0; x < m->nslots; x++)
+        if (!tm_is_dead(m, x))
+            for (int k = 0; k < 4; k++)
+                n += (m->flags[x] & TM_F_FACEMARK(k)) != 0;
+    return n;
+}
+
+START_TEST(constrained_cavity_stops_at_a_marked_face)
+{
+    tm_mesh m;
+    wall_mesh(&m, 21, 5);
+    size_t marks = count_marks(&m);
+    ck_assert_uint_gt(marks, 100);
+    uint32_t t, u;
+    int f;
+    double p[3];
+    wall_face(&m, &t, &f, &u, p, 1e-3);
+    uint32_t fv[3];
+    for (int k = 0; k < 3; k++)
+        fv[k] = m.tets[t].v[tm_face_vtx[f][k]];
+    dt_cavity c;
+    dt_cavity_init(&c);
+    /* Ordinary: the cavity holds both t and u, it crosses the wall. */
+    ck_assert_int_eq(dt_cavity_search(&m, p, t, 0, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert(in_list(c.tets, c.ntets, t));
+    ck_assert(in_list(c.tets, c.ntets, u));
+    size_t n0 = c.ntets;
+    uint32_t *all = malloc(n0 * sizeof *all);
+    memcpy(all, c.tets, n0 * sizeof *all);
+    dt_cavity_abandon(&m, &c);
+
+    /* Constrained, nothing may be crossed: the cavity stays above the
+     * wall, part of the ordinary one, and face (t, f) bounds it. */
+    struct cross_face none = {{0, 0, 0}, 0};
+    c.may_cross = cross_if_face;
+    c.cross_arg = &none;
+    ck_assert_int_eq(dt_cavity_search(&m, p, t, DT_STOP_MARKED, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert(!in_list(c.tets, c.ntets, u));
+    ck_assert_uint_lt(c.ntets, n0);
+    for (size_t i = 0; i < c.ntets; i++) {
+        ck_assert(in_list(all, n0, c.tets[i]));
+        for (int s = 0; s < 4; s++) {
+            uint32_t w = m.tets[c.tets[i]].v[s];
+            ck_assert(w == TM_VINF || tm_xyz(&m, w)[2] >= 0.5);
+        }
+    }
+    int stopped = 0;
+    size_t nm = 0;
+    for (size_t i = 0; i < c.nbnd; i++)
+        if (c.bnd[i].reason == DT_BND_MARKED) {
+            nm++;
+            stopped += c.bnd[i].tet == t && c.bnd[i].face == f;
+        }
+    ck_assert_int_eq(stopped, 1);
+    ck_assert_uint_eq(c.nmarked, nm);
+    ck_assert_int_eq(none.calls, (int)nm);
+    /* The cut cavity is a star; committed, the wall stays whole (its
+     * marks move to the new tetrahedra, on both sides). */
+    ck_assert(dt_cavity_is_star(&m, &c));
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+    ck_assert_int_eq(dt_cavity_commit(&m, v, &c), 0);
+    ck_assert(!tm_is_dead(&m, u));
+    ck_assert_uint_eq(count_marks(&m), marks);
+    uint32_t t2;
+    int f2;
+    ck_assert(find_face(&m, fv[0], fv[1], fv[2], &t2, &f2));
+    ck_assert_int_eq(tm_face_marker(&m, t2, f2), 5);
+    tm_link l = m.tets[t2].n[f2];
+    ck_assert_int_eq(tm_face_marker(&m, tm_ltet(l), tm_lface(l)), 5);
+    assert_valid(&m);
+    dt_cavity_free(&c);
+    free(all);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(constrained_cavity_crosses_the_face_it_splits)
+{
+    tm_mesh m;
+    wall_mesh(&m, 22, 9);
+    size_t marks = count_marks(&m);
+    uint32_t t, u;
+    int f;
+    double p[3];
+    wall_face(&m, &t, &f, &u, p, 0.0); /* p on the wall, in face f */
+    uint32_t fv[3];
+    for (int k = 0; k < 3; k++)
+        fv[k] = m.tets[t].v[tm_face_vtx[f][k]];
+    dt_cavity c;
+    dt_cavity_init(&c);
+    struct cross_disc allow = {p, 0};
+    c.may_cross = cross_if_in_circle;
+    c.cross_arg = &allow;
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_STOP_MARKED, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert_int_ge(allow.calls, 1);
+    /* Both sides of the split faces are in the cavity (so the same as the
+     * ordinary cavity: every other wall face is outside p's circle, and so
+     * are the tetrahedra on it). */
+    ck_assert(in_list(c.tets, c.ntets, t));
+    ck_assert(in_list(c.tets, c.ntets, u));
+    ck_assert_uint_eq(c.nmarked, 0);
+    ck_assert(dt_cavity_is_star(&m, &c));
+    size_t split = 0;
+    for (size_t i = 0; i < c.ntets; i++)
+        for (int k = 0; k < 4; k++)
+            split += (m.flags[c.tets[i]] & TM_F_FACEMARK(k)) != 0;
+    ck_assert_uint_ge(split, 2);
+    uint32_t v;
+    ck_assert_int_eq(tm_add_vertex(&m, p, &v), 0);
+    ck_assert_int_eq(dt_cavity_commit(&m, v, &c), 0);
+    uint32_t t2;
+    int f2;
+    ck_assert(!find_face(&m, fv[0], fv[1], fv[2], &t2, &f2)); /* split */
+    ck_assert_uint_eq(count_marks(&m), marks - split); /* the rest stays */
+    assert_valid(&m);
+    /* Without may_cross the same point stops at face f from either side:
+     * no star (p lies on it), so a caller would not commit. */
+    double q[3] = {p[0], p[1], p[2]};
+    q[0] += 1e-9;
+    dt_cavity_free(&c);
+    tm_free(&m);
+    wall_mesh(&m, 22, 9);
+    dt_cavity_init(&c);
+    ck_assert_int_eq(dt_cavity_search(&m, q, TM_NONE, DT_LOCATE | DT_STOP_MARKED, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert_uint_ge(c.nmarked, 1);
+    ck_assert(!dt_cavity_is_star(&m, &c));
+    dt_cavity_abandon(&m, &c);
+    assert_valid(&m);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(constrained_search_without_marks_changes_nothing)
+{
+    /* The same insertions into two copies of a mesh, one with plain
+     * searches and one with DT_STOP_MARKED (no face marked): the same
+     * cavities, the same new slots, the same mesh. */
+    tm_mesh a, b;
+    random_mesh(&a, 500, 23, TM_FEAT_MARKERS);
+    random_mesh(&b, 500, 23, TM_FEAT_MARKERS);
+    dt_cavity ca, cb;
+    dt_cavity_init(&ca);
+    dt_cavity_init(&cb);
+    struct cross_face none = {{0, 0, 0}, 0};
+    cb.may_cross = cross_if_face;
+    cb.cross_arg = &none;
+    rng_state = 99;
+    for (int i = 0; i < 200; i++) {
+        double p[3] = {rnd01(), rnd01(), rnd01()};
+        ck_assert_int_eq(dt_cavity_search(&a, p, TM_NONE, DT_LOCATE, &ca), 0);
+        ck_assert_int_eq(dt_cavity_search(&b, p, TM_NONE, DT_LOCATE | DT_STOP_MARKED, &cb), 0);
+        ck_assert_int_eq(ca.status, DT_OK);
+        ck_assert_int_eq(cb.status, DT_OK);
+        ck_assert_uint_eq(cb.nmarked, 0);
+        ck_assert_uint_eq(ca.ntets, cb.ntets);
+        ck_assert_uint_eq(ca.nbnd, cb.nbnd);
+        uint32_t va, vb;
+        ck_assert_int_eq(tm_add_vertex(&a, p, &va), 0);
+        ck_assert_int_eq(tm_add_vertex(&b, p, &vb), 0);
+        ck_assert_int_eq(dt_cavity_commit(&a, va, &ca), 0);
+        ck_assert_int_eq(dt_cavity_commit(&b, vb, &cb), 0);
+        ck_assert_mem_eq(ca.newtets, cb.newtets, ca.nnew * sizeof *ca.newtets);
+    }
+    ck_assert_int_eq(none.calls, 0);
+    ck_assert_uint_eq(a.nslots, b.nslots);
+    ck_assert_mem_eq(a.tets, b.tets, a.nslots * sizeof *a.tets);
+    assert_clean(&b);
+    dt_cavity_free(&ca);
+    dt_cavity_free(&cb);
+    tm_free(&a);
+    tm_free(&b);
+}
+END_TEST
+
 START_TEST(markers_on_the_cavity_boundary_move_to_the_new_tets)
 {
     /* Without DT_STOP_MARKED: a marked face on the boundary of an ordinary
@@ -726,6 +1032,9 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, single_insertions_inside_and_outside_the_hull);
     tcase_add_test(tc, marked_faces_stop_the_search_and_move_with_commit);
     tcase_add_test(tc, markers_on_the_cavity_boundary_move_to_the_new_tets);
+    tcase_add_test(tc, constrained_cavity_stops_at_a_marked_face);
+    tcase_add_test(tc, constrained_cavity_crosses_the_face_it_splits);
+    tcase_add_test(tc, constrained_search_without_marks_changes_nothing);
     tcase_add_test(tc, special_links_are_reported_once_each);
     tcase_add_test(tc, locked_tets_block_the_search);
     suite_add_tcase(s, tc);

@@ -253,7 +253,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     memcpy(c->p, p, sizeof c->p);
     c->flags = flags;
     c->status = DT_OK;
-    c->ntets = c->nbnd = c->nnew = 0;
+    c->ntets = c->nbnd = c->nnew = c->nmarked = 0;
     c->located = c->dup_vertex = c->blocker = TM_NONE;
     int lock = !m->lock ? 0 : (flags & DT_LOCK) ? 1 : (flags & DT_CHECK_LOCKS) ? 2 : 0;
     if (lock == 1)
@@ -328,8 +328,10 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                 rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
                 continue;
             }
-            if (stop_marked && (ft & TM_F_FACEMARK(f))) {
+            if (stop_marked && (ft & TM_F_FACEMARK(f)) &&
+                !(c->may_cross && c->may_cross(c->cross_arg, m, t, f))) {
                 rc = add_bface(c, t, f, DT_BND_MARKED, l);
+                c->nmarked++;
                 continue;
             }
             uint32_t u = tm_ltet(l);
@@ -547,7 +549,7 @@ static inline void pair_faces(uint32_t *table, tm_tet *tets, uint32_t a, uint32_
 
 static int table_ready(dt_cavity *c, size_t nb)
 {
-    if (c->flags & DT_STOP_MARKED)
+    if (c->nmarked)
         return 0;
     if (!c->edge_table) {
         c->edge_table = malloc(DT_LOCAL_MAX * DT_LOCAL_MAX * sizeof *c->edge_table);
@@ -705,7 +707,7 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
     }
     m->nghost += nghost;
     /* 2. Links between the new tetrahedra. */
-    if ((c->flags & DT_STOP_MARKED) || link_by_hash(m, c))
+    if (c->nmarked || link_by_hash(m, c))
         link_by_rotation(m, c);
     /* 3. Vertex hints (this also clears local numbers left by an attempt of
      * commit_reusing_cavity), and the cavity

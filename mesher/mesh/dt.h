@@ -26,7 +26,8 @@
  *   DT_BND_DOMAIN   no neighbour (TM_LINK_NONE: boundary of the domain);
  *   DT_BND_MARKED   the face carries a marker and DT_STOP_MARKED was asked
  *                   (a subfacet: the cavity does not cross it, whether or
- *                   not the tetrahedron behind it is in conflict);
+ *                   not the tetrahedron behind it is in conflict), unless
+ *                   the caller's may_cross says the point splits it;
  *   DT_BND_REMOTE   the neighbour is on another PE (TM_LINK_REMOTE(k), k in
  *                   'outer').
  * The commit gives each new tetrahedron's face 3 the link, marker and
@@ -64,7 +65,8 @@ typedef struct dt_bface {
 
 enum dt_search_flags {
     DT_LOCATE = 1u << 0,      /* walk from start to a tet in conflict */
-    DT_STOP_MARKED = 1u << 1, /* do not cross marked faces */
+    DT_STOP_MARKED = 1u << 1, /* do not cross marked faces (but those
+                                 may_cross allows: see dt_cavity) */
     DT_LOCK = 1u << 2,        /* lock cavity and ring (needs TM_FEAT_LOCKS) */
     DT_CHECK_LOCKS = 1u << 3, /* as DT_LOCK, but take no lock: only fail
                                  (DT_LOCKED) where another owner holds one;
@@ -102,6 +104,17 @@ typedef struct dt_cavity {
     uint32_t *held;      /* DT_LOCK: tets whose lock this search took */
     size_t nheld, cap_held;
     unsigned flags;      /* of the last search */
+    /* DT_STOP_MARKED: the constrained cavity. A marked face met by the
+     * search bounds the cavity (reason DT_BND_MARKED) unless may_cross is
+     * set and returns nonzero for it (tetrahedron t's face f): the faces
+     * that the new point itself splits, e.g. the subfacets of its 2D
+     * cavity. A crossed face is then treated as any other face (conflict
+     * test, and deleted if both sides are in conflict). The caller sets
+     * may_cross and cross_arg (NULL: no marked face is crossed); init sets
+     * them to NULL and the search never changes them. */
+    int (*may_cross)(void *arg, const tm_mesh *m, uint32_t t, int f);
+    void *cross_arg;
+    size_t nmarked;      /* boundary faces of reason DT_BND_MARKED */
     /* Commit scratch: local numbers of the boundary vertices and a table
      * edge (local a, local b) -> first new face seen on it; every entry is
      * consumed by the second face, so it is empty between commits. */
