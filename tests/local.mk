@@ -50,7 +50,7 @@ installcheck-local:
 # each is linked with a plain driver that replays its regression corpus
 # tests/corpus/<dir>/ (hand-written seeds, plus what fuzzing found).
 noinst_HEADERS += tests/fuzz/fuzz_input.h tests/fuzz/fuzz_plc.h
-EXTRA_DIST += tests/corpus/plc tests/corpus/runtime tests/corpus/cli
+EXTRA_DIST += tests/corpus/plc tests/corpus/runtime tests/corpus/cli tests/corpus/par
 dist_noinst_SCRIPTS += tools/fuzz
 FUZZ_REPLAY = \
 	tests/fuzz/replay_poly \
@@ -59,7 +59,8 @@ FUZZ_REPLAY = \
 	tests/fuzz/replay_stl \
 	tests/fuzz/replay_node \
 	tests/fuzz/replay_control \
-	tests/fuzz/replay_cli
+	tests/fuzz/replay_cli \
+	tests/fuzz/replay_reply
 check_PROGRAMS += $(FUZZ_REPLAY)
 TESTS += $(FUZZ_REPLAY)
 FUZZ_MESH_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
@@ -85,6 +86,11 @@ tests_fuzz_replay_cli_CFLAGS = $(FUZZ_MESH_CFLAGS)
 tests_fuzz_replay_cli_LDADD = libpdrmesh.la libam.la libpdrproto.la \
 	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
 tests_fuzz_replay_cli_LDFLAGS = $(AM_LDFLAGS) -static
+tests_fuzz_replay_reply_SOURCES = tests/fuzz/fuzz_reply.c tests/fuzz/replay_input.c
+tests_fuzz_replay_reply_CFLAGS = $(FUZZ_MESH_CFLAGS)
+tests_fuzz_replay_reply_LDADD = libpdrmesh.la libam.la libpdrproto.la \
+	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_reply_LDFLAGS = $(AM_LDFLAGS) -static
 
 # Absurd counts in headers are refused before anything is allocated for
 # them (run under a small ulimit -v).

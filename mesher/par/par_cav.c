@@ -360,6 +360,13 @@ static int get_tets(par_cav *c, pr_reader *rd, uint32_t src)
             }
             g->v[k] = vi[k] == 0 ? UINT32_MAX : map[vi[k]];
         }
+        /* four distinct vertices (two listed ones may share a gid) */
+        for (int k = 0; k < 4 && !rc; k++)
+            for (int j = k + 1; j < 4; j++)
+                if (g->v[k] == g->v[j])
+                    rc = PDR_EPARSE;
+        if (rc)
+            break;
         g->src = src;
         c->ngt++;
     }
@@ -385,6 +392,14 @@ static int get_tets(par_cav *c, pr_reader *rd, uint32_t src)
             }
             g->v[k] = map[vi[k]];
         }
+        if (!rc && (g->v[0] == g->v[1] || (g->nv == 3 && (g->v[2] == g->v[0] || g->v[2] == g->v[1]))))
+            rc = PDR_EPARSE;
+        /* its input feature exists (known only with a submesh) */
+        const plc *p = c->cc->s ? c->cc->s->r.p : NULL;
+        if (!rc && p && g->feat >= (g->nv == 2 ? p->nseg : p->nfacet))
+            rc = PDR_EPARSE;
+        if (rc)
+            break;
         c->ngp++;
     }
     free(map);
