@@ -7,6 +7,7 @@
 #    (tests/data/surf/gridcube.off), checked the same way;
 #  - 4 PEs, 32 parts, injected latency 100us-1ms: setbacks and distributed
 #    cavities both happened, and the mesh is still correct;
+#  - --work-clock cpu|wall: the JSON rows and the summary say which;
 #  - a bad input: every PE exits, status 1, file:line message, no file;
 #  - a PE killed mid-refinement: the job ends non-zero within seconds with
 #    a message naming it, and no output file is written.
@@ -96,6 +97,22 @@ for r in 0 1 2 3; do
 done
 grep -q '"latency_tolerance"' "$tmp/stats/table1-0.json" || fail "table1 JSON fields"
 echo "latency: $line"
+echo "$line" | grep -q ' deferred;' || fail "no deferral count: $line"
+
+# The clock of Table 1's work times: --work-clock cpu or wall is said in
+# the JSON rows and the summary; anything else is a usage error.
+run clk-cpu cic -n 2 -a 1e-4 --work-clock cpu --stats "$tmp/clk-cpu"
+grep -q '"work_clock": "cpu"' "$tmp/clk-cpu/table1-1.json" || fail "--work-clock cpu: JSON row"
+grep -q '"latency_tolerance_wall"' "$tmp/clk-cpu/table1-1.json" || fail "no wall-clock tolerance"
+grep -q '^work times on the CPU clock on 2 of 2 PEs' "$tmp/clk-cpu.out" ||
+    fail "--work-clock cpu: summary: $(grep -i clock "$tmp/clk-cpu.out")"
+run clk-wall cic -n 2 -a 1e-4 --work-clock wall --stats "$tmp/clk-wall"
+grep -q '"work_clock": "wall"' "$tmp/clk-wall/table1-0.json" || fail "--work-clock wall: JSON row"
+! grep -q '^work times on the CPU clock' "$tmp/clk-wall.out" || fail "--work-clock wall: summary"
+timeout 60 "$PDR" mesh -n 2 --work-clock sundial -o "$tmp/clk-bad" "$tmp/cic.poly" >"$tmp/clk-bad.out" 2>&1
+rc=$?
+[ "$rc" -eq 2 ] || { cat "$tmp/clk-bad.out"; fail "--work-clock sundial: exit $rc, expected 2"; }
+echo "work clock: cpu and wall rows as asked"
 
 # A bad input: every PE ends, nothing written.
 printf '4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 x\n' >"$tmp/bad.poly"
