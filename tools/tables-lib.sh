@@ -98,9 +98,12 @@ tl_count() { sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$1
 #   rank exec completed masked_local masked_dist setback tolerance(0..1)
 #   service poll poll_excess idle
 # The tolerance is masked / (masked + setback), 1 without either, as pdr
-# computes it.
+# computes it. With TL_WALL=1 the work times are the wall-clock ones
+# (completed_cavity_wall_s, masked_wall_s as local with 0 distributed,
+# setback_wall_s) where the rows have them (pdr mesh --work-clock): what a
+# breakdown of the execution time needs.
 tl_stats() {
-    awk '
+    awk -v wall="${TL_WALL:-0}" '
     FNR == 1 { r = -1 }
     {
         line = $0
@@ -109,11 +112,17 @@ tl_stats() {
         k = kv; sub(/^"/, "", k); sub(/".*/, "", k)
         v = kv; sub(/^[^:]*: */, "", v)
         if (k == "rank") { r = v + 0; seen[r] = 1; if (r + 1 > n) n = r + 1 }
-        else if (r >= 0) val[r, k] = v + 0
+        else if (r >= 0) { val[r, k] = v + 0; has[r, k] = 1 }
     }
     END {
         for (i = 0; i < n; i++) {
             if (!seen[i]) { print "tl_stats: no row of PE " i > "/dev/stderr"; exit 1 }
+            if (wall && has[i, "completed_cavity_wall_s"]) {
+                val[i, "completed_cavity_s"] = val[i, "completed_cavity_wall_s"]
+                val[i, "masked_local_s"] = val[i, "masked_wall_s"]
+                val[i, "masked_distributed_s"] = 0
+                val[i, "setback_s"] = val[i, "setback_wall_s"]
+            }
             m = val[i, "masked_local_s"] + val[i, "masked_distributed_s"]
             d = m + val[i, "setback_s"]
             printf "%d %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", i,
