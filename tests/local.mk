@@ -11,6 +11,10 @@ dist_check_SCRIPTS += tests/pdr-cli.sh
 TESTS += tests/tables.sh
 dist_check_SCRIPTS += tests/tables.sh
 
+# tools/stress-parallel at a tiny scale: random runs, one PE killed.
+TESTS += tests/stress-smoke.sh
+dist_check_SCRIPTS += tests/stress-smoke.sh
+
 # The include layering of mesher/ (tools/check-layers).
 TESTS += tests/layering.sh
 dist_check_SCRIPTS += tests/layering.sh

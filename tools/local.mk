@@ -13,6 +13,8 @@ dist_noinst_SCRIPTS += tools/bench-mesh
 EXTRA_DIST += bench/mesh.md
 dist_noinst_SCRIPTS += tools/check-layers
 dist_noinst_SCRIPTS += tools/bench-parallel
+# Repeated parallel runs with faults (tests/stress-smoke.sh runs it small).
+dist_noinst_SCRIPTS += tools/stress-parallel
 EXTRA_DIST += bench/parallel.md
 dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces
 EXTRA_DIST += bench/surfaces.md
