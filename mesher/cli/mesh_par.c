@@ -675,8 +675,15 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         }
     }
     if (rc) {
-        fprintf(stderr, "pdr mesh: the classification of the merged mesh failed: %s\n",
-                pdr_strerror(rc));
+        if (c.r.stopped_below)
+            fprintf(stderr,
+                    "pdr mesh: finishing the merged mesh at rank 0: a missing boundary piece "
+                    "near (%.9g, %.9g, %.9g) would need a split closer than the resolution "
+                    "floor; nothing written\n",
+                    c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2]);
+        else
+            fprintf(stderr, "pdr mesh: finishing the merged mesh at rank 0 failed: %s\n",
+                    pdr_strerror(rc));
         goto done;
     }
     t_cls = pdr_now() - t_cls;

@@ -3,6 +3,7 @@
 #include "config.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -228,6 +229,25 @@ static void refine_thread(am_ctx_t *am, void *arg)
         int dist = it->cav.distributed;
         par_cav_release(&it->cav);
         uint32_t n = hmap_get(&pr->tries, key);
+        if (rc == PDR_ELIMIT && pr->s->r.stopped_below) {
+            /* A missing piece whose split here would fall below the
+             * resolution floor (refine_run.c, below_resolution; the
+             * cavity is abandoned): it stays missing and goes to rank 0
+             * with the others (par_merge_add_missing), which recovers it
+             * in the whole mesh or stops there with the error. */
+            const double *x = pr->s->r.stop_at;
+            char line[200];
+            int len = snprintf(line, sizeof line,
+                               "pdr mesh: PE %u: a missing boundary piece near (%.9g, %.9g, "
+                               "%.9g) is left to rank 0 (its split would fall below the "
+                               "resolution floor here)\n",
+                               pr->s->rank, x[0], x[1], x[2]);
+            if (len > 0)
+                fwrite(line, 1, (size_t)len < sizeof line ? (size_t)len : sizeof line - 1,
+                       stderr);
+            pr->s->r.stopped_below = 0;
+            break;
+        }
         if (rc < 0) {
             if (!pr->err)
                 pr->err = rc;
