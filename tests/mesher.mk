@@ -38,7 +38,8 @@ tests_test_quality_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 # the pdr program, not of the library, so the test compiles it in).
 check_PROGRAMS += tests/test_mesh_pipeline
 TESTS += tests/test_mesh_pipeline
-tests_test_mesh_pipeline_SOURCES = tests/test_mesh_pipeline.c mesher/cli/mesh_pipeline.c
+tests_test_mesh_pipeline_SOURCES = tests/test_mesh_pipeline.c mesher/cli/mesh_pipeline.c \
+	mesher/cli/cli_util.c
 tests_test_mesh_pipeline_CFLAGS = $(UNIT_CFLAGS)
 tests_test_mesh_pipeline_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 

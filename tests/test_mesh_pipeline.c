@@ -5,7 +5,6 @@
  * through the pdr program by tests/mesh-*.sh. */
 #include "config.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,18 +14,6 @@
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
 #include "unit.h"
-
-/* The pipeline reports failures through the command line's message
- * function, which lives next to pdr's main(); the tests supply their own. */
-void pdr_cli_error(const char *cmd, const char *fmt, ...)
-{
-    va_list ap;
-    fprintf(stderr, "pdr %s: ", cmd);
-    va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
-    va_end(ap);
-    fputc('\n', stderr);
-}
 
 /* Quiet options for the built-in cube-in-cube, coarse enough to be quick;
  * it is meshed with nothing left above the bounds, so nothing is printed. */
