@@ -55,7 +55,8 @@ tests_test_pr_golden_portable_CPPFLAGS = $(AM_CPPFLAGS) -DPR_PORTABLE
 noinst_HEADERS += tests/fuzz/fuzz.h
 EXTRA_DIST += tests/corpus/proto
 dist_noinst_SCRIPTS += tools/fuzz-proto
-PR_REPLAY_SOURCES = tests/fuzz/replay.c tests/fuzz/fuzz.h $(PR_SAMPLE_SOURCES)
+PR_REPLAY_SOURCES = tests/fuzz/replay_input.c tests/fuzz/fuzz.h tests/fuzz/fuzz_input.h \
+	$(PR_SAMPLE_SOURCES)
 PR_REPLAY = \
 	tests/fuzz/replay_header \
 	tests/fuzz/replay_hello \

@@ -1,6 +1,6 @@
-/* Fuzz target: the hello decoder (see fuzz.h, tools/fuzz-proto). */
+/* Fuzz target: the hello decoder (see fuzz.h, tools/fuzz). */
 #include "config.h"
 
 #include "fuzz.h"
 
-PR_FUZZ_TARGET(PRS_HELLO)
+PR_FUZZ_TARGET(PRS_HELLO, "hello")

@@ -1,6 +1,6 @@
-/* Fuzz target: the tet decoder (see fuzz.h, tools/fuzz-proto). */
+/* Fuzz target: the tet decoder (see fuzz.h, tools/fuzz). */
 #include "config.h"
 
 #include "fuzz.h"
 
-PR_FUZZ_TARGET(PRS_TET)
+PR_FUZZ_TARGET(PRS_TET, "tet")

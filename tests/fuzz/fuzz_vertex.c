@@ -1,6 +1,6 @@
-/* Fuzz target: the vertex decoder (see fuzz.h, tools/fuzz-proto). */
+/* Fuzz target: the vertex decoder (see fuzz.h, tools/fuzz). */
 #include "config.h"
 
 #include "fuzz.h"
 
-PR_FUZZ_TARGET(PRS_VERTEX)
+PR_FUZZ_TARGET(PRS_VERTEX, "vertex")

@@ -1,6 +1,7 @@
 /*
  * replay_input.c -- runs the regression corpus of a target of
- * fuzz_input.h (readers, control frames, command line) without libFuzzer.
+ * fuzz_input.h (proto's decoders through fuzz.h, the readers, control
+ * frames, command line, cavity replies) without libFuzzer.
  *
  *   tests/fuzz/replay_<target> [-v] [FILE|DIR]...
  *
@@ -8,7 +9,8 @@
  * which aborts when the code under test breaks a promise; with no argument
  * the corpus is $top_srcdir/tests/corpus/<pdr_fuzz_corpus>. Hand-written
  * seeds are also held to their names: valid-* must be accepted, bad-*
- * refused. Prints TAP; exit 0 pass, 1 fail, 99 harness error (no corpus,
+ * refused, and so must proto's trunc-* and trailing (written by
+ * 'tests/test_pr_golden --write-corpus'). Prints TAP; exit 0 pass, 1 fail, 99 harness error (no corpus,
  * unreadable file).
  */
 #include "config.h"
@@ -75,7 +77,9 @@ static int run_file(const char *path)
     const char *want = NULL;
     if (!strncmp(base, "valid-", 6) && !accepted)
         want = "accepted";
-    else if (!strncmp(base, "bad-", 4) && accepted)
+    else if ((!strncmp(base, "bad-", 4) || !strncmp(base, "trunc-", 6) ||
+              !strcmp(base, "trailing")) &&
+             accepted)
         want = "refused";
     if (want) {
         printf("# %s: should be %s, but was %s\n", path, want,
