@@ -5,6 +5,7 @@
 #define PDR_UTIL_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "base/pdr_error.h"
 
@@ -13,6 +14,14 @@ double pdr_now(void);
 /* CPU time of the calling (OS) thread, seconds; about 25 times the cost
  * of pdr_now (a system call). */
 double pdr_cpu_now(void);
+/* Writes one formatted line (at most 511 bytes, the format ends it with
+ * '\n') to f in a single call, so that the lines of several processes
+ * sharing f do not interleave. */
+void pdr_line(FILE *f, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
 /* Peak resident set size of this process in bytes, or 0 if unknown. */
 size_t pdr_peak_rss(void);
 

@@ -281,19 +281,16 @@ static void trace_line(void *arg, const par_sub *s, const par_table1 *t)
 {
     (void)arg;
     const ref_mesher *r = &s->r;
-    char line[512];
-    int n = snprintf(line, sizeof line,
-                     "trace PE %u: nv %u live %u | q seg %zu fac %zu tet %zu | pts tet %zu fac %zu "
-                     "seg %zu miss %zu | steps %llu local %llu dist %llu setbacks %llu in %llu "
-                     "out %llu\n",
-                     s->rank, r->m.nv, r->m.nlive, r->segq.n - r->segq.head,
-                     r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.tet_points,
-                     r->st.fac_points, r->st.seg_points, r->st.missing_recovered,
-                     (unsigned long long)t->steps, (unsigned long long)t->cav_local,
-                     (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
-                     (unsigned long long)t->tets_in, (unsigned long long)t->tets_out);
-    if (n > 0)
-        fwrite(line, 1, (size_t)n < sizeof line ? (size_t)n : sizeof line - 1, stderr);
+    pdr_line(stderr,
+             "trace PE %u: nv %u live %u | q seg %zu fac %zu tet %zu | pts tet %zu fac %zu "
+             "seg %zu miss %zu | steps %llu local %llu dist %llu setbacks %llu in %llu "
+             "out %llu\n",
+             s->rank, r->m.nv, r->m.nlive, r->segq.n - r->segq.head,
+             r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.tet_points,
+             r->st.fac_points, r->st.seg_points, r->st.missing_recovered,
+             (unsigned long long)t->steps, (unsigned long long)t->cav_local,
+             (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
+             (unsigned long long)t->tets_in, (unsigned long long)t->tets_out);
 }
 
 /* --------------------------------------------------------- submeshes */
@@ -659,12 +656,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!rc) {
         /* Still missing after that: a hole in the boundary; nothing is
          * written. */
-        size_t left_s = 0, left_f = 0;
-        const bd_set *bd = &c.r.bd;
-        for (size_t i = 0; i < bd->nsegs; i++)
-            left_s += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
-        for (size_t i = 0; i < bd->nfacs; i++)
-            left_f += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+        size_t left_s, left_f;
+        bd_count_missing(&c.r.bd, &left_s, &left_f);
         if (left_s || left_f) {
             fprintf(stderr,
                     "pdr mesh: %zu subsegments and %zu subfacets are still missing from the "

@@ -829,13 +829,10 @@ int par_merge_put_missing(pr_buf *b, const par_sub *s, size_t *n)
 {
     const bd_set *bd = &s->r.bd;
     const uint64_t *gid = s->r.m.gid;
-    size_t count = 0;
-    for (size_t i = 0; i < bd->nsegs; i++)
-        count += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
-    for (size_t i = 0; i < bd->nfacs; i++)
-        count += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
-    *n = count;
-    pr_put_u32(b, (uint32_t)count);
+    size_t segs, facs;
+    bd_count_missing(bd, &segs, &facs);
+    *n = segs + facs;
+    pr_put_u32(b, (uint32_t)*n);
     for (size_t i = 0; i < bd->nsegs; i++) {
         const bd_subseg *g = &bd->segs[i];
         if ((g->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)

@@ -3,7 +3,6 @@
 #include "config.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -236,15 +235,10 @@ static void refine_thread(am_ctx_t *am, void *arg)
              * with the others (par_merge_add_missing), which recovers it
              * in the whole mesh or stops there with the error. */
             const double *x = pr->s->r.stop_at;
-            char line[200];
-            int len = snprintf(line, sizeof line,
-                               "pdr mesh: PE %u: a missing boundary piece near (%.9g, %.9g, "
-                               "%.9g) is left to rank 0 (its split would fall below the "
-                               "resolution floor here)\n",
-                               pr->s->rank, x[0], x[1], x[2]);
-            if (len > 0)
-                fwrite(line, 1, (size_t)len < sizeof line ? (size_t)len : sizeof line - 1,
-                       stderr);
+            pdr_line(stderr,
+                     "pdr mesh: PE %u: a missing boundary piece near (%.9g, %.9g, %.9g) is "
+                     "left to rank 0 (its split would fall below the resolution floor here)\n",
+                     pr->s->rank, x[0], x[1], x[2]);
             pr->s->r.stopped_below = 0;
             break;
         }
@@ -416,11 +410,10 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->deferred = s->r.st.deferred;
     row->region_doubts = s->r.region_doubts;
     row->left_elsewhere = s->r.st.left_elsewhere;
-    const bd_set *bd = &s->r.bd;
-    for (size_t i = 0; i < bd->nsegs; i++)
-        row->missing_segs += (bd->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
-    for (size_t i = 0; i < bd->nfacs; i++)
-        row->missing_facs += (bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+    size_t miss_s, miss_f;
+    bd_count_missing(&s->r.bd, &miss_s, &miss_f);
+    row->missing_segs = miss_s;
+    row->missing_facs = miss_f;
     am_stats_get(am, &a1);
     row->poll_s = a1.poll_s - a0.poll_s;
     row->poll_excess_s = a1.poll_excess_s - a0.poll_excess_s;

@@ -102,6 +102,15 @@ void bd_kill_subseg(bd_set *b, uint32_t i)
     b->live_segs--;
 }
 
+void bd_count_missing(const bd_set *b, size_t *segs, size_t *facs)
+{
+    *segs = *facs = 0;
+    for (size_t i = 0; i < b->nsegs; i++)
+        *segs += (b->segs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+    for (size_t i = 0; i < b->nfacs; i++)
+        *facs += (b->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING;
+}
+
 uint32_t bd_find_subseg(const bd_set *b, uint32_t a, uint32_t c)
 {
     if (a > c) {

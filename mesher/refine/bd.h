@@ -104,6 +104,8 @@ int bd_vertex_room(bd_set *b, size_t nv);
 int bd_add_subseg(bd_set *b, uint32_t a, uint32_t c, uint32_t seg, uint32_t *out);
 /* Frees subsegment i (removes it from the map). */
 void bd_kill_subseg(bd_set *b, uint32_t i);
+/* Counts the live subsegments and subfacets flagged missing. */
+void bd_count_missing(const bd_set *b, size_t *segs, size_t *facs);
 /* The live subsegment joining a and c, or BD_NONE. */
 uint32_t bd_find_subseg(const bd_set *b, uint32_t a, uint32_t c);
 
