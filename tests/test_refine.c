@@ -20,6 +20,7 @@
 #include "refine/refine.h"
 #include "refine/refine_int.h" /* ref__split_point */
 #include "unit.h"
+#include "base/v3.h"
 #include "mesh/vf.h"
 
 /* ------------------------------------------------------------- tables */
@@ -808,6 +809,63 @@ START_TEST(double17_matches_printf)
 }
 END_TEST
 
+/* A sliver whose four vertices are cocircular but for rounding (two
+ * mirror-image pairs whose mirror images were rounded apart), as a
+ * parallel run on the triangulated cube made it: its circumcentre,
+ * computed in floating point, is not inside its own circumball, and the
+ * refinement used to leave it (radius-edge about 5) as degenerate. The
+ * centre of one of its faces' circumcircles is inside the ball. */
+START_TEST(flat_sliver_has_a_split_point)
+{
+    static const double sl[4][3] = {
+        {-0.5, -0.8333333333333334, -1.0},
+        {-0.5, -1.0, -0.8333333333333334},
+        {-0.5833333333333334, -0.6130645371012478, -0.8015770679226383},
+        {-0.5833333333333334, -0.8015770679226384, -0.6130645371012478},
+    };
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, 0), 0);
+    uint32_t v[4], u;
+    for (int i = 0; i < 4; i++)
+        ck_assert_int_eq(tm_add_vertex(&m, sl[i], &v[i]), 0);
+    for (int i = 0; i < 8; i++) {
+        double c[3] = {i & 1 ? 3 : -3, i & 2 ? 3 : -3, i & 4 ? 3 : -3};
+        ck_assert_int_eq(tm_add_vertex(&m, c, &u), 0);
+    }
+    dt_build_opts bo = {.seed = 7};
+    dt_build_stats bs;
+    ck_assert_int_eq(dt_build(&m, &bo, &bs), 0);
+    /* dt_build may renumber: find the sliver by its coordinates */
+    uint32_t t = TM_NONE;
+    for (uint32_t s = 0; s < m.nslots && t == TM_NONE; s++) {
+        if (tm_is_dead(&m, s) || tm_is_ghost(&m, s))
+            continue;
+        int hits = 0;
+        for (int k = 0; k < 4; k++)
+            for (int i = 0; i < 4; i++)
+                hits += !memcmp(m.xyz + 3 * (size_t)m.tets[s].v[k], sl[i], sizeof sl[i]);
+        if (hits == 4)
+            t = s;
+    }
+    ck_assert_uint_ne(t, TM_NONE);
+    /* the circumcentre as the refinement computes it is unusable */
+    const uint32_t *tv = m.tets[t].v;
+    const double *a = m.xyz + 3 * (size_t)tv[0];
+    double uu[3], vv[3], ww[3], n1[3], n2[3], n3[3], cc[3];
+    double det = v3_tet_frame(a, m.xyz + 3 * (size_t)tv[1], m.xyz + 3 * (size_t)tv[2],
+                              m.xyz + 3 * (size_t)tv[3], uu, vv, ww, n1, n2, n3);
+    double l0 = v3_dot(uu, uu), l1 = v3_dot(vv, vv), l2 = v3_dot(ww, ww);
+    for (int k = 0; k < 3; k++)
+        cc[k] = a[k] + (l0 * n1[k] + l1 * n2[k] + l2 * n3[k]) * (0.5 / det);
+    ck_assert(!(det > 0) || dt_conflict(&m, t, cc) <= 0);
+    /* the fallback point is in conflict with it */
+    double fc[3];
+    ck_assert_int_eq(ref__flat_tet_centre(&m, t, fc), 0);
+    ck_assert_int_gt(dt_conflict(&m, t, fc), 0);
+    tm_free(&m);
+}
+END_TEST
+
 static Suite *suite(void)
 {
     Suite *s = suite_create("refine");
@@ -822,6 +880,7 @@ static Suite *suite(void)
     tcase_add_test(t, decide_projection_lemma);
     tcase_add_test(t, decide_coplanar_point_does_not_encroach);
     tcase_add_test(t, split_point_shells);
+    tcase_add_test(t, flat_sliver_has_a_split_point);
     suite_add_tcase(s, t);
     t = tcase_create("numfmt");
     /* 120,000 conversions: seconds under the sanitizers on a busy machine */

@@ -206,6 +206,7 @@ typedef struct ref_stats {
     size_t tolerated;    /* boundary splits refused by the safety net */
     size_t gave_up;      /* tetrahedra left alone when popped */
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
+    size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t reclassified; /* tetrahedra the final classification moved */

@@ -68,6 +68,10 @@ int ref__flat_on_facet(const ref_mesher *r, const uint32_t *v);
  * dihedral angle, 3 flat on a facet), its circumcentre and squared
  * radius-edge ratio. */
 int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2);
+/* For tetrahedron t whose circumcentre is unusable (too flat): the
+ * circumcentre of one of its faces that is in conflict with t. Returns 0
+ * with cc set, or -1 when there is none. */
+int ref__flat_tet_centre(const tm_mesh *m, uint32_t t, double cc[3]);
 
 /* ---------------------------------------------------- refine_bound.c */
 

@@ -679,6 +679,42 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
     return rc;
 }
 
+/* A tetrahedron so flat that its circumcentre cannot be computed, or lies
+ * outside the tetrahedron's own circumball once rounded, has four nearly
+ * cocircular vertices: its circumball meets their common plane in (about)
+ * the circle through them, so the centre of the circle through any three of
+ * them lies inside the ball. That centre is the point to insert instead;
+ * the conflict test decides exactly whether it is in the ball. Returns 0
+ * with cc set, or -1 when no face gives a point in conflict with t. */
+int ref__flat_tet_centre(const tm_mesh *m, uint32_t t, double cc[3])
+{
+    const uint32_t *tv = m->tets[t].v;
+    for (int k = 0; k < 4; k++) {
+        double c[3], r2;
+        if (ref__tri_circumcentre(X(m, tv[tm_face_vtx[k][0]]), X(m, tv[tm_face_vtx[k][1]]),
+                                  X(m, tv[tm_face_vtx[k][2]]), c, &r2) == 0 &&
+            dt_conflict(m, t, c) > 0) {
+            memcpy(cc, c, sizeof c);
+            return 0;
+        }
+    }
+    return -1;
+}
+
+/* The distance from p to the nearest vertex of cavity c's boundary: the
+ * nearest vertex of the whole mesh when the cavity is an unconstrained
+ * Bowyer-Watson cavity (p's nearest neighbour is joined to p). */
+static double cavity_clearance(const tm_mesh *m, const dt_cavity *c, const double *p)
+{
+    double d2 = INFINITY;
+    for (size_t i = 0; i < c->nbnd; i++) {
+        const uint32_t *tv = m->tets[c->bnd[i].tet].v;
+        for (int j = 0; j < 3; j++)
+            d2 = dmin(d2, v3_dist2(p, X(m, tv[tm_face_vtx[c->bnd[i].face][j]])));
+    }
+    return sqrt(d2);
+}
+
 static void give_up(ref_mesher *r, uint32_t t, int degenerate)
 {
     r->m.flags[t] |= REF_F_GIVEUP | (degenerate ? REF_F_DEGENERATE : 0);
@@ -735,7 +771,9 @@ static int split_tet(ref_mesher *r, uint32_t t)
             return rc;
         }
     }
-    if (!isfinite(cc[0]) || !isfinite(cc[1]) || !isfinite(cc[2]) || dt_conflict(m, t, cc) <= 0) {
+    int flat = !isfinite(cc[0]) || !isfinite(cc[1]) || !isfinite(cc[2]) ||
+               dt_conflict(m, t, cc) <= 0;
+    if (flat && ref__flat_tet_centre(m, t, cc) != 0) {
         give_up(r, t, 1);
         return 0;
     }
@@ -753,6 +791,22 @@ static int split_tet(ref_mesher *r, uint32_t t)
     uint16_t any = cavity_flags(r);
     const uint32_t *tv = m->tets[t].v;
     double rp = sqrt(v3_dist2(cc, X(m, tv[0])));
+    if (flat) {
+        /* The circle's centre may lie near the ball's surface, close to a
+         * vertex outside the ball: its insertion radius is its distance
+         * to the nearest vertex, and a point nearer than half t's
+         * shortest edge is not inserted. */
+        rp = cavity_clearance(m, &r->cav, cc);
+        double lmin2 = INFINITY;
+        for (int e = 0; e < 6; e++)
+            lmin2 = dmin(lmin2, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+        if (!(rp >= 0.5 * sqrt(lmin2))) {
+            dt_cavity_abandon(m, &r->cav);
+            give_up(r, t, 1);
+            return 0;
+        }
+        r->st.flat_centres++;
+    }
     if (any & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
         rc = ref_gather_marks(m, &r->cav, &r->marks);
         if (rc) {
