@@ -799,7 +799,10 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
         return REPLY_LOCKED;
     if (d->status != DT_OK)
         return REPLY_DUPLICATE;
-    for (size_t i = 0; !rc && i < d->ntets; i++)
+    /* A local cavity searched for the caller is used as it stands
+     * (par_cav_gather); only one that goes on from here keeps a copy. */
+    int keep = *remote || d == &c->cc->scratch;
+    for (size_t i = 0; !rc && keep && i < d->ntets; i++)
         rc = push(&c->own.cav, d->tets[i]);
     return rc;
 }
