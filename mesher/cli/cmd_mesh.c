@@ -274,11 +274,12 @@ static int parse_word(int c, const char *arg, mp_opts *o)
         }
         return 0;
     case O_MO:
-        if (strcmp(arg, "paper") && strcmp(arg, "conform")) {
-            pdr_cli_error("mesh", "--mo is 'conform' or 'paper', not '%s'", arg);
+        if (strcmp(arg, "paper") && strcmp(arg, "conform") && strcmp(arg, "cdt")) {
+            pdr_cli_error("mesh", "--mo is 'conform', 'paper' or 'cdt', not '%s'", arg);
             return PDR_EXIT_USAGE;
         }
         o->mo.paper = !strcmp(arg, "paper");
+        o->ref.constrained = !strcmp(arg, "cdt");
         return 0;
     default: /* O_ORDER */
         if (strcmp(arg, "lifo") && strcmp(arg, "fifo")) {

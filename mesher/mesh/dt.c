@@ -302,6 +302,7 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     c->pending = 1;
     uint16_t *fl = m->flags;
     int stop_marked = (flags & DT_STOP_MARKED) != 0;
+    int walls = stop_marked && (flags & DT_GHOST_WALLS);
     while (!rc && sp > 0) {
         /* Room for the four faces of t, so that the appends below need no
          * checks. */
@@ -328,16 +329,49 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                 rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
                 continue;
             }
-            if (stop_marked && (ft & TM_F_FACEMARK(f)) &&
-                !(c->may_cross && c->may_cross(c->cross_arg, m, t, f))) {
-                rc = add_bface(c, t, f, DT_BND_MARKED, l);
-                c->nmarked++;
-                continue;
+            int crossed = 0;
+            if (stop_marked && (ft & TM_F_FACEMARK(f))) {
+                if (!(c->may_cross && c->may_cross(c->cross_arg, m, t, f))) {
+                    rc = add_bface(c, t, f, DT_BND_MARKED, l);
+                    c->nmarked++;
+                    continue;
+                }
+                crossed = 1;
             }
             uint32_t u = tm_ltet(l);
             uint16_t fu = fl[u];
             if (fu & TM_F_CAVITY)
                 continue;
+            if (walls && tm_is_ghost(m, u)) {
+                /* A ghost wall: entered across the boundary piece the
+                 * point splits, and nowhere else (see DT_GHOST_WALLS).
+                 * From another ghost it is entered when its own face is
+                 * such a piece (the search would enter it from inside
+                 * anyway, and their common face is no boundary then). */
+                int enter = crossed;
+                if (tm_is_ghost(m, t)) {
+                    int k = tm_ghost_slot(m, u);
+                    enter = c->may_cross && (fu & TM_F_FACEMARK(k)) &&
+                            c->may_cross(c->cross_arg, m, u, k);
+                }
+                if (!enter) {
+                    rc = add_bface(c, t, f, DT_BND_OUTSIDE, l);
+                    continue;
+                }
+                if (lock) {
+                    int r = take_lock(m, c, u, lock);
+                    if (r <= 0) {
+                        clear_marks(m, c);
+                        c->status = DT_LOCKED;
+                        c->blocker = u;
+                        return r;
+                    }
+                }
+                c->tets[c->ntets++] = u;
+                c->stack[sp++] = u;
+                fl[u] = (uint16_t)(fu | TM_F_CAVITY);
+                continue;
+            }
             if (lock) {
                 int r = take_lock(m, c, u, lock);
                 if (r <= 0) {
@@ -394,6 +428,67 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
         if (pred_orient3d(X(m, a), X(m, b), X(m, d), c->p) <= 0)
             return 0;
     }
+    return 1;
+}
+
+int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t), void *arg)
+{
+    uint16_t *fl = m->flags;
+    for (int round = 0; round < 1000; round++) {
+        /* Tetrahedra with a face p does not see from inside leave. */
+        size_t out = 0;
+        for (size_t i = 0; i < c->nbnd; i++) {
+            const tm_tet *T = &m->tets[c->bnd[i].tet];
+            const uint8_t *fv = tm_face_vtx[c->bnd[i].face];
+            uint32_t a = T->v[fv[0]], b = T->v[fv[1]], d = T->v[fv[2]];
+            if (a == TM_VINF || b == TM_VINF || d == TM_VINF ||
+                pred_orient3d(X(m, a), X(m, b), X(m, d), c->p) > 0)
+                continue;
+            uint32_t t = c->bnd[i].tet;
+            if (!(fl[t] & TM_F_CAVITY))
+                continue; /* leaving already */
+            if (keep && keep(arg, t)) {
+                dt_cavity_abandon(m, c);
+                return 1;
+            }
+            fl[t] &= (uint16_t)~TM_F_CAVITY;
+            out++;
+        }
+        if (!out)
+            return 0;
+        size_t n = 0;
+        for (size_t i = 0; i < c->ntets; i++)
+            if (fl[c->tets[i]] & TM_F_CAVITY)
+                c->tets[n++] = c->tets[i];
+        c->ntets = n;
+        if (!n) {
+            dt_cavity_abandon(m, c);
+            return 1;
+        }
+        /* The boundary again: every face of a cavity tetrahedron whose
+         * neighbour is not in the cavity. */
+        c->nbnd = c->nmarked = 0;
+        for (size_t i = 0; i < c->ntets; i++) {
+            uint32_t t = c->tets[i];
+            const tm_tet *T = &m->tets[t];
+            for (int f = 0; f < 4; f++) {
+                tm_link l = T->n[f];
+                int reason;
+                if (tm_is_special(l))
+                    reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
+                else if (fl[tm_ltet(l)] & TM_F_CAVITY)
+                    continue;
+                else if ((c->flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
+                    reason = DT_BND_MARKED;
+                else
+                    reason = DT_BND_OUTSIDE;
+                if (add_bface(c, t, f, reason, l))
+                    return PDR_ENOMEM;
+                c->nmarked += reason == DT_BND_MARKED;
+            }
+        }
+    }
+    dt_cavity_abandon(m, c);
     return 1;
 }
 

@@ -72,6 +72,13 @@ enum dt_search_flags {
                                  (DT_LOCKED) where another owner holds one;
                                  for a search committed before anything
                                  else can run */
+    DT_GHOST_WALLS = 1u << 5, /* with DT_STOP_MARKED, for a carved domain
+                                 whose boundary faces carry ghosts: a ghost
+                                 joins the cavity exactly when the search
+                                 crosses its marked face (may_cross: a
+                                 boundary piece the point splits), whatever
+                                 the conflict test says, and the search
+                                 never goes from a ghost to another */
 };
 
 enum dt_status {
@@ -157,8 +164,19 @@ void dt_cavity_abandon(tm_mesh *m, dt_cavity *c);
 void dt_cavity_unlock(tm_mesh *m, dt_cavity *c);
 /* 1 if p sees every boundary face of the cavity from inside (each new
  * tetrahedron would be positively oriented), else 0. Bulk Delaunay never
- * needs it; a cavity cut short by DT_STOP_MARKED may fail it. */
+ * needs it; a cavity cut short by DT_STOP_MARKED may fail it. A cavity
+ * that passes holds p (p lies in the intersection of the inner sides of
+ * its boundary faces, which the cavity contains). */
 int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c);
+/* Makes a pending cavity a star from p by taking out the tetrahedra whose
+ * boundary faces p does not see from inside, as often as that changes the
+ * boundary (TetGen's cavity shrinking: a cavity cut by constraints may
+ * reach round one to its back). keep(arg, t), if not NULL, names
+ * tetrahedra that must stay. Returns 0 with a star-shaped cavity (c->tets
+ * and c->bnd rebuilt), 1 when that would drop a tetrahedron keep names or
+ * empty the cavity (the cavity is then abandoned: nothing marked), or
+ * PDR_ENOMEM (the cavity still pending). */
+int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t), void *arg);
 
 /* Inserts vertex v (already added with tm_add_vertex) by walking from
  * start. Returns 0 with c->status DT_OK (inserted; c->newtets), or

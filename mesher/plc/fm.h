@@ -63,6 +63,18 @@
 /* Thresholds of fm_features, degrees. */
 #define FM_SHARP_DIH 72.0
 #define FM_ACUTE_ANG 60.0
+/* A segment whose facets all meet at this many degrees or more is a
+ * crease of a tessellated curved surface rather than a feature of the
+ * shape (gmsh's OpenCASCADE tessellations: 130-180 degrees there, 70-110
+ * at the parts' real edges); the constrained refinement does not split
+ * pieces next to such creases for one another (refine/refine_cdt.c). */
+#define FM_SMOOTH_DIH 120.0
+/* A vertex where two segments meet below this many degrees is a needle
+ * point (the pole of a UV sphere, the apex of a fan), unlike the 30-60
+ * degree corners every triangulated surface has: splits of the pieces
+ * around it can cascade into it, and the constrained refinement keeps
+ * its full floor there (refine/refine_run.c, split_instead). */
+#define FM_NEEDLE_ANG 20.0
 
 typedef struct fm_stats {
     size_t facets_before;    /* facets of the input */

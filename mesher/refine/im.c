@@ -388,6 +388,8 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     double t2 = pdr_now();
     s.recovery_seconds = t2 - t1;
     rc = ref_classify(r, &s.unreached_regions, NULL, diag);
+    if (!rc && r->o.constrained)
+        rc = ref_carve(r);
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

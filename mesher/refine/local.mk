@@ -10,6 +10,7 @@ libpdrmesh_la_SOURCES += \
 	mesher/refine/im.c \
 	mesher/refine/refine.c \
 	mesher/refine/refine_bound.c \
+	mesher/refine/refine_cdt.c \
 	mesher/refine/refine_classify.c \
 	mesher/refine/refine_decide.c \
 	mesher/refine/refine_run.c

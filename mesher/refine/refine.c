@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "plc/fm.h"
 #include "refine/refine_int.h"
 
 /* ------------------------------------------------------------- set-up */
@@ -70,6 +71,22 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
             return rc;
         }
     }
+    if (r->o.constrained && p->seg_mindih) {
+        r->fac_smooth = calloc(p->nfacet ? p->nfacet : 1, 1);
+        if (!r->fac_smooth) {
+            ref_free(r);
+            return PDR_ENOMEM;
+        }
+        for (size_t s = 0; s < p->nseg; s++)
+            if (p->seg_mindih[s] >= FM_SMOOTH_DIH)
+                for (size_t i = p->seg_fstart[s]; i < p->seg_fstart[s + 1]; i++)
+                    r->fac_smooth[p->seg_facets[i]] = 1;
+        /* ... and 2 more when a corner of the facet is a needle point */
+        for (size_t v = 0; p->v_minang && v < p->nv; v++)
+            if (p->v_minang[v] < FM_NEEDLE_ANG)
+                for (size_t i = p->v_fstart[v]; i < p->v_fstart[v + 1]; i++)
+                    r->fac_smooth[p->v_facets[i]] |= 2;
+    }
     return 0;
 }
 
@@ -80,6 +97,7 @@ void ref_free(ref_mesher *r)
     bd_free(&r->bd);
     free(r->region);
     free(r->seg_acute);
+    free(r->fac_smooth);
     free(r->bflag);
     free(r->breg);
     free(r->list);
@@ -96,6 +114,9 @@ void ref_release_work(ref_mesher *r)
     ref__queue_free(&r->facq);
     ref__queue_free(&r->tetq);
     ref__queue_free(&r->tetq_local);
+    free(r->flipped.tets);
+    free(r->flipped.stuck_faces);
+    memset(&r->flipped, 0, sizeof r->flipped);
 }
 
 int ref_region_room(ref_mesher *r)

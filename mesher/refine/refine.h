@@ -97,6 +97,7 @@
 
 #include "refine/bd.h"
 #include "mesh/dt.h"
+#include "mesh/flip.h"
 #include "mesh/mesh_export.h"
 #include "base/pdr_error.h"
 #include "plc/plc.h"
@@ -207,6 +208,10 @@ typedef struct ref_stats {
     size_t gave_up;      /* tetrahedra left alone when popped */
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
+    size_t shrunk;       /* constrained: cavities shrunk to a star */
+    size_t cdt_refused;  /* constrained: boundary splits refused because
+                            their 3D cavity kept a subfacet of their 2D one */
+    size_t flips23, flips32, flips_stuck; /* constrained: Lawson's flips */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t reclassified; /* tetrahedra the final classification moved */
@@ -240,6 +245,9 @@ typedef struct ref_opts {
                           points were inserted in all (0: no limit; see
                           ref_point_limit) */
     int order;         /* enum ref_order */
+    int constrained;   /* keep a constrained Delaunay tetrahedralization
+                          whose subsegments and subfacets no cavity
+                          crosses (refine/refine_cdt.c); 0: conforming */
     /* Called about every 2^14 insertions when not NULL. */
     void (*progress)(void *arg, const struct ref_mesher *r);
     void *progress_arg;
@@ -297,9 +305,16 @@ typedef struct ref_mesher {
     double b2;         /* ratio^2, or 0 */
     double sin_min;    /* sin(min_dihedral), or 0 */
     int classified;    /* exterior marked, regions assigned */
+    int carved;        /* exterior deleted, ghosts on the boundary faces
+                          (constrained mode, ref_carve) */
     uint16_t *region;  /* per tet slot: region index + 1 (0 none), or NULL
                           when the PLC has no regions */
     size_t region_cap;
+    uint8_t *fac_smooth; /* constrained mode, per facet: bit 0 if it has
+                            a segment at FM_SMOOTH_DIH or more (a piece of
+                            a tessellated curved surface), bit 1 if one of
+                            its corners is a needle point (FM_NEEDLE_ANG);
+                            NULL: none */
     uint32_t *seg_acute; /* per PLC vertex: 1 if two of its segments meet
                             at less than 90 degrees */
     /* work queues */
@@ -331,12 +346,15 @@ typedef struct ref_mesher {
                           queue unstarted (its search would be a setback);
                           not with REF_ORDER_LIFO; 0: no check (m->lock
                           may be NULL) */
+    uint32_t split_a, split_b; /* constrained: the subsegment being split
+                                  (split_b TM_NONE: a subfacet) */
     uint32_t last_v;   /* the vertex inserted last (0: none) */
     double min_spacing; /* no boundary split nearer than this to a vertex:
                            REF_MIN_SPACING times the bounding-box diagonal */
     int stopped_below; /* a run stopped because a missing piece needed a
                           split below min_spacing, at stop_at */
     double stop_at[3];
+    flip_out flipped;  /* constrained: the last insertion's flips */
     uint32_t *miss;    /* new subfacets missing from T */
     size_t nmiss, cap_miss;
 } ref_mesher;
@@ -419,6 +437,13 @@ int ref_region_room(ref_mesher *r);
  * exterior flag changed, on a mesh classified before. Returns 0 or
  * PDR_ENOMEM/PDR_ETOPOLOGY. */
 int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *diag);
+
+/* Deletes the exterior and hole tetrahedra of a classified mesh and puts a
+ * ghost on every boundary face, linked around the boundary edges (the
+ * constrained mode's carved domain, see refine/refine_cdt.c). Returns 0,
+ * PDR_EINVAL (not classified), PDR_ETOPOLOGY (a boundary edge shared by
+ * more than two boundary faces) or PDR_ENOMEM. */
+int ref_carve(ref_mesher *r);
 
 /* The quality refinement of a classified mesh: queues the bad
  * tetrahedra and splits until none is left (or those left are counted);

@@ -17,6 +17,7 @@
 
 #include "base/pdr_util.h"
 #include "geom/pred.h"
+#include "plc/fm.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
 
@@ -206,9 +207,9 @@ static int projects_inside(const ref_mesher *r, const double *w, uint32_t seg, u
     return 0;
 }
 
-/* 1 if vertex w lies on an input feature that meets the feature of a piece
- * (segment seg when facet is BD_NONE, else facet 'facet') at an acute
- * angle: the two meet, and w's orthogonal projection onto the piece's
+/* 1 if vertex w lies on an input feature that meets the feature of a
+ * piece (segment seg when facet is BD_NONE, else facet 'facet') at an
+ * acute angle: the two meet, and w's orthogonal projection onto the piece's
  * feature falls inside it. That is Shewchuk's projection condition, broken
  * locally. There encroachment is not split eagerly: the two features would
  * split each other down to where they meet (the tee's 60-degree edges
@@ -259,6 +260,46 @@ static double subfac_rad2(const ref_mesher *r, uint32_t id)
     return r2;
 }
 
+/* The constrained mode's initial mesh needs its pieces present, not
+ * unencroached (a CDT exists without that): encroachment waits for the
+ * refinement. */
+static int skip_encroachment(const ref_mesher *r)
+{
+    return r->o.constrained && !r->classified;
+}
+
+/* In the constrained mode, a piece of a tessellated curved surface (a
+ * subsegment of a smooth segment, a subfacet of a facet with one: see
+ * FM_SMOOTH_DIH) is not split because a vertex encroaches it, only where
+ * a bad tetrahedron's circumcentre does (split_tet in refine_run.c). Its
+ * neighbours meet it at nearly 180 degrees and encroach it everywhere,
+ * and eager splits there encroach the next pieces and refine the whole
+ * surface several times over (the torus-0.15 of the corpus: 21,572
+ * tetrahedra against 2,028). The pieces are constraints, so one left
+ * encroached stays; pieces of the shape's real edges and flat faces are
+ * split as in the conforming mode. */
+int ref__smooth_seg(const ref_mesher *r, uint32_t seg)
+{
+    return r->fac_smooth && r->p->seg_mindih[seg] >= FM_SMOOTH_DIH;
+}
+
+int ref__smooth_facet(const ref_mesher *r, uint32_t f)
+{
+    return r->fac_smooth && (r->fac_smooth[f] & 1);
+}
+
+int ref__acute_seg(const ref_mesher *r, uint32_t seg)
+{
+    const plc *p = r->p;
+    const uint32_t *e = p->segs[seg].v;
+    return p->v_minang && (p->v_minang[e[0]] < FM_NEEDLE_ANG || p->v_minang[e[1]] < FM_NEEDLE_ANG);
+}
+
+int ref__acute_facet(const ref_mesher *r, uint32_t f)
+{
+    return r->fac_smooth && (r->fac_smooth[f] & 2);
+}
+
 /* After a subsegment became present in tetrahedron t: queue it if a
  * vertex encroaches it or it is too long. */
 static int check_subseg(ref_mesher *r, uint32_t id, uint32_t t)
@@ -266,8 +307,10 @@ static int check_subseg(ref_mesher *r, uint32_t id, uint32_t t)
     const bd_subseg *s = &r->bd.segs[id];
     if (r->o.seg_maxlen > 0 && subseg_len2(r, id) >= r->o.seg_maxlen * r->o.seg_maxlen)
         return ref__queue_seg(r, id, 0.0f);
+    if (skip_encroachment(r))
+        return 0;
     uint32_t w = subseg_encroacher(r, t, s->v[0], s->v[1], s->seg);
-    if (w != TM_NONE)
+    if (w != TM_NONE && !ref__smooth_seg(r, s->seg))
         return ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[w]));
     return 0;
 }
@@ -276,8 +319,10 @@ static int check_subfac(ref_mesher *r, uint32_t id, uint32_t t, int k)
 {
     if (r->o.fac_maxrad > 0 && subfac_rad2(r, id) >= r->o.fac_maxrad * r->o.fac_maxrad)
         return ref__queue_fac(r, id, 0.0f);
+    if (skip_encroachment(r))
+        return 0;
     uint32_t w = subfac_encroacher(r, t, k, r->bd.facs[id].facet);
-    if (w != TM_NONE)
+    if (w != TM_NONE && !ref__smooth_facet(r, r->bd.facs[id].facet))
         return ref__queue_fac(r, id, (float)(r->o.rho * r->bd.vrins[w]));
     return 0;
 }
@@ -293,7 +338,9 @@ static int check_subfac(ref_mesher *r, uint32_t id, uint32_t t, int k)
 static int in_cavity2d(const ref_mesher *r, uint32_t u, const double *p)
 {
     const bd_subfac *U = &r->bd.facs[u];
-    if (!(U->flags & BD_F_MISSING)) {
+    /* In the constrained mode the 2D cavity comes first and says which
+     * subfacets the 3D search may cross (refine_cdt.c). */
+    if (!(U->flags & BD_F_MISSING) && !r->o.constrained) {
         for (size_t k = 0; k < r->marks.n; k++) {
             const ref_mark *mk = &r->marks.m[k];
             if (mk->nv != 3 || !mk->deleted || (uint32_t)mk->facet != U->facet)
@@ -719,7 +766,7 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
      * v encroaches are queued. */
     for (size_t k = 0; k < r->marks.n && !rc; k++) {
         const ref_mark *mk = &r->marks.m[k];
-        if (!mk->deleted && !mk->encroached)
+        if (!mk->deleted && (!mk->encroached || skip_encroachment(r)))
             continue;
         if (mk->nv == 2) {
             uint32_t id = bd_find_subseg(bd, mk->v[0], mk->v[1]);
@@ -728,7 +775,8 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
             if (mk->deleted) {
                 bd->segs[id].flags |= BD_F_MISSING;
                 rc = ref__queue_seg(r, id, 0.0f);
-            } else if (!incident(r, v, bd->segs[id].seg, BD_NONE)) {
+            } else if (!incident(r, v, bd->segs[id].seg, BD_NONE) &&
+                       !ref__smooth_seg(r, bd->segs[id].seg)) {
                 rc = ref__queue_seg(r, id, (float)(r->o.rho * rv));
             }
         } else {
@@ -739,7 +787,8 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
                 bd->facs[id].flags |= BD_F_MISSING;
                 rc = ref__queue_fac(r, id, 0.0f);
             } else if (!ref__on_facet(r, v, (uint32_t)mk->facet) &&
-                       !incident(r, v, BD_NONE, (uint32_t)mk->facet)) {
+                       !incident(r, v, BD_NONE, (uint32_t)mk->facet) &&
+                       !ref__smooth_facet(r, (uint32_t)mk->facet)) {
                 rc = ref__queue_fac(r, id, (float)(r->o.rho * rv));
             }
         }

@@ -96,6 +96,16 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
 {
     tm_mesh *m = &r->m;
     const plc *p = r->p;
+    if (r->carved) {
+        /* The exterior is gone and every insertion since gave its new
+         * tetrahedra the region of the side they were built on, a side
+         * of a constraint no cavity crosses: nothing to classify. */
+        if (unreached)
+            *unreached = 0;
+        if (changed)
+            *changed = 0;
+        return 0;
+    }
     int rc = ref_region_room(r);
     if (rc)
         return rc;

@@ -88,7 +88,36 @@ int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint
 /* The subsegment and subfacet tables after committing vertex v for a
  * boundary split (of subsegment split_id, or BD_NONE). */
 int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id);
+/* Constrained mode: 1 if input segment seg, or facet f, is part of a
+ * tessellated curved surface (FM_SMOOTH_DIH); 0 otherwise and in the
+ * conforming mode. */
+int ref__smooth_seg(const ref_mesher *r, uint32_t seg);
+int ref__smooth_facet(const ref_mesher *r, uint32_t f);
+/* Constrained mode: 1 if an end of input segment seg, or a corner of facet
+ * f, is a needle point (FM_NEEDLE_ANG). */
+int ref__acute_seg(const ref_mesher *r, uint32_t seg);
+int ref__acute_facet(const ref_mesher *r, uint32_t f);
 /* The point that splits subsegment ab (tests/test_refine.c checks it). */
 void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
+
+/* ------------------------------------------------------ refine_cdt.c */
+
+/* may_cross of a constrained boundary split: a face whose subfacet is in
+ * the split's 2D cavities (BD_F_VISIT). */
+int ref__cross_visited(void *arg, const tm_mesh *m, uint32_t t, int f);
+/* The dt_cavity_search flags of the constrained mode. */
+unsigned ref__cdt_flags(const ref_mesher *r);
+/* The constrained cavity of point p splitting piece ab (edge) or abc
+ * (face, c != TM_NONE), missing or present, whose 2D cavities are in
+ * r->list: searched into r->cav crossing only those subfacets, made a star,
+ * and deleting every present subfacet of the list. Returns 0 (r->cav
+ * pending), 1 when there is no such cavity (nothing pending), or a
+ * negative code. */
+int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
+                          int missing);
+/* For a circumcentre p that the constrained cavity r->cav searched from
+ * tetrahedron t does not hold: the subfacet on the cavity's boundary that
+ * the segment from t to p crosses (else one p lies beyond), or BD_NONE. */
+uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3]);
 
 #endif /* PDR_REFINE_INT_H */

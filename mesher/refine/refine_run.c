@@ -223,14 +223,59 @@ int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2)
     return 0;
 }
 
+/* flip_hooks.copy: a tetrahedron made by a flip lies in the region of
+ * the ones it replaces. */
+static void copy_region(void *arg, uint32_t from, uint32_t to)
+{
+    ref_mesher *r = arg;
+    r->m.flags[to] |= r->m.flags[from] & REF_F_EXTERIOR;
+    if (r->region)
+        r->region[to] = r->region[from];
+}
+
 static int queue_new_tets(ref_mesher *r)
 {
     if (!r->classified)
         return 0;
     tm_mesh *m = &r->m;
     const dt_cavity *c = &r->cav;
-    for (size_t i = 0; i < c->nnew; i++) {
-        uint32_t n = c->newtets[i];
+    size_t nflip = 0;
+    if (r->carved) {
+        /* The constrained mode: what the insertion left not locally
+         * Delaunay next to constraint faces is flipped (mesh/flip.h). */
+        int rc = ref_region_room(r);
+        flip_hooks fh = {copy_region, r};
+        r->flipped.n = r->flipped.nstuck = 0;
+        if (!rc)
+            rc = flip_restore(m, c->newtets, c->nnew, &fh, &r->flipped, 0);
+        /* A face no flip mends lies against a subsegment that is not
+         * strongly Delaunay (a CDT with it may not exist): it is split. */
+        for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
+            tm_link l = r->flipped.stuck_faces[i];
+            uint32_t t = tm_ltet(l);
+            if (tm_is_dead(m, t))
+                continue;
+            const uint32_t *tv = m->tets[t].v;
+            const uint8_t *fv = tm_face_vtx[tm_lface(l)];
+            for (int k = 0; k < 3 && !rc; k++) {
+                uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
+                uint32_t id = bd_find_subseg(&r->bd, a, b);
+                if (id != BD_NONE)
+                    rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
+            }
+        }
+        if (rc)
+            return rc;
+        nflip = r->flipped.n;
+        r->st.flips23 += r->flipped.flips23;
+        r->st.flips32 += r->flipped.flips32;
+        r->st.flips_stuck += r->flipped.stuck;
+        r->flipped.flips23 = r->flipped.flips32 = r->flipped.stuck = 0;
+    }
+    for (size_t i = 0; i < c->nnew + nflip; i++) {
+        uint32_t n = i < c->nnew ? c->newtets[i] : r->flipped.tets[i - c->nnew];
+        if (tm_is_dead(m, n))
+            continue;
         if ((m->flags[n] & REF_F_EXTERIOR) || tm_is_ghost(m, n))
             continue;
         double cc[3];
@@ -259,6 +304,7 @@ static int cavity_hook(ref_mesher *r, const double p[3], uint32_t start)
         r->step_remote = 1;
     return h;
 }
+
 
 /* ---------------------------------------------------------- commit */
 
@@ -461,8 +507,27 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     int missing = (S.flags & BD_F_MISSING) != 0;
     double p[3];
     ref__split_point(r, S.v[0], S.v[1], p);
-    int setback;
-    int rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
+    int setback = 0, rc = 0;
+    struct root_arg ra = {r, 0};
+    if (r->o.constrained) {
+        /* The 2D cavities first: they say which subfacets the 3D cavity
+         * crosses (refine_cdt.c). */
+        ref__list_clear(r);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        uint32_t ea, eb;
+        int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
+        if (g > 0)
+            r->anomalies++; /* not expected for a point on the segment */
+        rc = g < 0 ? g : ref__cdt_search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing);
+        if (rc) {
+            ref__list_clear(r);
+            if (rc < 0)
+                return rc;
+            return below_resolution(r, p, missing, &r->bd.segs[id].flags);
+        }
+    } else {
+        rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
+    }
     if (setback)
         return REF_SETBACK;
     if (rc > 0) {
@@ -489,10 +554,12 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     }
     double rins = insertion_radius(r);
     if (rins < r->min_spacing) {
+        ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
         return below_resolution(r, p, missing, &r->bd.segs[id].flags);
     }
     if (!missing && rins < rmin) {
+        ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
         r->bd.segs[id].flags |= BD_F_TOLERATED;
         r->st.tolerated++;
@@ -503,14 +570,13 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
     ref_decision d;
     if (!rc)
         ref_decide(r->p, p, REF_SUBSEG, &r->marks, &d);
-    struct root_arg ra = {r, 0};
-    ref__list_clear(r);
-    if (!rc) {
-        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
-        rc = ra.rc;
-    }
     uint32_t ea, eb;
-    int g = rc ? rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
+    int g = rc;
+    if (!rc && !r->o.constrained) {
+        ref__list_clear(r);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
+    }
     if (g < 0) {
         ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
@@ -566,6 +632,94 @@ static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done, in
     return 0;
 }
 
+/* split_subfac in the constrained mode (refine_cdt.c): the 2D cavity of
+ * circumcentre c first, then the 3D cavity that crosses exactly its
+ * subfacets. */
+static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], double rmin,
+                            int *result)
+{
+    tm_mesh *m = &r->m;
+    bd_subfac G = r->bd.facs[id];
+    int missing = (G.flags & BD_F_MISSING) != 0;
+    ref__list_clear(r);
+    int rc = ref__list_add(r, id);
+    uint32_t ea = 0, eb = 0;
+    int g = rc ? rc : ref__grow_cavity2d(r, c, BD_NONE, BD_NONE, &ea, &eb);
+    if (g != 0) {
+        ref__list_clear(r);
+        if (g < 0)
+            return g;
+        uint32_t sid = g == 1 ? bd_find_subseg(&r->bd, ea, eb) : BD_NONE;
+        if (sid == BD_NONE) {
+            r->anomalies++;
+            r->bd.facs[id].flags |= BD_F_TOLERATED;
+            return 0;
+        }
+        /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
+        int res;
+        rc = split_subseg(r, sid, rmin, &res);
+        *result = res == SPLIT_DONE ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        return rc;
+    }
+    rc = ref__cdt_search_piece(r, c, G.v[0], G.v[1], G.v[2], missing);
+    if (rc) {
+        ref__list_clear(r);
+        if (rc < 0)
+            return rc;
+        if (missing)
+            return below_resolution(r, c, missing, &r->bd.facs[id].flags);
+        r->bd.facs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    uint16_t any = cavity_flags(r);
+    rc = ref_gather_marks(m, &r->cav, &r->marks);
+    if (rc) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    ref_decision d;
+    ref_decide(r->p, c, REF_SUBFACET, &r->marks, &d);
+    if (d.action == REF_SPLIT_SUBSEGS) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        size_t done;
+        int elsewhere;
+        rc = split_encroached_subsegs(r, rmin, &done, &elsewhere);
+        *result = done ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        if (*result == SPLIT_REFUSED)
+            r->bd.facs[id].flags |= BD_F_TOLERATED;
+        return rc;
+    }
+    double rins = insertion_radius(r);
+    if (rins < r->min_spacing || (!missing && rins < rmin)) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        if (rins < r->min_spacing)
+            return below_resolution(r, c, missing, &r->bd.facs[id].flags);
+        r->bd.facs[id].flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
+    uint32_t v;
+    r->last_op = "subfacet point (constrained)";
+    rc = commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
+    if (rc) {
+        ref__list_clear(r);
+        dt_cavity_abandon(m, &r->cav);
+        return rc;
+    }
+    rc = ref__update_boundary(r, v, BD_NONE);
+    if (!rc)
+        rc = queue_new_tets(r);
+    r->st.fac_points++;
+    if (missing)
+        r->st.missing_recovered++;
+    *result = SPLIT_DONE;
+    return rc;
+}
+
 /* Splits subfacet id at its circumcentre; when that point encroaches
  * subsegments, splits them instead (SPLIT_DEFERRED: the subfacet is still
  * there). rmin as for split_subseg; SPLIT_REFUSED when nothing was
@@ -583,6 +737,8 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         r->bd.facs[id].flags |= BD_F_TOLERATED;
         return 0;
     }
+    if (r->o.constrained)
+        return split_subfac_cdt(r, id, c, rmin, result);
     int setback;
     int rc = search_piece(r, c, G.v[0], G.v[1], G.v[2], &setback);
     if (setback)
@@ -723,6 +879,90 @@ static void give_up(ref_mesher *r, uint32_t t, int degenerate)
         r->st.degenerate++;
 }
 
+/* A bad tetrahedron t whose circumcentre (at distance rp from its
+ * vertices) encroaches a piece: splits the subsegments flagged encroached
+ * in r->marks (segs), or subfacet g, instead, never nearer to a vertex
+ * than t's shortest edge (see split_tet); t is queued again when a split
+ * was made, left (given up) when it was refused. */
+static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs, uint32_t g)
+{
+    tm_mesh *m = &r->m;
+    const uint32_t *tv = m->tets[t].v;
+    r->st.rejected++;
+    /* Whether the pieces to split are on a tessellated curved surface,
+     * and whether one of them ends at an acute vertex. */
+    int smooth = 0, acute = 0;
+    if (g != BD_NONE) {
+        smooth = ref__smooth_facet(r, r->bd.facs[g].facet);
+        acute = ref__acute_facet(r, r->bd.facs[g].facet);
+    }
+    for (size_t k = 0; segs && k < r->marks.n; k++) {
+        const ref_mark *mk = &r->marks.m[k];
+        uint32_t id = mk->nv == 2 && mk->encroached ? bd_find_subseg(&r->bd, mk->v[0], mk->v[1])
+                                                    : BD_NONE;
+        if (id == BD_NONE)
+            continue;
+        smooth |= ref__smooth_seg(r, r->bd.segs[id].seg);
+        acute |= ref__acute_seg(r, r->bd.segs[id].seg);
+    }
+    if (why == 2 && smooth) {
+        /* A sliver (bad by a dihedral angle alone) does not split a
+         * tessellated curved surface (constrained mode): such splits make
+         * more slivers next to the new boundary vertices, and the surface
+         * is refined several times over (torus-0.15 of the corpus: 24,320
+         * tetrahedra against 4,591 without). It is left, and counted. */
+        give_up(r, t, 0);
+        r->st.slivers_left++;
+        return 0;
+    }
+    double lmin = INFINITY;
+    for (int e = 0; e < 6; e++)
+        lmin = fmin(lmin, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+    /* For a tetrahedron that is bad by its size alone the floor is half
+     * its circumradius instead (the clean bound is r/sqrt(2)): its splits
+     * are then never smaller than a fixed fraction of the size bound. */
+    double floor = fmin(sqrt(lmin) * fmin(1.0, 0.9 * r->o.ratio / M_SQRT2), 0.5 * rp);
+    /* A flat tetrahedron lying on a facet is a rounding artifact that only
+     * the split of that facet's subfacet removes. */
+    if (why == 3)
+        floor = 0;
+    /* A piece of a tessellated curved surface is not split eagerly (see
+     * ref__smooth_seg), so the bad tetrahedra next to it ask for its
+     * splits themselves, and Shewchuk's bound for their new vertices (the
+     * floor above) needs pieces that no vertex encroaches: the floor is
+     * halved there. Curved surfaces have no small angles between their
+     * own pieces to cascade into, and near an acute vertex, where they
+     * would, the floor stays; on the corpus the strips made of long
+     * triangles leave 0 tetrahedra above the bound instead of 1,373. */
+    if (smooth && !acute)
+        floor *= 0.5;
+    int outcome = SPLIT_REFUSED, rc = 0;
+    /* With the parallel hooks the splits below may wait for other PEs,
+     * during which t may be split or moved away and its slot reused:
+     * remember what t was. */
+    uint32_t was[4];
+    memcpy(was, m->tets[t].v, sizeof was);
+    if (segs) {
+        size_t done;
+        int elsewhere;
+        rc = split_encroached_subsegs(r, floor, &done, &elsewhere);
+        outcome = done ? SPLIT_DONE : elsewhere ? SPLIT_ELSEWHERE : SPLIT_REFUSED;
+    } else if (g != BD_NONE) {
+        rc = split_subfac(r, g, floor, &outcome);
+    }
+    if (rc)
+        return rc;
+    if (tm_is_dead(m, t) || memcmp(was, m->tets[t].v, sizeof was))
+        return 0;
+    if (outcome == SPLIT_REFUSED)
+        give_up(r, t, 0);
+    else if (outcome == SPLIT_ELSEWHERE)
+        r->st.left_elsewhere++; /* not given up: the merge finishes it */
+    else
+        rc = queue_tet(r, t);
+    return rc;
+}
+
 /* Refine(t) for a bad tetrahedron: its circumcentre, or the split of the
  * subsegments or the subfacet that circumcentre encroaches. Those splits
  * must not put a vertex nearer to another than t's shortest edge (on an
@@ -780,13 +1020,40 @@ static int split_tet(ref_mesher *r, uint32_t t)
     int h = r->hooks ? cavity_hook(r, cc, t) : 0;
     if (h && h != REF_SEARCHED)
         return h;
-    int rc = h == REF_SEARCHED ? 0 : dt_cavity_search(m, cc, t, 0, &r->cav);
+    unsigned sflags = r->o.constrained ? ref__cdt_flags(r) : 0;
+    int rc = h == REF_SEARCHED ? 0 : dt_cavity_search(m, cc, t, sflags, &r->cav);
     if (rc)
         return rc;
     if (r->cav.status != DT_OK) {
         dt_cavity_abandon(m, &r->cav);
         give_up(r, t, 1);
         return 0;
+    }
+    if (r->o.constrained && !dt_cavity_is_star(m, &r->cav)) {
+        /* A constraint hides cc from t (refine_cdt.c): what cc encroaches
+         * on the cavity's boundary is split as usual (ref_decide), else
+         * the subfacet between t and cc. */
+        double rt = sqrt(v3_dist2(cc, X(m, m->tets[t].v[0])));
+        rc = ref_gather_marks(m, &r->cav, &r->marks);
+        if (rc) {
+            dt_cavity_abandon(m, &r->cav);
+            return rc;
+        }
+        ref_decision d;
+        ref_decide(r->p, cc, REF_TET, &r->marks, &d);
+        uint32_t g = BD_NONE;
+        if (d.action == REF_SPLIT_SUBFACET) {
+            const ref_mark *mk = &r->marks.m[d.which];
+            g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
+        } else if (d.action == REF_COMMIT) {
+            g = ref__cdt_blocker(r, t, cc);
+        }
+        dt_cavity_abandon(m, &r->cav);
+        if (d.action == REF_COMMIT && g == BD_NONE) {
+            give_up(r, t, 1);
+            return 0;
+        }
+        return split_instead(r, t, why, rt, d.action == REF_SPLIT_SUBSEGS, g);
     }
     uint16_t any = cavity_flags(r);
     const uint32_t *tv = m->tets[t].v;
@@ -817,48 +1084,12 @@ static int split_tet(ref_mesher *r, uint32_t t)
         ref_decide(r->p, cc, REF_TET, &r->marks, &d);
         if (d.action != REF_COMMIT) {
             dt_cavity_abandon(m, &r->cav);
-            r->st.rejected++;
-            double lmin = INFINITY;
-            for (int e = 0; e < 6; e++)
-                lmin = fmin(lmin,
-                            v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
-            /* For a tetrahedron that is bad by its size alone the floor is
-             * half its circumradius instead (the clean bound is
-             * r/sqrt(2)): its splits are then never smaller than a
-             * fixed fraction of the size bound. */
-            double floor = fmin(sqrt(lmin) * fmin(1.0, 0.9 * r->o.ratio / M_SQRT2), 0.5 * rp);
-            /* A flat tetrahedron lying on a facet is a rounding artifact
-             * that only the split of that facet's subfacet removes. */
-            if (why == 3)
-                floor = 0;
-            int outcome = SPLIT_REFUSED;
-            /* With the parallel hooks the splits below may wait for other
-             * PEs, during which t may be split or moved away and its slot
-             * reused: remember what t was. */
-            uint32_t was[4];
-            memcpy(was, m->tets[t].v, sizeof was);
-            if (d.action == REF_SPLIT_SUBSEGS) {
-                size_t done;
-                int elsewhere;
-                rc = split_encroached_subsegs(r, floor, &done, &elsewhere);
-                outcome = done ? SPLIT_DONE : elsewhere ? SPLIT_ELSEWHERE : SPLIT_REFUSED;
-            } else {
+            uint32_t g = BD_NONE;
+            if (d.action == REF_SPLIT_SUBFACET) {
                 const ref_mark *mk = &r->marks.m[d.which];
-                uint32_t g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
-                if (g != BD_NONE)
-                    rc = split_subfac(r, g, floor, &outcome);
+                g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
             }
-            if (rc)
-                return rc;
-            if (tm_is_dead(m, t) || memcmp(was, m->tets[t].v, sizeof was))
-                return 0;
-            if (outcome == SPLIT_REFUSED)
-                give_up(r, t, 0);
-            else if (outcome == SPLIT_ELSEWHERE)
-                r->st.left_elsewhere++; /* not given up: the merge finishes it */
-            else
-                rc = queue_tet(r, t);
-            return rc;
+            return split_instead(r, t, why, rp, d.action == REF_SPLIT_SUBSEGS, g);
         }
     }
     uint32_t v;

@@ -1,0 +1,305 @@
+/* mesh/flip.c -- Lawson's flips with constraints kept (see mesh/flip.h). */
+#include "config.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/pdr_util.h"
+#include "geom/pred.h"
+#include "mesh/flip.h"
+
+#define X(m, v) ((m)->xyz + 3 * (size_t)(v))
+
+static void sort3(uint32_t k[3])
+{
+    uint32_t x;
+    if (k[0] > k[1])
+        x = k[0], k[0] = k[1], k[1] = x;
+    if (k[1] > k[2])
+        x = k[1], k[1] = k[2], k[2] = x;
+    if (k[0] > k[1])
+        x = k[0], k[0] = k[1], k[1] = x;
+}
+
+static void face_key(const tm_tet *T, int f, uint32_t k[3])
+{
+    for (int i = 0; i < 3; i++)
+        k[i] = T->v[tm_face_vtx[f][i]];
+    sort3(k);
+}
+
+static int slot(const tm_tet *T, uint32_t v)
+{
+    return T->v[0] == v ? 0 : T->v[1] == v ? 1 : T->v[2] == v ? 2 : T->v[3] == v ? 3 : -1;
+}
+
+/* A face of the region being flipped, as seen from inside it. */
+typedef struct outer_face {
+    uint32_t key[3];
+    tm_link outer; /* the link beyond the region (a neighbour or special) */
+    int32_t marker;
+    int marked;
+} outer_face;
+
+/* Orients (a, b, c, d) positively (the flips only make tetrahedra whose
+ * orientation is known to be nonzero). */
+static void oriented(const tm_mesh *m, uint32_t q[4])
+{
+    if (pred_orient3d(X(m, q[0]), X(m, q[1]), X(m, q[2]), X(m, q[3])) < 0) {
+        uint32_t x = q[2];
+        q[2] = q[3];
+        q[3] = x;
+    }
+}
+
+/* Replaces tetrahedra old[0..no) by tetrahedra with the vertices nv[0..nn)
+ * (made positive here), linked to each other and to the region's outer
+ * faces, which keep their marks; subsegment bits of the old edges are
+ * kept. The new slots go to made[]. */
+static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], int nn,
+                   const flip_hooks *h, uint32_t *made)
+{
+    outer_face of[12];
+    int nof = 0;
+    uint32_t segs[18][2];
+    int nseg = 0;
+    for (int i = 0; i < no; i++) {
+        uint32_t t = old[i];
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            int inside = 0;
+            for (int j = 0; j < no && !tm_is_special(l); j++)
+                inside |= tm_ltet(l) == old[j];
+            if (inside)
+                continue;
+            outer_face *o = &of[nof++];
+            face_key(T, f, o->key);
+            o->outer = l;
+            o->marked = (m->flags[t] & TM_F_FACEMARK(f)) != 0;
+            o->marker = m->marker ? m->marker[4 * (size_t)t + (size_t)f] : 0;
+        }
+        for (int e = 0; e < 6; e++) {
+            if (!(m->flags[t] & TM_F_SUBSEG(e)))
+                continue;
+            uint32_t a = T->v[tm_edge_vtx[e][0]], b = T->v[tm_edge_vtx[e][1]];
+            if (a > b) {
+                uint32_t x = a;
+                a = b;
+                b = x;
+            }
+            int seen = 0;
+            for (int k = 0; k < nseg && !seen; k++)
+                seen = segs[k][0] == a && segs[k][1] == b;
+            if (!seen) {
+                segs[nseg][0] = a;
+                segs[nseg][1] = b;
+                nseg++;
+            }
+        }
+    }
+    /* The caller's data of old[0] (all old tetrahedra lie between the same
+     * constraints) goes to every new one before the slots are reused. */
+    uint32_t src = old[0];
+    int rc = tm_room(m, (size_t)nn);
+    if (rc)
+        return rc;
+    for (int i = 0; i < no; i++)
+        tm_free_tet(m, old[i]);
+    for (int i = 0; i < nn; i++) {
+        uint32_t n = tm_alloc_tet(m);
+        made[i] = n;
+        oriented(m, nv[i]);
+        memcpy(m->tets[n].v, nv[i], sizeof m->tets[n].v);
+        for (int f = 0; f < 4; f++)
+            m->tets[n].n[f] = TM_LINK_UNSET;
+    }
+    for (int i = 0; i < nn; i++) {
+        uint32_t n = made[i];
+        tm_tet *N = &m->tets[n];
+        for (int f = 0; f < 4; f++) {
+            if (N->n[f] != TM_LINK_UNSET)
+                continue;
+            uint32_t k[3], k2[3];
+            face_key(N, f, k);
+            int done = 0;
+            for (int j = 0; j < nn && !done; j++) {
+                if (j == i)
+                    continue;
+                for (int g = 0; g < 4 && !done; g++) {
+                    face_key(&m->tets[made[j]], g, k2);
+                    if (k[0] == k2[0] && k[1] == k2[1] && k[2] == k2[2]) {
+                        N->n[f] = tm_mklink(made[j], g);
+                        m->tets[made[j]].n[g] = tm_mklink(n, f);
+                        done = 1;
+                    }
+                }
+            }
+            for (int q = 0; q < nof && !done; q++) {
+                if (of[q].key[0] != k[0] || of[q].key[1] != k[1] || of[q].key[2] != k[2])
+                    continue;
+                N->n[f] = of[q].outer;
+                if (!tm_is_special(of[q].outer))
+                    m->tets[tm_ltet(of[q].outer)].n[tm_lface(of[q].outer)] = tm_mklink(n, f);
+                if (of[q].marked) {
+                    m->flags[n] |= TM_F_FACEMARK(f);
+                    if (m->marker)
+                        m->marker[4 * (size_t)n + (size_t)f] = of[q].marker;
+                }
+                done = 1;
+            }
+            if (!done)
+                return PDR_ETOPOLOGY; /* cannot happen: the region is closed */
+        }
+        for (int e = 0; e < 6; e++) {
+            uint32_t a = N->v[tm_edge_vtx[e][0]], b = N->v[tm_edge_vtx[e][1]];
+            if (a > b) {
+                uint32_t x = a;
+                a = b;
+                b = x;
+            }
+            for (int q = 0; q < nseg; q++)
+                if (segs[q][0] == a && segs[q][1] == b)
+                    m->flags[n] |= TM_F_SUBSEG(e);
+        }
+        for (int s = 0; s < 4; s++)
+            m->vhint[N->v[s]] = n;
+        if (h && h->copy && n != src)
+            h->copy(h->arg, src, n);
+    }
+    return 0;
+}
+
+static int push(uint32_t **st, size_t *n, size_t *cap, tm_link l)
+{
+    if (pdr_grow((void **)st, cap, *n + 1, sizeof **st))
+        return PDR_ENOMEM;
+    (*st)[(*n)++] = l;
+    return 0;
+}
+
+static int record(flip_out *out, const uint32_t *made, int nn)
+{
+    if (!out)
+        return 0;
+    if (pdr_grow((void **)&out->tets, &out->cap, out->n + (size_t)nn, sizeof *out->tets))
+        return PDR_ENOMEM;
+    for (int i = 0; i < nn; i++)
+        out->tets[out->n++] = made[i];
+    return 0;
+}
+
+/* The 3-2 flip of t and u (sharing face f of t) around their edge (e1,e2)
+ * of that face, with the third tetrahedron around the edge; 1 if done. */
+static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uint32_t e1,
+                 uint32_t e2, uint32_t z, const flip_hooks *h, uint32_t *made, int *rc)
+{
+    const tm_tet *T = &m->tets[t], *U = &m->tets[u];
+    int st = slot(T, z), su = slot(U, z);
+    if (st < 0 || su < 0)
+        return 0;
+    tm_link lt = T->n[st], lu = U->n[su];
+    if (tm_is_special(lt) || tm_is_special(lu) || tm_ltet(lt) != tm_ltet(lu))
+        return 0;
+    uint32_t w = tm_ltet(lt);
+    if (tm_is_ghost(m, w) || (m->flags[t] & TM_F_FACEMARK(st)) ||
+        (m->flags[u] & TM_F_FACEMARK(su)))
+        return 0;
+    int s1 = slot(T, e1), s2 = slot(T, e2);
+    if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[s1][s2]))
+        return 0;
+    const tm_tet *W = &m->tets[w];
+    uint32_t c = TM_NONE;
+    for (int k = 0; k < 4; k++)
+        if (W->v[k] != e1 && W->v[k] != e2 && W->v[k] != p && W->v[k] != a)
+            c = W->v[k];
+    if (c == TM_NONE || slot(W, e1) < 0 || slot(W, e2) < 0)
+        return 0;
+    const double *P = X(m, p), *A = X(m, a), *C = X(m, c), *E1 = X(m, e1), *E2 = X(m, e2);
+    int o1 = pred_orient3d(P, A, C, E1), o2 = pred_orient3d(P, A, C, E2);
+    if (!o1 || !o2 || o1 == o2)
+        return 0;
+    int q1 = pred_orient3d(E1, E2, P, A), q2 = pred_orient3d(E1, E2, A, C),
+        q3 = pred_orient3d(E1, E2, C, P);
+    if (!q1 || q1 != q2 || q2 != q3)
+        return 0;
+    uint32_t old[3] = {t, u, w};
+    uint32_t nv[2][4] = {{p, a, c, e1}, {p, a, c, e2}};
+    *rc = replace(m, old, 3, nv, 2, h, made);
+    return *rc == 0;
+}
+
+int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hooks *h,
+                 flip_out *out, size_t limit)
+{
+    uint32_t *st = NULL;
+    size_t n = 0, cap = 0, flips = 0;
+    int rc = 0;
+    if (!limit)
+        limit = 64 * nseed + 64;
+    for (size_t i = 0; i < nseed && !rc; i++)
+        for (int f = 0; f < 4 && !rc; f++)
+            rc = push(&st, &n, &cap, tm_mklink(seed[i], f));
+    while (!rc && n > 0 && flips < limit) {
+        tm_link l = st[--n];
+        uint32_t t = tm_ltet(l);
+        int f = tm_lface(l);
+        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & TM_F_FACEMARK(f)))
+            continue;
+        tm_link nl = m->tets[t].n[f];
+        if (tm_is_special(nl))
+            continue;
+        uint32_t u = tm_ltet(nl);
+        if (tm_is_ghost(m, u))
+            continue;
+        const tm_tet *T = &m->tets[t];
+        uint32_t p = T->v[f], a = m->tets[u].v[tm_lface(nl)];
+        if (pred_insphere_sos(X(m, T->v[0]), X(m, T->v[1]), X(m, T->v[2]), X(m, T->v[3]),
+                              X(m, a)) <= 0)
+            continue;
+        uint32_t x = T->v[tm_face_vtx[f][0]], y = T->v[tm_face_vtx[f][1]],
+                 z = T->v[tm_face_vtx[f][2]];
+        const double *P = X(m, p), *A = X(m, a);
+        int o[3] = {pred_orient3d(P, A, X(m, x), X(m, y)), pred_orient3d(P, A, X(m, y), X(m, z)),
+                    pred_orient3d(P, A, X(m, z), X(m, x))};
+        uint32_t made[3];
+        int nn = 0;
+        if (o[0] && o[0] == o[1] && o[1] == o[2]) {
+            uint32_t old[2] = {t, u};
+            uint32_t nv[3][4] = {{x, y, p, a}, {y, z, p, a}, {z, x, p, a}};
+            rc = replace(m, old, 2, nv, 3, h, made);
+            nn = 3;
+            if (out && !rc)
+                out->flips23++;
+        } else {
+            /* The edge the segment pa passes beyond: 3-2 around it. */
+            const uint32_t ev[3][3] = {{x, y, z}, {y, z, x}, {z, x, y}};
+            for (int k = 0; k < 3 && !nn && !rc; k++) {
+                int major = o[(k + 1) % 3] != 0 && o[(k + 1) % 3] == o[(k + 2) % 3];
+                if (!major || o[k] == o[(k + 1) % 3])
+                    continue;
+                if (try32(m, t, u, p, a, ev[k][0], ev[k][1], ev[k][2], h, made, &rc))
+                    nn = 2;
+            }
+            if (out && nn) {
+                out->flips32++;
+            } else if (out && !rc) {
+                out->stuck++;
+                if (pdr_grow((void **)&out->stuck_faces, &out->cap_stuck, out->nstuck + 1,
+                             sizeof *out->stuck_faces))
+                    rc = PDR_ENOMEM;
+                else
+                    out->stuck_faces[out->nstuck++] = l;
+            }
+        }
+        if (!nn || rc)
+            continue;
+        flips++;
+        rc = record(out, made, nn);
+        for (int i = 0; i < nn && !rc; i++)
+            for (int g = 0; g < 4 && !rc; g++)
+                rc = push(&st, &n, &cap, tm_mklink(made[i], g));
+    }
+    free(st);
+    return rc;
+}

@@ -1,0 +1,62 @@
+/*
+ * mesh/flip.h -- restoring local Delaunayness by 2-3 and 3-2 flips (prefix
+ * flip_), constraints kept.
+ *
+ * A Bowyer-Watson insertion into a constrained Delaunay tetrahedralization
+ * (refine/refine_cdt.c) can leave faces that are not locally Delaunay: a
+ * new tetrahedron built on a constraint face (a subfacet, which no cavity
+ * crosses) has no old tetrahedron beyond that face to vouch for its
+ * circumsphere, and two such tetrahedra on two constraint faces that meet
+ * at an edge may each hold the other's apex; a cavity shrunk to a star
+ * leaves the same kind of face. TetGen repairs both with Lawson's flips
+ * ("lawsonflip3d"); so does this module.
+ *
+ * flip_restore checks every face of the given tetrahedra, and every face
+ * that a flip creates: a face between two real tetrahedra that carries no
+ * face mark (TM_F_FACEMARK) and whose far apex lies inside the near
+ * tetrahedron's circumsphere (perturbed test, as the kernel decides) is
+ * flipped, 2-3 when the segment joining the two apexes crosses the face,
+ * else 3-2 when an edge of the face has exactly three tetrahedra around
+ * it, is not a subsegment (TM_F_SUBSEG) and the three faces around it are
+ * unmarked, and the flip is valid. A face that is neither is left (counted
+ * in *stuck). Flips never touch a marked face or a subsegment edge: a new
+ * tetrahedron's face that was a face of the flipped region's boundary
+ * takes that face's mark and marker, its edges that were subsegments keep
+ * their bits. Ghosts, special links and other per-tetrahedron data are not
+ * touched; hook copies a caller's per-tetrahedron data (regions) from an
+ * old tetrahedron of the flip (they all lie between the same constraints)
+ * to each new one.
+ *
+ * Ownership: works in place on m; *out (if not NULL) is a growable array
+ * of the caller's, to which every tetrahedron a flip made is appended (some
+ * may be dead again at the end: check tm_is_dead).
+ */
+#ifndef PDR_FLIP_H
+#define PDR_FLIP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "mesh/tm.h"
+
+typedef struct flip_hooks {
+    void (*copy)(void *arg, uint32_t from, uint32_t to); /* may be NULL */
+    void *arg;
+} flip_hooks;
+
+typedef struct flip_out {
+    uint32_t *tets; /* tetrahedra made by flips (caller frees) */
+    size_t n, cap;
+    tm_link *stuck_faces; /* faces left not locally Delaunay (caller frees;
+                             they may be gone by the end) */
+    size_t nstuck, cap_stuck;
+    size_t flips23, flips32, stuck;
+} flip_out;
+
+/* Flips until every face reachable as described above is locally Delaunay
+ * or stuck (at most limit flips; 0: 64 per seed tetrahedron). Returns 0 or
+ * PDR_ENOMEM. */
+int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hooks *h,
+                 flip_out *out, size_t limit);
+
+#endif /* PDR_FLIP_H */

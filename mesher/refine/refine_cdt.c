@@ -1,0 +1,312 @@
+/*
+ * refine/refine_cdt.c -- the constrained mode of the refinement
+ * (ref_opts.constrained): the mesh is a constrained Delaunay
+ * tetrahedralization (CDT) of the input, whose subsegments and subfacets
+ * are constraints that no cavity crosses, instead of a conforming Delaunay
+ * one.
+ *
+ * Why. A closed triangle surface exported by a CAD tool or a scanner makes
+ * every triangle a facet and every edge a segment; segments meet at the
+ * triangles' corners at 30 to 60 degrees everywhere, far below what the
+ * conforming algorithm needs to terminate (Shewchuk: 90 degrees), and
+ * splitting a piece there puts a vertex that encroaches the piece next to
+ * it, down to the resolution of double precision. In a conforming mesh
+ * a piece that is encroached but not split can vanish at the next
+ * insertion (its tetrahedra are deleted) and must then be split anyway,
+ * so refusing splits near small angles does not help; once pieces are
+ * constraints, a refused piece stays, and refusing is safe. That is
+ * Shewchuk's "Constrained Delaunay tetrahedralizations and provably good
+ * boundary recovery" (2002) and what TetGen's -p does; see
+ * mesher/refine/RECOVERY.md for the measurements that led here.
+ *
+ * How (the differences from the conforming mode, which stays the default
+ * for inputs that meet its angle conditions):
+ *
+ *  - Every cavity is searched with DT_STOP_MARKED: it ends at marked faces
+ *    (present subfacets). A boundary split may cross exactly the subfacets
+ *    it replaces: its 2D cavities (subfacets of the piece's facets whose
+ *    circumcircle holds the new point, by the perturbed in-circle test
+ *    that agrees with the 3D predicates) are found FIRST, flagged
+ *    BD_F_VISIT, and ref__cross_visited lets the 3D search through them.
+ *    Subsegments need no test of their own: an edge between constrained
+ *    faces is never inside a cavity that crosses none of them.
+ *  - A cavity that is not a star from its point (it reached round a
+ *    constraint to its back) is shrunk to one (dt_cavity_shrink); a
+ *    boundary split whose 3D cavity then does not delete every subfacet of
+ *    its 2D cavities is refused (the piece is tolerated: it stays).
+ *  - The circumcentre of a bad tetrahedron that a constraint hides from
+ *    it (the cavity from the tetrahedron holds no tetrahedron containing
+ *    the point) encroaches that constraint: the subfacet crossed by the
+ *    segment from the tetrahedron to the point is split instead, under the
+ *    same floors as any split a bad tetrahedron asks for, or the
+ *    tetrahedron is left (counted near small angles).
+ *  - The initial mesh: the Delaunay tetrahedralization of the input
+ *    vertices, then missing subsegments and missing subfacets are split
+ *    until every piece is present (present pieces are constraints from the
+ *    start, so none is ever lost again; encroachment is not repaired
+ *    there); then the exterior and the holes are classified, and CARVED:
+ *    their tetrahedra are deleted and every boundary face gets a ghost
+ *    tetrahedron (the infinite vertex beyond it), linked to its neighbours
+ *    around the boundary edges. With DT_GHOST_WALLS a ghost joins a cavity
+ *    only across the boundary piece being split, so a split on the
+ *    boundary is the same search-and-commit as any other, and the new
+ *    boundary faces get ghosts of their own.
+ *
+ * What it guarantees, and where: the mesh is a constrained Delaunay
+ * tetrahedralization (every face that is not on an input facet is locally
+ * Delaunay), every input facet is exactly covered by subfacets, and
+ * every interior tetrahedron has radius-edge ratio below the bound except
+ * those whose split was refused next to a small input angle (counted by
+ * ref_count_bad as left near small angles) or that are degenerate.
+ * Termination rests on the same floors as the conforming mode (a split a
+ * bad tetrahedron asks for never goes below its shortest edge), on the
+ * resolution floor and on the bound on inserted points; the recovery of
+ * the initial mesh splits only pieces that have never been present.
+ */
+#include "config.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geom/pred.h"
+#include "refine/refine_int.h"
+#include "base/v3.h"
+
+#define X(m, v) ((m)->xyz + 3 * (size_t)(v))
+
+/* The subfacet that face f of tetrahedron t is, or BD_NONE. */
+static uint32_t face_subfac(const ref_mesher *r, uint32_t t, int f)
+{
+    const uint32_t *v = r->m.tets[t].v;
+    const uint8_t *fv = tm_face_vtx[f];
+    return bd_find_subfac(&r->bd, v[fv[0]], v[fv[1]], v[fv[2]]);
+}
+
+int ref__cross_visited(void *arg, const tm_mesh *m, uint32_t t, int f)
+{
+    (void)m;
+    const ref_mesher *r = arg;
+    uint32_t id = face_subfac(r, t, f);
+    return id != BD_NONE && (r->bd.facs[id].flags & BD_F_VISIT);
+}
+
+/* keep of dt_cavity_shrink: a tetrahedron on a subfacet the split
+ * replaces, or around the subsegment it splits (r->split_a, split_b). */
+static int on_visited(void *arg, uint32_t t)
+{
+    const ref_mesher *r = arg;
+    const tm_tet *T = &r->m.tets[t];
+    if (r->split_b != TM_NONE && ref__slot_in(T, r->split_a) >= 0 &&
+        ref__slot_in(T, r->split_b) >= 0)
+        return 1;
+    for (int f = 0; f < 4; f++)
+        if ((r->m.flags[t] & TM_F_FACEMARK(f)) && ref__cross_visited(arg, &r->m, t, f))
+            return 1;
+    return 0;
+}
+
+unsigned ref__cdt_flags(const ref_mesher *r)
+{
+    return DT_STOP_MARKED | (r->carved ? DT_GHOST_WALLS : 0u);
+}
+
+struct start_arg {
+    const double *p;
+    uint32_t found;
+};
+
+static int real_in_conflict(const tm_mesh *m, uint32_t t, void *arg)
+{
+    struct start_arg *s = arg;
+    if (!tm_is_ghost(m, t) && dt_conflict(m, t, s->p) > 0) {
+        s->found = t;
+        return 1;
+    }
+    return 0;
+}
+
+/* A real tetrahedron in conflict with p, on the piece ab (edge) or abc
+ * (face, c != TM_NONE), or containing p for a missing piece; TM_NONE if
+ * there is none. */
+static uint32_t piece_start(const ref_mesher *r, const double p[3], uint32_t a, uint32_t b,
+                            uint32_t c, int missing)
+{
+    tm_mesh *m = (tm_mesh *)&r->m;
+    uint32_t t;
+    if (missing) {
+        tm_link exit_link;
+        uint32_t h = ref__vertex_tet(m, a);
+        if (dt_locate(m, p, h, &t, &exit_link) != 0 || tm_is_ghost(m, t))
+            return TM_NONE;
+        return t;
+    }
+    if (!ref__find_in_star(m, a, b, c, &t))
+        return TM_NONE;
+    if (c != TM_NONE) {
+        /* a face: one of its two tetrahedra */
+        if (!tm_is_ghost(m, t) && dt_conflict(m, t, p) > 0)
+            return t;
+        const tm_tet *T = &m->tets[t];
+        int k = 6 - ref__slot_in(T, a) - ref__slot_in(T, b) - ref__slot_in(T, c);
+        tm_link l = T->n[k];
+        if (tm_is_special(l))
+            return TM_NONE;
+        uint32_t u = tm_ltet(l);
+        return !tm_is_ghost(m, u) && dt_conflict(m, u, p) > 0 ? u : TM_NONE;
+    }
+    struct start_arg s = {p, TM_NONE};
+    ref_around_edge(m, t, a, b, real_in_conflict, &s);
+    return s.found;
+}
+
+int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
+                          int missing)
+{
+    tm_mesh *m = &r->m;
+    dt_cavity *cav = &r->cav;
+    uint32_t t = piece_start(r, p, a, b, c, missing);
+    if (t == TM_NONE)
+        return 1;
+    r->split_a = a;
+    r->split_b = c == TM_NONE ? b : TM_NONE;
+    cav->may_cross = ref__cross_visited;
+    cav->cross_arg = r;
+    int rc = dt_cavity_search(m, p, t, ref__cdt_flags(r), cav);
+    cav->may_cross = NULL;
+    cav->cross_arg = NULL;
+    if (rc)
+        return rc;
+    if (cav->status != DT_OK) {
+        dt_cavity_abandon(m, cav);
+        return 1;
+    }
+    if (!dt_cavity_is_star(m, cav)) {
+        rc = dt_cavity_shrink(m, cav, on_visited, r);
+        if (rc) {
+            if (rc < 0)
+                dt_cavity_abandon(m, cav);
+            return rc;
+        }
+        r->st.shrunk++;
+    }
+    /* Every present subfacet of the 2D cavities must go: both its
+     * tetrahedra in the cavity. Count the faces crossed (each seen from
+     * both sides) against the present subfacets of the list. */
+    size_t present = 0, sides = 0;
+    for (size_t i = 0; i < r->nlist; i++)
+        present += !(r->bd.facs[r->list[i]].flags & BD_F_MISSING);
+    for (size_t i = 0; i < cav->ntets; i++) {
+        uint32_t u = cav->tets[i];
+        for (int f = 0; f < 4; f++) {
+            if (!(m->flags[u] & TM_F_FACEMARK(f)) || !ref__cross_visited(r, m, u, f))
+                continue;
+            tm_link l = m->tets[u].n[f];
+            if (!tm_is_special(l) && (m->flags[tm_ltet(l)] & TM_F_CAVITY))
+                sides++;
+        }
+    }
+    if (sides != 2 * present) {
+        dt_cavity_abandon(m, cav);
+        r->st.cdt_refused++;
+        return 1;
+    }
+    return 0;
+}
+
+/* 1 if segment qp crosses the interior of triangle abc (exactly: q and p
+ * strictly on both sides of its plane, and the line through them strictly
+ * inside its three edges). */
+static int crosses(const double *q, const double *p, const double *a, const double *b,
+                   const double *c)
+{
+    int s1 = pred_orient3d(a, b, c, q), s2 = pred_orient3d(a, b, c, p);
+    if (s1 == 0 || s2 == 0 || s1 == s2)
+        return 0;
+    int e1 = pred_orient3d(q, p, a, b), e2 = pred_orient3d(q, p, b, c),
+        e3 = pred_orient3d(q, p, c, a);
+    return e1 != 0 && e1 == e2 && e2 == e3;
+}
+
+uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3])
+{
+    const tm_mesh *m = &r->m;
+    const dt_cavity *c = &r->cav;
+    const uint32_t *tv = m->tets[t].v;
+    double q[3];
+    for (int k = 0; k < 3; k++)
+        q[k] = 0.25 * (X(m, tv[0])[k] + X(m, tv[1])[k] + X(m, tv[2])[k] + X(m, tv[3])[k]);
+    uint32_t beyond = BD_NONE;
+    for (size_t i = 0; i < c->nbnd; i++) {
+        const dt_bface *b = &c->bnd[i];
+        if (b->reason != DT_BND_MARKED)
+            continue;
+        const tm_tet *T = &m->tets[b->tet];
+        const uint8_t *fv = tm_face_vtx[b->face];
+        uint32_t x = T->v[fv[0]], y = T->v[fv[1]], z = T->v[fv[2]];
+        if (x == TM_VINF || y == TM_VINF || z == TM_VINF)
+            continue;
+        uint32_t id = bd_find_subfac(&r->bd, x, y, z);
+        if (id == BD_NONE)
+            continue;
+        if (crosses(q, p, X(m, x), X(m, y), X(m, z)))
+            return id;
+        if (beyond == BD_NONE && pred_orient3d(X(m, x), X(m, y), X(m, z), p) <= 0)
+            beyond = id;
+    }
+    return beyond;
+}
+
+/* ------------------------------------------------------------- carving */
+
+/* Copies the marker and subsegment bits of face i of t to ghost g (its
+ * face 3 is the same face). */
+static void ghost_marks(tm_mesh *m, uint32_t g, uint32_t t, int i)
+{
+    uint16_t ft = m->flags[t];
+    if (ft & TM_F_FACEMARK(i)) {
+        m->flags[g] |= TM_F_FACEMARK(3);
+        m->marker[4 * (size_t)g + 3] = m->marker[4 * (size_t)t + (size_t)i];
+    }
+    const tm_tet *T = &m->tets[t], *G = &m->tets[g];
+    for (int e = 0; e < 6; e++) {
+        if (!(ft & TM_F_SUBSEG(e)))
+            continue;
+        uint32_t a = T->v[tm_edge_vtx[e][0]], b = T->v[tm_edge_vtx[e][1]];
+        int sa = ref__slot_in(G, a), sb = ref__slot_in(G, b);
+        if (sa >= 0 && sb >= 0)
+            m->flags[g] |= TM_F_SUBSEG(tm_edge_of[sa][sb]);
+    }
+}
+
+int ref_carve(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    if (!r->classified)
+        return PDR_EINVAL;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        if (!tm_is_dead(m, t) && (tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR)))
+            tm_delete_tet(m, t);
+    size_t open;
+    int rc = tm_add_ghosts(m, &open);
+    if (rc)
+        return rc;
+    if (open)
+        return PDR_ETOPOLOGY; /* a boundary edge of more than two faces */
+    rc = ref_region_room(r);
+    if (rc)
+        return rc;
+    for (uint32_t g = 0; g < m->nslots; g++) {
+        if (tm_is_dead(m, g) || !tm_is_ghost(m, g))
+            continue;
+        tm_link l = m->tets[g].n[3];
+        ghost_marks(m, g, tm_ltet(l), tm_lface(l));
+        m->flags[g] |= REF_F_EXTERIOR;
+        if (r->region)
+            r->region[g] = 0;
+    }
+    tm_rebuild_hints(m);
+    r->carved = 1;
+    return 0;
+}
