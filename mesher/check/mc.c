@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "check/mc.h"
+#include "geom/pred.h"
 #include "base/v3.h"
 
 #define REL_TOL 1e-9
@@ -64,7 +65,15 @@ double mc_plc_volume(const plc *p, int (*side)(void *arg, size_t facet, const do
             int s = side(arg, f, x);
             if (!s)
                 continue;
-            double bc[3];
+            /* s says on which side of the facet's normal the domain lies;
+             * the triangle's own turn about that normal (a merged facet's
+             * triangulation need not follow it) gives its outward order. */
+            double ab[3], ac[3], n[3], bc[3];
+            v3_sub(b, a, ab);
+            v3_sub(c, a, ac);
+            v3_cross(ab, ac, n);
+            if (v3_dot(n, p->facets[f].normal) < 0)
+                s = -s;
             v3_cross(b, c, bc);
             vol += s * v3_dot(a, bc) / 6.0;
         }
@@ -98,15 +107,24 @@ static int side_of(void *arg, size_t f, const double x[3])
             continue;
         if (c->cnt[t] != 1)
             return 0;
-        /* the vertex of the one tetrahedron that is not on the triangle */
+        /* The vertex of the one tetrahedron that is not on the triangle:
+         * its side of the triangle's plane, exactly (a boundary
+         * tetrahedron can be nearly flat, its fourth vertex on the next
+         * facet of a concave crease, nearly on this facet's plane), against
+         * the triangle's turn about the facet's normal. */
         const uint32_t *v = c->m->tets[c->tet[t]].v;
         for (int s = 0; s < 4; s++) {
             uint32_t w = v[s] - 1;
             if (w == q[0] || w == q[1] || w == q[2])
                 continue;
-            double d[3];
-            v3_sub(P(c, w), P(c, q[0]), d);
-            return v3_dot(d, F->normal) < 0 ? 1 : -1;
+            const double *a = P(c, q[0]), *b = P(c, q[1]), *cc = P(c, q[2]);
+            int o = pred_orient3d(a, b, cc, P(c, w));
+            double ab[3], ac[3], n[3];
+            v3_sub(b, a, ab);
+            v3_sub(cc, a, ac);
+            v3_cross(ab, ac, n);
+            int turn = v3_dot(n, F->normal) > 0 ? 1 : -1;
+            return o == 0 ? 0 : o * turn > 0 ? -1 : 1;
         }
         return 0;
     }

@@ -42,9 +42,23 @@ typedef struct outer_face {
 } outer_face;
 
 /* Orients (a, b, c, d) positively (the flips only make tetrahedra whose
- * orientation is known to be nonzero). */
-static void oriented(const tm_mesh *m, uint32_t q[4])
+ * orientation is known to be nonzero); a ghost gets the infinite vertex in
+ * slot 3 and its face turned so that inside, the side of vertex in, is
+ * negative (mesh/tm.h). */
+static void oriented(const tm_mesh *m, uint32_t q[4], uint32_t in)
 {
+    int g = q[0] == TM_VINF ? 0 : q[1] == TM_VINF ? 1 : q[2] == TM_VINF ? 2 : q[3] == TM_VINF ? 3 : -1;
+    if (g >= 0) {
+        uint32_t x = q[g];
+        q[g] = q[3];
+        q[3] = x;
+        if (pred_orient3d(X(m, q[0]), X(m, q[1]), X(m, q[2]), X(m, in)) > 0) {
+            x = q[1];
+            q[1] = q[2];
+            q[2] = x;
+        }
+        return;
+    }
     if (pred_orient3d(X(m, q[0]), X(m, q[1]), X(m, q[2]), X(m, q[3])) < 0) {
         uint32_t x = q[2];
         q[2] = q[3];
@@ -57,11 +71,11 @@ static void oriented(const tm_mesh *m, uint32_t q[4])
  * faces, which keep their marks; subsegment bits of the old edges are
  * kept. The new slots go to made[]. */
 static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], int nn,
-                   const flip_hooks *h, uint32_t *made)
+                   uint32_t in, const flip_hooks *h, uint32_t *made)
 {
-    outer_face of[12];
+    outer_face of[16];
     int nof = 0;
-    uint32_t segs[18][2];
+    uint32_t segs[24][2];
     int nseg = 0;
     for (int i = 0; i < no; i++) {
         uint32_t t = old[i];
@@ -109,7 +123,7 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
     for (int i = 0; i < nn; i++) {
         uint32_t n = tm_alloc_tet(m);
         made[i] = n;
-        oriented(m, nv[i]);
+        oriented(m, nv[i], in);
         memcpy(m->tets[n].v, nv[i], sizeof m->tets[n].v);
         for (int f = 0; f < 4; f++)
             m->tets[n].n[f] = TM_LINK_UNSET;
@@ -163,8 +177,9 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
                     m->flags[n] |= TM_F_SUBSEG(e);
         }
         for (int s = 0; s < 4; s++)
-            m->vhint[N->v[s]] = n;
-        if (h && h->copy && n != src)
+            if (N->v[s] != TM_VINF)
+                m->vhint[N->v[s]] = n;
+        if (h && h->copy && n != src && !tm_is_ghost(m, n))
             h->copy(h->arg, src, n);
     }
     return 0;
@@ -225,7 +240,47 @@ static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
         return 0;
     uint32_t old[3] = {t, u, w};
     uint32_t nv[2][4] = {{p, a, c, e1}, {p, a, c, e2}};
-    *rc = replace(m, old, 3, nv, 2, h, made);
+    *rc = replace(m, old, 3, nv, 2, c, h, made);
+    return *rc == 0;
+}
+
+/* The 2-2 flip on the boundary (see flip.h): t and u share face (e1 e2 z)
+ * and have marked boundary faces (e1 e2 p) and (e1 e2 a) with ghosts
+ * behind them; 1 if done (made[0..4)). */
+static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uint32_t e1,
+                 uint32_t e2, uint32_t z, const flip_hooks *h, uint32_t *made, int *rc)
+{
+    if (!h || !h->facet || !m->marker)
+        return 0;
+    const tm_tet *T = &m->tets[t], *U = &m->tets[u];
+    int st = slot(T, z), su = slot(U, z);
+    if (st < 0 || su < 0 || !(m->flags[t] & TM_F_FACEMARK(st)) ||
+        !(m->flags[u] & TM_F_FACEMARK(su)) ||
+        m->marker[4 * (size_t)t + (size_t)st] != m->marker[4 * (size_t)u + (size_t)su])
+        return 0;
+    int s1 = slot(T, e1), s2 = slot(T, e2);
+    if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[s1][s2]))
+        return 0;
+    tm_link lt = T->n[st], lu = U->n[su];
+    if (tm_is_special(lt) || tm_is_special(lu))
+        return 0;
+    uint32_t g1 = tm_ltet(lt), g2 = tm_ltet(lu);
+    if (!tm_is_ghost(m, g1) || !tm_is_ghost(m, g2))
+        return 0;
+    /* The ghosts must be neighbours across their face (e1 e2 infinite). */
+    const tm_tet *G = &m->tets[g1];
+    int gp = slot(G, p);
+    if (gp < 0 || tm_is_special(G->n[gp]) || tm_ltet(G->n[gp]) != g2)
+        return 0;
+    const double *P = X(m, p), *A = X(m, a), *Z = X(m, z), *E1 = X(m, e1), *E2 = X(m, e2);
+    int o1 = pred_orient3d(P, A, Z, E1), o2 = pred_orient3d(P, A, Z, E2);
+    if (!o1 || !o2 || o1 == o2)
+        return 0;
+    uint32_t old[4] = {t, u, g1, g2};
+    uint32_t nv[4][4] = {{p, a, e1, z}, {p, a, e2, z}, {p, a, e1, TM_VINF}, {p, a, e2, TM_VINF}};
+    *rc = replace(m, old, 4, nv, 4, z, h, made);
+    if (!*rc)
+        *rc = h->facet(h->arg, e1, e2, p, a, made);
     return *rc == 0;
 }
 
@@ -262,12 +317,12 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
         const double *P = X(m, p), *A = X(m, a);
         int o[3] = {pred_orient3d(P, A, X(m, x), X(m, y)), pred_orient3d(P, A, X(m, y), X(m, z)),
                     pred_orient3d(P, A, X(m, z), X(m, x))};
-        uint32_t made[3];
+        uint32_t made[4];
         int nn = 0;
         if (o[0] && o[0] == o[1] && o[1] == o[2]) {
             uint32_t old[2] = {t, u};
             uint32_t nv[3][4] = {{x, y, p, a}, {y, z, p, a}, {z, x, p, a}};
-            rc = replace(m, old, 2, nv, 3, h, made);
+            rc = replace(m, old, 2, nv, 3, p, h, made);
             nn = 3;
             if (out && !rc)
                 out->flips23++;
@@ -280,8 +335,12 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
                     continue;
                 if (try32(m, t, u, p, a, ev[k][0], ev[k][1], ev[k][2], h, made, &rc))
                     nn = 2;
+                else if (!rc && try22(m, t, u, p, a, ev[k][0], ev[k][1], ev[k][2], h, made, &rc))
+                    nn = 4;
             }
-            if (out && nn) {
+            if (out && nn == 4) {
+                out->flips22++;
+            } else if (out && nn) {
                 out->flips32++;
             } else if (out && !rc) {
                 out->stuck++;

@@ -18,8 +18,14 @@
  * flipped, 2-3 when the segment joining the two apexes crosses the face,
  * else 3-2 when an edge of the face has exactly three tetrahedra around
  * it, is not a subsegment (TM_F_SUBSEG) and the three faces around it are
- * unmarked, and the flip is valid. A face that is neither is left (counted
- * in *stuck). Flips never touch a marked face or a subsegment edge: a new
+ * unmarked, and the flip is valid. On a carved domain (ghosts on the
+ * boundary faces) an edge that two marked boundary faces with the same
+ * marker share, with the two tetrahedra of the face and their two ghosts
+ * around it, is flipped 2-2 (with its ghosts: 4-4) when the quadrilateral
+ * of the two boundary faces is convex: the other diagonal of a merged
+ * facet; hook->facet then updates the caller's facet triangulation and
+ * marks the two new boundary faces. A face that is none of these is left
+ * (counted in *stuck). Flips never touch a marked face or a subsegment edge: a new
  * tetrahedron's face that was a face of the flipped region's boundary
  * takes that face's mark and marker, its edges that were subsegments keep
  * their bits. Ghosts, special links and other per-tetrahedron data are not
@@ -41,6 +47,12 @@
 
 typedef struct flip_hooks {
     void (*copy)(void *arg, uint32_t from, uint32_t to); /* may be NULL */
+    /* A 2-2 flip on the boundary replaced faces (e1 e2 p) and (e1 e2 a) by
+     * (p a e1) and (p a e2), faces of tets[0..4) (the two new tetrahedra
+     * and their ghosts); it must mark them (and return 0, or a negative
+     * code). NULL: no 2-2 flips. */
+    int (*facet)(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
+                 const uint32_t tets[4]);
     void *arg;
 } flip_hooks;
 
@@ -50,7 +62,7 @@ typedef struct flip_out {
     tm_link *stuck_faces; /* faces left not locally Delaunay (caller frees;
                              they may be gone by the end) */
     size_t nstuck, cap_stuck;
-    size_t flips23, flips32, stuck;
+    size_t flips23, flips32, flips22, stuck;
 } flip_out;
 
 /* Flips until every face reachable as described above is locally Delaunay

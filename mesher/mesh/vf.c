@@ -140,7 +140,7 @@ static void check_orientation(const tm_mesh *m, vf_report *r)
     }
 }
 
-static void check_delaunay(const tm_mesh *m, vf_report *r)
+static void check_delaunay(const tm_mesh *m, vf_report *r, int constrained)
 {
     for (uint32_t t = 0; t < m->nslots; t++) {
         if (tm_is_dead(m, t) || tm_is_ghost(m, t) || !tet_vertices_ok(m, t))
@@ -150,7 +150,7 @@ static void check_delaunay(const tm_mesh *m, vf_report *r)
         if (pred_orient3d(a, b, c, d) <= 0)
             continue; /* counted as inverted/flat: no sphere to test */
         for (int i = 0; i < 4; i++) {
-            if (!link_ok(m, t, i))
+            if (!link_ok(m, t, i) || (constrained && (m->flags[t] & TM_F_FACEMARK(i))))
                 continue;
             tm_link l = m->tets[t].n[i];
             uint32_t u = tm_ltet(l);
@@ -316,7 +316,7 @@ int vf_check(const tm_mesh *m, unsigned what, vf_report *r)
     if (what & VF_ORIENTATION)
         check_orientation(m, r);
     if (what & VF_DELAUNAY)
-        check_delaunay(m, r);
+        check_delaunay(m, r, (what & VF_CONSTRAINED) != 0);
     if (what & VF_HULL)
         check_hull(m, r);
     if ((what & VF_VERTICES) && check_vertices(m, r))

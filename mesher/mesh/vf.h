@@ -46,6 +46,10 @@ enum {
     VF_VERTICES = 1u << 4,
     VF_COVER = 1u << 5,
     VF_ALL = 0x3fu,
+    /* with VF_DELAUNAY: a face carrying a face mark (a constraint) need
+     * not be locally Delaunay: the test of a constrained Delaunay
+     * tetrahedralization. Not in VF_ALL. */
+    VF_CONSTRAINED = 1u << 6,
 };
 
 typedef struct vf_report {

@@ -211,7 +211,8 @@ typedef struct ref_stats {
     size_t shrunk;       /* constrained: cavities shrunk to a star */
     size_t cdt_refused;  /* constrained: boundary splits refused because
                             their 3D cavity kept a subfacet of their 2D one */
-    size_t flips23, flips32, flips_stuck; /* constrained: Lawson's flips */
+    size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's
+                            flips (22: of two boundary subfacets) */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t reclassified; /* tetrahedra the final classification moved */

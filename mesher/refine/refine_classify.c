@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "mesh/vf.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
 
@@ -273,6 +274,19 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
         bad++;
     }
     free(marked);
+    if (r->carved && r->segq.n == r->segq.head && r->facq.n == r->facq.head) {
+        /* The constrained mode keeps a CDT: every face that is no
+         * constraint locally Delaunay, once the boundary splits that the
+         * flips asked for (refine_run.c, queue_new_tets) are done. */
+        vf_report vr;
+        memset(&vr, 0, sizeof vr);
+        if (vf_check(m, VF_DELAUNAY | VF_CONSTRAINED, &vr) == 0 && vr.not_delaunay) {
+            if (log)
+                fprintf(log, "%zu faces that are no constraint are not locally Delaunay\n",
+                        vr.not_delaunay);
+            bad += vr.not_delaunay;
+        }
+    }
     return bad;
 }
 

@@ -223,6 +223,22 @@ int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2)
     return 0;
 }
 
+struct fac_queue_arg {
+    ref_mesher *r;
+    int rc;
+    size_t n;
+};
+
+static int queue_present_fac(void *arg, uint32_t s)
+{
+    struct fac_queue_arg *a = arg;
+    if (a->r->bd.facs[s].flags & BD_F_MISSING)
+        return 0;
+    a->rc = ref__queue_fac(a->r, s, 0.0f);
+    a->n++;
+    return a->rc;
+}
+
 /* flip_hooks.copy: a tetrahedron made by a flip lies in the region of
  * the ones it replaces. */
 static void copy_region(void *arg, uint32_t from, uint32_t to)
@@ -231,6 +247,46 @@ static void copy_region(void *arg, uint32_t from, uint32_t to)
     r->m.flags[to] |= r->m.flags[from] & REF_F_EXTERIOR;
     if (r->region)
         r->region[to] = r->region[from];
+}
+
+/* flip_hooks.facet: a 2-2 flip of two subfacets of one facet (the
+ * diagonal of a merged facet's quadrilateral): the facet triangulation
+ * follows, and the new faces are marked. */
+static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
+                      const uint32_t tets[4])
+{
+    ref_mesher *r = arg;
+    tm_mesh *m = &r->m;
+    bd_set *bd = &r->bd;
+    uint32_t s1 = bd_find_subfac(bd, e1, e2, p), s2 = bd_find_subfac(bd, e1, e2, a);
+    if (s1 == BD_NONE || s2 == BD_NONE || bd->facs[s1].facet != bd->facs[s2].facet)
+        return PDR_ETOPOLOGY;
+    uint32_t f = bd->facs[s1].facet;
+    bd_kill_subfac(bd, s1);
+    bd_kill_subfac(bd, s2);
+    const uint32_t ends[2] = {e1, e2};
+    for (int i = 0; i < 2; i++) {
+        uint32_t x = p, y = a, z = ends[i], id;
+        if (ref__orient_facet(r->p, f, X(m, x), X(m, y), X(m, z)) < 0) {
+            x = a;
+            y = p;
+        }
+        int rc = bd_add_subfac(bd, x, y, z, f, &id);
+        if (rc)
+            return rc;
+        for (int k = 0; k < 2; k++) {
+            const tm_tet *T = &m->tets[tets[k]];
+            int sz = ref__slot_in(T, z);
+            if (sz < 0)
+                continue;
+            int q = 6 - ref__slot_in(T, p) - ref__slot_in(T, a) - sz;
+            tm_mark_face(m, tets[k], q, (int32_t)f + 1);
+        }
+    }
+    m->flags[tets[2]] |= REF_F_EXTERIOR;
+    m->flags[tets[3]] |= REF_F_EXTERIOR;
+    r->st.flips22++;
+    return 0;
 }
 
 static int queue_new_tets(ref_mesher *r)
@@ -244,7 +300,7 @@ static int queue_new_tets(ref_mesher *r)
         /* The constrained mode: what the insertion left not locally
          * Delaunay next to constraint faces is flipped (mesh/flip.h). */
         int rc = ref_region_room(r);
-        flip_hooks fh = {copy_region, r};
+        flip_hooks fh = {copy_region, flip_facet, r};
         r->flipped.n = r->flipped.nstuck = 0;
         if (!rc)
             rc = flip_restore(m, c->newtets, c->nnew, &fh, &r->flipped, 0);
@@ -257,11 +313,23 @@ static int queue_new_tets(ref_mesher *r)
                 continue;
             const uint32_t *tv = m->tets[t].v;
             const uint8_t *fv = tm_face_vtx[tm_lface(l)];
+            int found = 0;
             for (int k = 0; k < 3 && !rc; k++) {
                 uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
                 uint32_t id = bd_find_subseg(&r->bd, a, b);
-                if (id != BD_NONE)
+                if (id != BD_NONE) {
+                    found = 1;
                     rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
+                }
+            }
+            /* ... or against subfacets whose common edge it needs removed
+             * (a merged facet's inner diagonal): they are split. */
+            for (int k = 0; k < 3 && !rc && !found; k++) {
+                uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
+                struct fac_queue_arg fa = {r, 0, 0};
+                bd_subfacs_on_edge(&r->bd, a, b, queue_present_fac, &fa);
+                rc = fa.rc;
+                found = fa.n > 0;
             }
         }
         if (rc)
@@ -269,6 +337,7 @@ static int queue_new_tets(ref_mesher *r)
         nflip = r->flipped.n;
         r->st.flips23 += r->flipped.flips23;
         r->st.flips32 += r->flipped.flips32;
+        r->flipped.flips22 = 0; /* counted by flip_facet */
         r->st.flips_stuck += r->flipped.stuck;
         r->flipped.flips23 = r->flipped.flips32 = r->flipped.stuck = 0;
     }
