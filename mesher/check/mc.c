@@ -139,6 +139,12 @@ static int32_t locate(const struct ctx *c, const uint32_t q[3], double (*box)[2]
     double x[3];
     for (int k = 0; k < 3; k++)
         x[k] = (P(c, q[0])[k] + P(c, q[1])[k] + P(c, q[2])[k]) / 3.0;
+    /* The facet nearest the triangle's plane among those that hold it
+     * within the tolerance: where facets of very different sizes meet
+     * (a needle), the tolerance of the domain's size lets a triangle of
+     * one facet pass for one of its neighbours too. */
+    int32_t best = -1;
+    double best_d = INFINITY;
     for (size_t f = 0; f < p->nfacet; f++) {
         int in = 1;
         for (int k = 0; k < 3 && in; k++)
@@ -146,16 +152,23 @@ static int32_t locate(const struct ctx *c, const uint32_t q[3], double (*box)[2]
         if (!in)
             continue;
         const plc_facet *F = &p->facets[f];
-        for (int s = 0; s < 3 && in; s++)
-            in = fabs(v3_dot(F->normal, P(c, q[s])) - F->offset) <= tol;
-        if (!in)
+        double d = 0;
+        for (int s = 0; s < 3 && in; s++) {
+            double e = fabs(v3_dot(F->normal, P(c, q[s])) - F->offset);
+            in = e <= tol;
+            d = fmax(d, e);
+        }
+        if (!in || d >= best_d)
             continue;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
             if (in_tri2d(F, p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]], p->xyz[p->ftri[t][2]],
-                         x))
-                return (int32_t)f;
+                         x)) {
+                best = (int32_t)f;
+                best_d = d;
+                break;
+            }
     }
-    return -1;
+    return best;
 }
 
 static int check_plc(struct ctx *c, size_t ntri, mc_report *r)

@@ -27,9 +27,12 @@ static void usage(FILE *f)
     fprintf(f,
             "Usage: pdr mesh [OPTIONS] [IN.poly | IN.smesh | IN.off | IN.stl]\n"
             "       pdr mesh [OPTIONS] --domain cube-in-cube|tee|sphere\n\n"
-            "Builds a conforming Delaunay tetrahedral mesh of a piecewise linear complex\n"
-            "whose tetrahedra have a circumradius to shortest edge ratio below B\n"
-            "(Shewchuk's Delaunay refinement). Without an input it meshes the built-in\n"
+            "Builds a Delaunay tetrahedral mesh of a piecewise linear complex whose\n"
+            "tetrahedra have a circumradius to shortest edge ratio below B (Shewchuk's\n"
+            "Delaunay refinement): conforming, or constrained for tessellated curved\n"
+            "surfaces and inputs with acute vertices (--mo; tetrahedra left above B\n"
+            "only next to input angles too small for it, counted and located in the\n"
+            "summary). Without an input it meshes the built-in\n"
             "cube-in-cube with -a %g.\n\n"
             "Options (TetGen's letters where TetGen has the switch):\n"
             "  -q, --quality B[/D]  radius-edge bound, B > 1 (default 2); below 2 the\n"
@@ -49,9 +52,16 @@ static void usage(FILE *f)
             "                         none  write nothing\n"
             "      --domain NAME    mesh a built-in domain (cube-in-cube, tee or sphere,\n"
             "                       with the defaults of 'pdr domain') instead of a file\n"
-            "      --mo KIND        initial mesh: 'conform' (default: Shewchuk's recovery,\n"
-            "                       any valid input) or 'paper' (Nave et al. section 2.1:\n"
-            "                       segments below 2d, facets below d*sqrt(2))\n"
+            "      --mo KIND        how the boundary is recovered and kept: 'auto'\n"
+            "                       (default: 'cdt' for an input with smooth segments, a\n"
+            "                       tessellated curved surface, or acute vertices, else\n"
+            "                       'conform'), 'conform' (a conforming Delaunay mesh:\n"
+            "                       Shewchuk's recovery), 'cdt' (a constrained Delaunay\n"
+            "                       tetrahedralization: the input's pieces are\n"
+            "                       constraints, split only where quality asks; every\n"
+            "                       face off the input's facets is locally Delaunay) or\n"
+            "                       'paper' (Nave et al. section 2.1: segments below 2d,\n"
+            "                       facets below d*sqrt(2))\n"
             "      --mo-only        stop after the initial mesh (no quality refinement)\n"
             "      --mo-size N      refine the initial mesh to about N tetrahedra with a\n"
             "                       volume bound (the parallel mesher's starting mesh)\n"
@@ -274,12 +284,14 @@ static int parse_word(int c, const char *arg, mp_opts *o)
         }
         return 0;
     case O_MO:
-        if (strcmp(arg, "paper") && strcmp(arg, "conform") && strcmp(arg, "cdt")) {
-            pdr_cli_error("mesh", "--mo is 'conform', 'paper' or 'cdt', not '%s'", arg);
+        if (strcmp(arg, "paper") && strcmp(arg, "conform") && strcmp(arg, "cdt") &&
+            strcmp(arg, "auto")) {
+            pdr_cli_error("mesh", "--mo is 'auto', 'conform', 'cdt' or 'paper', not '%s'", arg);
             return PDR_EXIT_USAGE;
         }
         o->mo.paper = !strcmp(arg, "paper");
         o->ref.constrained = !strcmp(arg, "cdt");
+        o->mo_auto = !strcmp(arg, "auto");
         return 0;
     default: /* O_ORDER */
         if (strcmp(arg, "lifo") && strcmp(arg, "fifo")) {

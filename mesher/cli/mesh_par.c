@@ -334,6 +334,14 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
                    double t[3])
 {
     mp_opts *o = &c->o;
+    /* The parallel refinement keeps a conforming mesh: its distributed
+     * cavities do not yet respect constraints (refine/refine_cdt.c). */
+    if (o->ref.constrained) {
+        fprintf(stderr, "pdr mesh: --mo cdt is not available with the parallel refinement yet; "
+                        "mesh this input without -n/--parallel\n");
+        return PDR_EUNSUPPORTED;
+    }
+    o->mo_auto = 0;
     int rc = mp_read(c);
     if (!rc)
         rc = mp_initial_mesh(c);

@@ -2,6 +2,7 @@
  * refine, export, write, report, verify (see mesh_pipeline.h). */
 #include "config.h"
 
+#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,6 +29,7 @@ void mp_default_opts(mp_opts *o)
     o->formats = MP_FMT_NODE;
     o->merge_angle = FM_MERGE_ANGLE;
     o->max_points = -1;
+    o->mo_auto = 1;
 }
 
 /* The refinement's progress callback: a pdr_progress line on stderr. */
@@ -131,12 +133,15 @@ int mp_read(mp_ctx *c)
                "(%.3f s)\n",
                input_name(c), p->nv, p->nseg, p->nfacet, p->nhole, p->nhole == 1 ? "" : "s",
                p->nregion, p->nregion == 1 ? "" : "s", c->sec[MP_READ]);
-    if (!c->o.quiet && (c->fm.triangles_merged || c->fm.sharp_segments || c->fm.acute_vertices))
+    if (!c->o.quiet && (c->fm.triangles_merged || c->fm.sharp_segments || c->fm.acute_vertices ||
+                        c->fm.smooth_segments))
         printf("input preparation: %zu coplanar triangles merged (%zu facets before, %zu "
                "after), %zu sharp segments (dihedral < %g degrees), %zu acute vertices "
-               "(segments at < %g degrees)\n",
+               "(segments at < %g degrees), %zu smooth segments (dihedral >= %g degrees: a "
+               "tessellated curved surface)\n",
                c->fm.triangles_merged, c->fm.facets_before, c->fm.facets_after,
-               c->fm.sharp_segments, FM_SHARP_DIH, c->fm.acute_vertices, FM_ACUTE_ANG);
+               c->fm.sharp_segments, FM_SHARP_DIH, c->fm.acute_vertices, FM_ACUTE_ANG,
+               c->fm.smooth_segments, FM_SMOOTH_DIH);
     return 0;
 }
 
@@ -189,11 +194,34 @@ static int point_limit(mp_ctx *c)
     return PDR_ELIMIT;
 }
 
+/* 1 if file name f ends in .stl or .off (any case): a closed triangle
+ * surface. */
+static int surface_format(const char *f)
+{
+    size_t n = f ? strlen(f) : 0;
+    if (n < 4 || f[n - 4] != '.')
+        return 0;
+    char e[4];
+    for (int i = 0; i < 3; i++)
+        e[i] = (char)tolower((unsigned char)f[n - 3 + i]);
+    e[3] = 0;
+    return !strcmp(e, "stl") || !strcmp(e, "off");
+}
+
 int mp_initial_mesh(mp_ctx *c)
 {
     double t = pdr_now();
     c->o.ref.max_points = c->o.max_points < 0 ? ref_point_limit(&c->p, &c->o.ref)
                                               : (size_t)c->o.max_points;
+    /* The boundary's treatment (refine/refine_cdt.c): a constrained
+     * Delaunay tetrahedralization for a closed triangle surface (STL, OFF:
+     * what CAD tools and scanners export), a tessellated curved surface or
+     * an input with acute vertices, where splitting pieces into each
+     * other cascades; conforming Delaunay elsewhere, where the input's
+     * angles let Shewchuk's algorithm work (the paper's domains). */
+    if (c->o.mo_auto && !c->o.mo.paper)
+        c->o.ref.constrained = c->fm.smooth_segments > 0 || c->fm.acute_vertices > 0 ||
+                               surface_format(c->o.in);
     int rc = ref_init(&c->r, &c->p, &c->o.ref);
     if (rc)
         return fail(c, rc);
@@ -218,8 +246,10 @@ int mp_initial_mesh(mp_ctx *c)
     if (!c->o.quiet) {
         printf("initial mesh (%s): %zu tetrahedra, %zu points added on segments, %zu on "
                "facets",
-               c->o.mo.paper ? "paper" : "conforming", c->is.tets, c->is.seg_points,
-               c->is.fac_points);
+               c->o.mo.paper         ? "paper"
+               : c->o.ref.constrained ? "constrained Delaunay"
+                                     : "conforming",
+               c->is.tets, c->is.seg_points, c->is.fac_points);
         if (c->o.mo.paper)
             printf(", d = %.6g", c->is.d);
         printf(" (%.3f s)\n", c->sec[MP_MO]);
@@ -435,6 +465,25 @@ static void print_left(const mp_ctx *c)
         printf(", %zu with a dihedral angle below %g degrees", st->left_sliver,
                c->o.ref.min_dihedral);
     printf("\n");
+    /* Where the ones next to small angles are (input numbering). */
+    const plc *p = &c->p;
+    for (int s = 0; s < REF_LEFT_SITES && c->have_plc && st->left_site[s].count; s++) {
+        const struct ref_left_site *ls = &st->left_site[s];
+        printf(s ? "; " : "  next to: ");
+        if (ls->kind == BD_V_INPUT && ls->feature < p->nv)
+            printf("input vertex %ld (%.6g, %.6g, %.6g)", plc_vnum(p, ls->feature),
+                   p->xyz[ls->feature][0], p->xyz[ls->feature][1], p->xyz[ls->feature][2]);
+        else if (ls->kind == BD_V_SEGMENT && ls->feature < p->nseg)
+            printf("segment %ld-%ld", plc_vnum(p, p->segs[ls->feature].v[0]),
+                   plc_vnum(p, p->segs[ls->feature].v[1]));
+        else if (ls->kind == BD_V_FACET && ls->feature < p->nfacet)
+            printf("facet %u", ls->feature + 1);
+        else
+            printf("the interior");
+        printf(": %zu", ls->count);
+    }
+    if (st->left_site[0].count && c->have_plc)
+        printf("\n");
 }
 
 /* The seconds per stage, and the whole run to the written mesh. */

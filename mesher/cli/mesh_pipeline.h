@@ -63,7 +63,10 @@ typedef struct mp_opts {
     ref_opts ref;        /* -q, -a, -L, --min-dihedral, --order, --rho,
                             --no-region-volume; the pipeline sets the
                             progress callback itself */
-    im_opts mo;          /* --mo conform|paper */
+    im_opts mo;          /* --mo conform|paper (cdt: ref.constrained) */
+    int mo_auto;         /* --mo auto (the default): the constrained mode
+                            for an input with smooth segments or acute
+                            vertices (mp_initial_mesh), else conforming */
     double mo_size;      /* --mo-size N: tetrahedra of Mo, or 0 */
     int mo_only;         /* --mo-only: the driver skips mp_refine */
     int check;           /* --check: the driver runs mp_verify */

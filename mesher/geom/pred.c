@@ -638,6 +638,12 @@ int pred__orient3d_exact(const double *a, const double *b, const double *c, cons
 
 static int orient3d_exact(const double *a, const double *b, const double *c, const double *d)
 {
+    /* Four points in a plane x = const, y = const or z = const (the faces
+     * of a box, grid tessellations): the common case where the filters
+     * always fail, decided without arithmetic. */
+    for (int k = 0; k < 3; k++)
+        if (a[k] == b[k] && b[k] == c[k] && c[k] == d[k])
+            return 0;
     int s = pred__orient3d_exact(a, b, c, d, 0);
     if (s == 2)
         s = pred__orient3d_exact(a, b, c, d, 1);

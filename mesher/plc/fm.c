@@ -611,6 +611,10 @@ int fm_features(plc *p, fm_stats *st)
     if (st) {
         st->sharp_segments = sharp;
         st->acute_vertices = acute;
+        st->smooth_segments = 0;
+        for (size_t s = 0; s < p->nseg; s++)
+            st->smooth_segments += p->seg_mindih[s] >= FM_SMOOTH_DIH &&
+                                   p->seg_fstart[s + 1] - p->seg_fstart[s] >= 2;
     }
     return 0;
 }
@@ -621,7 +625,9 @@ int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag)
     st->facets_before = st->facets_after = p->nfacet;
     int rc = merge_angle >= 0 ? fm_merge(p, merge_angle, st) : 0;
     if (!rc && st->triangles_merged) {
+        p->skip_intersections = 1;
         rc = plc_validate(p, diag);
+        p->skip_intersections = 0;
         if (rc == PDR_EGEOMETRY)
             pdr_diag_add(diag, p->path, 0,
                          "the facets made by merging coplanar triangles are not valid "

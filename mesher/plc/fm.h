@@ -65,10 +65,12 @@
 #define FM_ACUTE_ANG 60.0
 /* A segment whose facets all meet at this many degrees or more is a
  * crease of a tessellated curved surface rather than a feature of the
- * shape (gmsh's OpenCASCADE tessellations: 130-180 degrees there, 70-110
- * at the parts' real edges); the constrained refinement does not split
- * pieces next to such creases for one another (refine/refine_cdt.c). */
-#define FM_SMOOTH_DIH 120.0
+ * shape (gmsh's OpenCASCADE tessellations: mostly 150-180 degrees there,
+ * 70-110 at the parts' real edges; the paper's tee has real 120-degree
+ * edges); such an input is meshed in the constrained mode, which does not
+ * split pieces next to these creases for one another
+ * (refine/refine_cdt.c). */
+#define FM_SMOOTH_DIH 150.0
 /* A vertex where two segments meet below this many degrees is a needle
  * point (the pole of a UV sphere, the apex of a fan), unlike the 30-60
  * degree corners every triangulated surface has: splits of the pieces
@@ -83,6 +85,7 @@ typedef struct fm_stats {
     size_t groups_kept;      /* groups left unmerged (pinched boundary) */
     size_t sharp_segments;   /* after fm_features */
     size_t acute_vertices;
+    size_t smooth_segments;  /* at FM_SMOOTH_DIH or more, between two facets */
 } fm_stats;
 
 /* Merges coplanar neighbouring triangle facets of p (see above), with the

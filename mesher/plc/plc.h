@@ -146,6 +146,11 @@ typedef struct plc {
      * planar_tol times the bounding-box diagonal of its plane. plc_init()
      * sets PLC_PLANAR_TOL. */
     double planar_tol;
+    /* Validation setting: do not test facets and segments for
+     * intersections (fm_prepare's second validation: a merge of coplanar
+     * triangles into polygons covers the same points, so it makes none);
+     * plc_init() sets 0. */
+    int skip_intersections;
 } plc;
 
 /* Relative flatness tolerance of facets (TetGen-like; see plc_validate). */

@@ -791,7 +791,7 @@ int plc_validate(plc *p, pdr_diag *diag)
     /* Stages 4 and 5 both run: a vertex on another facet's edge shows up
      * as an open edge and as an intersection, and the second says why. */
     int closed = check_closed(p, diag);
-    rc = closed == PDR_ENOMEM ? closed : check_intersections(p, diag);
+    rc = closed == PDR_ENOMEM || p->skip_intersections ? closed : check_intersections(p, diag);
     if (rc == PDR_ENOMEM)
         goto nomem;
     return rc ? rc : closed;

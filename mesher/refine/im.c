@@ -388,8 +388,15 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     double t2 = pdr_now();
     s.recovery_seconds = t2 - t1;
     rc = ref_classify(r, &s.unreached_regions, NULL, diag);
+    /* The constrained mode: the exterior carved away; the recovery's
+     * insertions next to constraints may have left faces that are not
+     * locally Delaunay: flipped, and what blocks the flips split. */
     if (!rc && r->o.constrained)
         rc = ref_carve(r);
+    if (!rc && r->o.constrained)
+        rc = ref_cdt_restore(r);
+    if (!rc && r->o.constrained)
+        rc = ref_run(r, 0);
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

@@ -71,21 +71,16 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
             return rc;
         }
     }
-    if (r->o.constrained && p->seg_mindih) {
-        r->fac_smooth = calloc(p->nfacet ? p->nfacet : 1, 1);
-        if (!r->fac_smooth) {
+    if (r->o.constrained && p->v_minang) {
+        r->fac_needle = calloc(p->nfacet ? p->nfacet : 1, 1);
+        if (!r->fac_needle) {
             ref_free(r);
             return PDR_ENOMEM;
         }
-        for (size_t s = 0; s < p->nseg; s++)
-            if (p->seg_mindih[s] >= FM_SMOOTH_DIH)
-                for (size_t i = p->seg_fstart[s]; i < p->seg_fstart[s + 1]; i++)
-                    r->fac_smooth[p->seg_facets[i]] = 1;
-        /* ... and 2 more when a corner of the facet is a needle point */
-        for (size_t v = 0; p->v_minang && v < p->nv; v++)
+        for (size_t v = 0; v < p->nv; v++)
             if (p->v_minang[v] < FM_NEEDLE_ANG)
                 for (size_t i = p->v_fstart[v]; i < p->v_fstart[v + 1]; i++)
-                    r->fac_smooth[p->v_facets[i]] |= 2;
+                    r->fac_needle[p->v_facets[i]] = 1;
     }
     return 0;
 }
@@ -97,7 +92,7 @@ void ref_free(ref_mesher *r)
     bd_free(&r->bd);
     free(r->region);
     free(r->seg_acute);
-    free(r->fac_smooth);
+    free(r->fac_needle);
     free(r->bflag);
     free(r->breg);
     free(r->list);

@@ -199,6 +199,8 @@ enum ref_order {
     REF_ORDER_LOCAL_FIRST = 2,
 };
 
+#define REF_LEFT_SITES 3
+
 typedef struct ref_stats {
     size_t tet_points;   /* circumcentres of tetrahedra inserted */
     size_t fac_points;   /* circumcentres of subfacets inserted */
@@ -228,6 +230,14 @@ typedef struct ref_stats {
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
     size_t left_size;    /* interior tetrahedra above the size bound */
     size_t left_sliver;  /* ... with a dihedral angle below the bound */
+    /* Where the left_ratio_angle tetrahedra are: the input features they
+     * touch, most tetrahedra first (count 0: unused). */
+    struct ref_left_site {
+        int kind;        /* BD_V_INPUT (feature: PLC vertex), BD_V_SEGMENT
+                            (plc.segs index), BD_V_FACET, BD_V_VOLUME */
+        uint32_t feature;
+        size_t count;
+    } left_site[REF_LEFT_SITES];
 } ref_stats;
 
 typedef struct ref_opts {
@@ -311,10 +321,8 @@ typedef struct ref_mesher {
     uint16_t *region;  /* per tet slot: region index + 1 (0 none), or NULL
                           when the PLC has no regions */
     size_t region_cap;
-    uint8_t *fac_smooth; /* constrained mode, per facet: bit 0 if it has
-                            a segment at FM_SMOOTH_DIH or more (a piece of
-                            a tessellated curved surface), bit 1 if one of
-                            its corners is a needle point (FM_NEEDLE_ANG);
+    uint8_t *fac_needle; /* constrained mode, per facet: 1 if one of its
+                            corners is a needle point (FM_NEEDLE_ANG);
                             NULL: none */
     uint32_t *seg_acute; /* per PLC vertex: 1 if two of its segments meet
                             at less than 90 degrees */
@@ -445,6 +453,12 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
  * PDR_EINVAL (not classified), PDR_ETOPOLOGY (a boundary edge shared by
  * more than two boundary faces) or PDR_ENOMEM. */
 int ref_carve(ref_mesher *r);
+
+/* Makes a carved mesh a constrained Delaunay tetrahedralization again:
+ * Lawson's flips over every face, and the subsegments and subfacets next
+ * to faces no flip mends queued for splitting (ref_run splits them).
+ * Returns 0, PDR_EINVAL (not carved) or PDR_ENOMEM. */
+int ref_cdt_restore(ref_mesher *r);
 
 /* The quality refinement of a classified mesh: queues the bad
  * tetrahedra and splits until none is left (or those left are counted);

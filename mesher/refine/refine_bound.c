@@ -260,44 +260,30 @@ static double subfac_rad2(const ref_mesher *r, uint32_t id)
     return r2;
 }
 
-/* The constrained mode's initial mesh needs its pieces present, not
- * unencroached (a CDT exists without that): encroachment waits for the
- * refinement. */
+/* The constrained mode splits a piece where it is missing, where a bad
+ * tetrahedron's circumcentre encroaches it (split_tet in refine_run.c) or
+ * where a face next to it cannot be flipped to local Delaunayness, never
+ * eagerly because some vertex encroaches it: a CDT exists without that
+ * (its pieces are constraints, and one left encroached stays), and eager
+ * splits are what made tessellated surfaces cascade: neighbouring facets
+ * meet at nearly 180 degrees and encroach each other everywhere (the
+ * torus-0.15 of the corpus: 21,572 tetrahedra eagerly, 2,035 lazily; the
+ * thin slab: 325,629 against 22,841, TetGen 128,599). */
 static int skip_encroachment(const ref_mesher *r)
 {
-    return r->o.constrained && !r->classified;
+    return r->o.constrained;
 }
 
-/* In the constrained mode, a piece of a tessellated curved surface (a
- * subsegment of a smooth segment, a subfacet of a facet with one: see
- * FM_SMOOTH_DIH) is not split because a vertex encroaches it, only where
- * a bad tetrahedron's circumcentre does (split_tet in refine_run.c). Its
- * neighbours meet it at nearly 180 degrees and encroach it everywhere,
- * and eager splits there encroach the next pieces and refine the whole
- * surface several times over (the torus-0.15 of the corpus: 21,572
- * tetrahedra against 2,028). The pieces are constraints, so one left
- * encroached stays; pieces of the shape's real edges and flat faces are
- * split as in the conforming mode. */
-int ref__smooth_seg(const ref_mesher *r, uint32_t seg)
-{
-    return r->fac_smooth && r->p->seg_mindih[seg] >= FM_SMOOTH_DIH;
-}
-
-int ref__smooth_facet(const ref_mesher *r, uint32_t f)
-{
-    return r->fac_smooth && (r->fac_smooth[f] & 1);
-}
-
-int ref__acute_seg(const ref_mesher *r, uint32_t seg)
+int ref__needle_seg(const ref_mesher *r, uint32_t seg)
 {
     const plc *p = r->p;
     const uint32_t *e = p->segs[seg].v;
     return p->v_minang && (p->v_minang[e[0]] < FM_NEEDLE_ANG || p->v_minang[e[1]] < FM_NEEDLE_ANG);
 }
 
-int ref__acute_facet(const ref_mesher *r, uint32_t f)
+int ref__needle_facet(const ref_mesher *r, uint32_t f)
 {
-    return r->fac_smooth && (r->fac_smooth[f] & 2);
+    return r->fac_needle && r->fac_needle[f];
 }
 
 /* After a subsegment became present in tetrahedron t: queue it if a
@@ -310,7 +296,7 @@ static int check_subseg(ref_mesher *r, uint32_t id, uint32_t t)
     if (skip_encroachment(r))
         return 0;
     uint32_t w = subseg_encroacher(r, t, s->v[0], s->v[1], s->seg);
-    if (w != TM_NONE && !ref__smooth_seg(r, s->seg))
+    if (w != TM_NONE)
         return ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[w]));
     return 0;
 }
@@ -322,7 +308,7 @@ static int check_subfac(ref_mesher *r, uint32_t id, uint32_t t, int k)
     if (skip_encroachment(r))
         return 0;
     uint32_t w = subfac_encroacher(r, t, k, r->bd.facs[id].facet);
-    if (w != TM_NONE && !ref__smooth_facet(r, r->bd.facs[id].facet))
+    if (w != TM_NONE)
         return ref__queue_fac(r, id, (float)(r->o.rho * r->bd.vrins[w]));
     return 0;
 }
@@ -775,8 +761,7 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
             if (mk->deleted) {
                 bd->segs[id].flags |= BD_F_MISSING;
                 rc = ref__queue_seg(r, id, 0.0f);
-            } else if (!incident(r, v, bd->segs[id].seg, BD_NONE) &&
-                       !ref__smooth_seg(r, bd->segs[id].seg)) {
+            } else if (!incident(r, v, bd->segs[id].seg, BD_NONE)) {
                 rc = ref__queue_seg(r, id, (float)(r->o.rho * rv));
             }
         } else {
@@ -787,8 +772,7 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
                 bd->facs[id].flags |= BD_F_MISSING;
                 rc = ref__queue_fac(r, id, 0.0f);
             } else if (!ref__on_facet(r, v, (uint32_t)mk->facet) &&
-                       !incident(r, v, BD_NONE, (uint32_t)mk->facet) &&
-                       !ref__smooth_facet(r, (uint32_t)mk->facet)) {
+                       !incident(r, v, BD_NONE, (uint32_t)mk->facet)) {
                 rc = ref__queue_fac(r, id, (float)(r->o.rho * rv));
             }
         }

@@ -258,6 +258,136 @@ uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3])
     return beyond;
 }
 
+/* ---------------------------------------------------------------- flips */
+
+struct fac_queue_arg {
+    ref_mesher *r;
+    int rc;
+    size_t n;
+};
+
+static int queue_present_fac(void *arg, uint32_t s)
+{
+    struct fac_queue_arg *a = arg;
+    if (a->r->bd.facs[s].flags & BD_F_MISSING)
+        return 0;
+    a->rc = ref__queue_fac(a->r, s, 0.0f);
+    a->n++;
+    return a->rc;
+}
+
+/* flip_hooks.copy: a tetrahedron made by a flip lies in the region of
+ * the ones it replaces. */
+static void copy_region(void *arg, uint32_t from, uint32_t to)
+{
+    ref_mesher *r = arg;
+    r->m.flags[to] |= r->m.flags[from] & REF_F_EXTERIOR;
+    if (r->region)
+        r->region[to] = r->region[from];
+}
+
+/* flip_hooks.facet: a 2-2 flip of two subfacets of one facet (the
+ * diagonal of a merged facet's quadrilateral): the facet triangulation
+ * follows, and the new faces are marked. */
+static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
+                      const uint32_t tets[4])
+{
+    ref_mesher *r = arg;
+    tm_mesh *m = &r->m;
+    bd_set *bd = &r->bd;
+    uint32_t s1 = bd_find_subfac(bd, e1, e2, p), s2 = bd_find_subfac(bd, e1, e2, a);
+    if (s1 == BD_NONE || s2 == BD_NONE || bd->facs[s1].facet != bd->facs[s2].facet)
+        return PDR_ETOPOLOGY;
+    uint32_t f = bd->facs[s1].facet;
+    bd_kill_subfac(bd, s1);
+    bd_kill_subfac(bd, s2);
+    const uint32_t ends[2] = {e1, e2};
+    for (int i = 0; i < 2; i++) {
+        uint32_t x = p, y = a, z = ends[i], id;
+        if (ref__orient_facet(r->p, f, X(m, x), X(m, y), X(m, z)) < 0) {
+            x = a;
+            y = p;
+        }
+        int rc = bd_add_subfac(bd, x, y, z, f, &id);
+        if (rc)
+            return rc;
+        for (int k = 0; k < 2; k++) {
+            const tm_tet *T = &m->tets[tets[k]];
+            int sz = ref__slot_in(T, z);
+            if (sz < 0)
+                continue;
+            int q = 6 - ref__slot_in(T, p) - ref__slot_in(T, a) - sz;
+            tm_mark_face(m, tets[k], q, (int32_t)f + 1);
+        }
+    }
+    m->flags[tets[2]] |= REF_F_EXTERIOR;
+    m->flags[tets[3]] |= REF_F_EXTERIOR;
+    r->st.flips22++;
+    return 0;
+}
+
+int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
+{
+    tm_mesh *m = &r->m;
+    int rc = ref_region_room(r);
+    flip_hooks fh = {copy_region, flip_facet, r};
+    r->flipped.n = r->flipped.nstuck = 0;
+    if (!rc)
+        rc = flip_restore(m, seed, nseed, &fh, &r->flipped, 0);
+    /* A face no flip mends lies against a subsegment that is not strongly
+     * Delaunay (a CDT with it may not exist): it is split, under the same
+     * floor as a split some vertex's encroachment asks for. */
+    for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
+        tm_link l = r->flipped.stuck_faces[i];
+        uint32_t t = tm_ltet(l);
+        if (tm_is_dead(m, t))
+            continue;
+        const uint32_t *tv = m->tets[t].v;
+        const uint8_t *fv = tm_face_vtx[tm_lface(l)];
+        int found = 0;
+        for (int k = 0; k < 3 && !rc; k++) {
+            uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
+            uint32_t id = bd_find_subseg(&r->bd, a, b);
+            if (id != BD_NONE) {
+                found = 1;
+                rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
+            }
+        }
+        /* ... or against subfacets whose common edge it needs removed (a
+         * merged facet's inner diagonal that no 2-2 flip changes): they
+         * are split. */
+        for (int k = 0; k < 3 && !rc && !found; k++) {
+            uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
+            struct fac_queue_arg fa = {r, 0, 0};
+            bd_subfacs_on_edge(&r->bd, a, b, queue_present_fac, &fa);
+            rc = fa.rc;
+            found = fa.n > 0;
+        }
+    }
+    r->st.flips23 += r->flipped.flips23;
+    r->st.flips32 += r->flipped.flips32;
+    r->st.flips_stuck += r->flipped.stuck;
+    r->flipped.flips23 = r->flipped.flips32 = r->flipped.flips22 = r->flipped.stuck = 0;
+    return rc;
+}
+
+int ref_cdt_restore(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    if (!r->carved)
+        return PDR_EINVAL;
+    uint32_t *all = malloc((m->nslots ? m->nslots : 1) * sizeof *all);
+    if (!all)
+        return PDR_ENOMEM;
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
+            all[n++] = t;
+    int rc = ref__cdt_flip(r, all, n);
+    free(all);
+    return rc;
+}
+
 /* ------------------------------------------------------------- carving */
 
 /* Copies the marker and subsegment bits of face i of t to ghost g (its

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/pdr_util.h"
 #include "mesh/vf.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
@@ -299,11 +300,61 @@ size_t ref_interior_tets(const ref_mesher *r)
     return n;
 }
 
+/* The input feature tetrahedron t is left next to: an input vertex of
+ * it, else a segment one of its vertices lies on, else a facet, else the
+ * volume (kind BD_V_VOLUME). */
+static void left_site(const ref_mesher *r, uint32_t t, int *kind, uint32_t *feature)
+{
+    const uint32_t *v = r->m.tets[t].v;
+    static const int order[3] = {BD_V_INPUT, BD_V_SEGMENT, BD_V_FACET};
+    for (int o = 0; o < 3; o++)
+        for (int k = 0; k < 4; k++)
+            if (r->bd.vkind[v[k]] == order[o]) {
+                *kind = order[o];
+                *feature = r->bd.vfeat[v[k]];
+                return;
+            }
+    *kind = BD_V_VOLUME;
+    *feature = 0;
+}
+
+/* Counts tetrahedra per site and keeps the REF_LEFT_SITES largest. */
+static void tally_sites(ref_mesher *r, const uint64_t *keys, size_t n)
+{
+    memset(r->st.left_site, 0, sizeof r->st.left_site);
+    size_t i = 0;
+    while (i < n) {
+        size_t j = i;
+        while (j < n && keys[j] == keys[i])
+            j++;
+        size_t cnt = j - i;
+        for (int s = 0; s < REF_LEFT_SITES; s++) {
+            if (cnt <= r->st.left_site[s].count)
+                continue;
+            memmove(&r->st.left_site[s + 1], &r->st.left_site[s],
+                    (REF_LEFT_SITES - 1 - (size_t)s) * sizeof r->st.left_site[0]);
+            r->st.left_site[s].kind = (int)(keys[i] >> 32);
+            r->st.left_site[s].feature = (uint32_t)keys[i];
+            r->st.left_site[s].count = cnt;
+            break;
+        }
+        i = j;
+    }
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
 void ref_count_bad(ref_mesher *r)
 {
     const tm_mesh *m = &r->m;
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
     r->st.left_size = r->st.left_sliver = 0;
+    uint64_t *keys = NULL;
+    size_t nkeys = 0, cap = 0;
     for (uint32_t t = 0; t < m->nslots; t++) {
         if (!ref_is_interior(m, t))
             continue;
@@ -314,10 +365,17 @@ void ref_count_bad(ref_mesher *r)
         if (r->b2 > 0 && q >= r->b2) {
             r->st.left_ratio++;
             if (m->flags[t] & REF_F_GIVEUP) {
-                if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0]))
+                if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0])) {
                     r->st.left_ratio_degenerate++;
-                else
+                } else {
                     r->st.left_ratio_angle++;
+                    int kind;
+                    uint32_t f;
+                    left_site(r, t, &kind, &f);
+                    /* no memory for the tally: the counts stay right */
+                    if (!pdr_grow((void **)&keys, &cap, nkeys + 1, sizeof *keys))
+                        keys[nkeys++] = (uint64_t)kind << 32 | f;
+                }
             }
         } else if (why == 2) {
             r->st.left_sliver++;
@@ -325,6 +383,9 @@ void ref_count_bad(ref_mesher *r)
             r->st.left_size++;
         }
     }
+    qsort(keys, nkeys, sizeof *keys, cmp_u64);
+    tally_sites(r, keys, nkeys);
+    free(keys);
 }
 
 /* ------------------------------------------------------------ summary */

@@ -88,15 +88,11 @@ int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint
 /* The subsegment and subfacet tables after committing vertex v for a
  * boundary split (of subsegment split_id, or BD_NONE). */
 int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id);
-/* Constrained mode: 1 if input segment seg, or facet f, is part of a
- * tessellated curved surface (FM_SMOOTH_DIH); 0 otherwise and in the
- * conforming mode. */
-int ref__smooth_seg(const ref_mesher *r, uint32_t seg);
-int ref__smooth_facet(const ref_mesher *r, uint32_t f);
 /* Constrained mode: 1 if an end of input segment seg, or a corner of facet
- * f, is a needle point (FM_NEEDLE_ANG). */
-int ref__acute_seg(const ref_mesher *r, uint32_t seg);
-int ref__acute_facet(const ref_mesher *r, uint32_t f);
+ * f, is a needle point (FM_NEEDLE_ANG); 0 in the conforming mode for a
+ * facet. */
+int ref__needle_seg(const ref_mesher *r, uint32_t seg);
+int ref__needle_facet(const ref_mesher *r, uint32_t f);
 /* The point that splits subsegment ab (tests/test_refine.c checks it). */
 void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
@@ -115,6 +111,11 @@ unsigned ref__cdt_flags(const ref_mesher *r);
  * negative code. */
 int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
                           int missing);
+/* Lawson's flips from tetrahedra seed[0..n) (mesh/flip.h), the facet
+ * triangulations following its 2-2 flips; faces no flip mends have their
+ * subsegment or subfacets queued for splitting. r->flipped lists the
+ * tetrahedra the flips made. Returns 0 or a negative code. */
+int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t n);
 /* For a circumcentre p that the constrained cavity r->cav searched from
  * tetrahedron t does not hold: the subfacet on the cavity's boundary that
  * the segment from t to p crosses (else one p lies beyond), or BD_NONE. */

@@ -223,72 +223,6 @@ int ref__tet_bad(const ref_mesher *r, uint32_t t, double cc[3], double *ratio2)
     return 0;
 }
 
-struct fac_queue_arg {
-    ref_mesher *r;
-    int rc;
-    size_t n;
-};
-
-static int queue_present_fac(void *arg, uint32_t s)
-{
-    struct fac_queue_arg *a = arg;
-    if (a->r->bd.facs[s].flags & BD_F_MISSING)
-        return 0;
-    a->rc = ref__queue_fac(a->r, s, 0.0f);
-    a->n++;
-    return a->rc;
-}
-
-/* flip_hooks.copy: a tetrahedron made by a flip lies in the region of
- * the ones it replaces. */
-static void copy_region(void *arg, uint32_t from, uint32_t to)
-{
-    ref_mesher *r = arg;
-    r->m.flags[to] |= r->m.flags[from] & REF_F_EXTERIOR;
-    if (r->region)
-        r->region[to] = r->region[from];
-}
-
-/* flip_hooks.facet: a 2-2 flip of two subfacets of one facet (the
- * diagonal of a merged facet's quadrilateral): the facet triangulation
- * follows, and the new faces are marked. */
-static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
-                      const uint32_t tets[4])
-{
-    ref_mesher *r = arg;
-    tm_mesh *m = &r->m;
-    bd_set *bd = &r->bd;
-    uint32_t s1 = bd_find_subfac(bd, e1, e2, p), s2 = bd_find_subfac(bd, e1, e2, a);
-    if (s1 == BD_NONE || s2 == BD_NONE || bd->facs[s1].facet != bd->facs[s2].facet)
-        return PDR_ETOPOLOGY;
-    uint32_t f = bd->facs[s1].facet;
-    bd_kill_subfac(bd, s1);
-    bd_kill_subfac(bd, s2);
-    const uint32_t ends[2] = {e1, e2};
-    for (int i = 0; i < 2; i++) {
-        uint32_t x = p, y = a, z = ends[i], id;
-        if (ref__orient_facet(r->p, f, X(m, x), X(m, y), X(m, z)) < 0) {
-            x = a;
-            y = p;
-        }
-        int rc = bd_add_subfac(bd, x, y, z, f, &id);
-        if (rc)
-            return rc;
-        for (int k = 0; k < 2; k++) {
-            const tm_tet *T = &m->tets[tets[k]];
-            int sz = ref__slot_in(T, z);
-            if (sz < 0)
-                continue;
-            int q = 6 - ref__slot_in(T, p) - ref__slot_in(T, a) - sz;
-            tm_mark_face(m, tets[k], q, (int32_t)f + 1);
-        }
-    }
-    m->flags[tets[2]] |= REF_F_EXTERIOR;
-    m->flags[tets[3]] |= REF_F_EXTERIOR;
-    r->st.flips22++;
-    return 0;
-}
-
 static int queue_new_tets(ref_mesher *r)
 {
     if (!r->classified)
@@ -298,48 +232,11 @@ static int queue_new_tets(ref_mesher *r)
     size_t nflip = 0;
     if (r->carved) {
         /* The constrained mode: what the insertion left not locally
-         * Delaunay next to constraint faces is flipped (mesh/flip.h). */
-        int rc = ref_region_room(r);
-        flip_hooks fh = {copy_region, flip_facet, r};
-        r->flipped.n = r->flipped.nstuck = 0;
-        if (!rc)
-            rc = flip_restore(m, c->newtets, c->nnew, &fh, &r->flipped, 0);
-        /* A face no flip mends lies against a subsegment that is not
-         * strongly Delaunay (a CDT with it may not exist): it is split. */
-        for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
-            tm_link l = r->flipped.stuck_faces[i];
-            uint32_t t = tm_ltet(l);
-            if (tm_is_dead(m, t))
-                continue;
-            const uint32_t *tv = m->tets[t].v;
-            const uint8_t *fv = tm_face_vtx[tm_lface(l)];
-            int found = 0;
-            for (int k = 0; k < 3 && !rc; k++) {
-                uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
-                uint32_t id = bd_find_subseg(&r->bd, a, b);
-                if (id != BD_NONE) {
-                    found = 1;
-                    rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
-                }
-            }
-            /* ... or against subfacets whose common edge it needs removed
-             * (a merged facet's inner diagonal): they are split. */
-            for (int k = 0; k < 3 && !rc && !found; k++) {
-                uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
-                struct fac_queue_arg fa = {r, 0, 0};
-                bd_subfacs_on_edge(&r->bd, a, b, queue_present_fac, &fa);
-                rc = fa.rc;
-                found = fa.n > 0;
-            }
-        }
+         * Delaunay next to constraint faces is flipped (refine_cdt.c). */
+        int rc = ref__cdt_flip(r, c->newtets, c->nnew);
         if (rc)
             return rc;
         nflip = r->flipped.n;
-        r->st.flips23 += r->flipped.flips23;
-        r->st.flips32 += r->flipped.flips32;
-        r->flipped.flips22 = 0; /* counted by flip_facet */
-        r->st.flips_stuck += r->flipped.stuck;
-        r->flipped.flips23 = r->flipped.flips32 = r->flipped.stuck = 0;
     }
     for (size_t i = 0; i < c->nnew + nflip; i++) {
         uint32_t n = i < c->nnew ? c->newtets[i] : r->flipped.tets[i - c->nnew];
@@ -958,28 +855,21 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
     tm_mesh *m = &r->m;
     const uint32_t *tv = m->tets[t].v;
     r->st.rejected++;
-    /* Whether the pieces to split are on a tessellated curved surface,
-     * and whether one of them ends at an acute vertex. */
-    int smooth = 0, acute = 0;
-    if (g != BD_NONE) {
-        smooth = ref__smooth_facet(r, r->bd.facs[g].facet);
-        acute = ref__acute_facet(r, r->bd.facs[g].facet);
-    }
+    /* Whether one of the pieces to split ends at a needle point. */
+    int needle = g != BD_NONE && ref__needle_facet(r, r->bd.facs[g].facet);
     for (size_t k = 0; segs && k < r->marks.n; k++) {
         const ref_mark *mk = &r->marks.m[k];
         uint32_t id = mk->nv == 2 && mk->encroached ? bd_find_subseg(&r->bd, mk->v[0], mk->v[1])
                                                     : BD_NONE;
-        if (id == BD_NONE)
-            continue;
-        smooth |= ref__smooth_seg(r, r->bd.segs[id].seg);
-        acute |= ref__acute_seg(r, r->bd.segs[id].seg);
+        needle |= id != BD_NONE && ref__needle_seg(r, r->bd.segs[id].seg);
     }
-    if (why == 2 && smooth) {
-        /* A sliver (bad by a dihedral angle alone) does not split a
-         * tessellated curved surface (constrained mode): such splits make
-         * more slivers next to the new boundary vertices, and the surface
-         * is refined several times over (torus-0.15 of the corpus: 24,320
-         * tetrahedra against 4,591 without). It is left, and counted. */
+    if (why == 2 && r->o.constrained) {
+        /* A sliver (bad by a dihedral angle alone) does not split the
+         * boundary in the constrained mode: on a tessellated curved
+         * surface such splits make more slivers next to the new boundary
+         * vertices, and the surface is refined several times over
+         * (torus-0.15 of the corpus: 24,320 tetrahedra against 4,591
+         * without). It is left, and counted. */
         give_up(r, t, 0);
         r->st.slivers_left++;
         return 0;
@@ -995,16 +885,15 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
      * the split of that facet's subfacet removes. */
     if (why == 3)
         floor = 0;
-    /* A piece of a tessellated curved surface is not split eagerly (see
-     * ref__smooth_seg), so the bad tetrahedra next to it ask for its
-     * splits themselves, and Shewchuk's bound for their new vertices (the
-     * floor above) needs pieces that no vertex encroaches: the floor is
-     * halved there. Curved surfaces have no small angles between their
-     * own pieces to cascade into, and near an acute vertex, where they
-     * would, the floor stays; on the corpus the strips made of long
-     * triangles leave 0 tetrahedra above the bound instead of 1,373. */
-    if (smooth && !acute)
-        floor *= 0.5;
+    /* The constrained mode splits no piece eagerly (refine_bound.c), so
+     * the bad tetrahedra next to a piece ask for its splits themselves,
+     * and Shewchuk's bound for their new vertices (the floor above) needs
+     * pieces that no vertex encroaches: the floor is a quarter there, and
+     * whole only next to a needle point, where splits could cascade into
+     * it. On the corpus the long strips leave 0 tetrahedra above the bound
+     * instead of 1,373, the thin slab 0 instead of 2,602. */
+    if (r->o.constrained && !needle)
+        floor *= 0.25;
     int outcome = SPLIT_REFUSED, rc = 0;
     /* With the parallel hooks the splits below may wait for other PEs,
      * during which t may be split or moved away and its slot reused:
