@@ -68,10 +68,21 @@ EXTRA_DIST += \
 	tests/data/plc/truncated.poly \
 	tests/data/plc/unknown.xyz \
 	tests/data/plc/zero-area.poly \
+	tests/data/surf/bracket-0.2.off \
+	tests/data/surf/boxcylsph-0.2.off \
+	tests/data/surf/cone-0.2.off \
+	tests/data/surf/fancone-64.off \
+	tests/data/surf/fillet-0.2.off \
 	tests/data/surf/frame.off \
 	tests/data/surf/gridcube.off \
+	tests/data/surf/gridtorus.off \
 	tests/data/surf/needle.off \
-	tests/data/surf/octa-6.off
+	tests/data/surf/octa-6.off \
+	tests/data/surf/sphere-0.2.off \
+	tests/data/surf/strips-48.off \
+	tests/data/surf/torus-0.3.off \
+	tests/data/surf/tube-0.2.off \
+	tests/data/surf/uvsphere.off
 
 check_PROGRAMS += tests/test_delaunay
 TESTS += tests/test_delaunay
@@ -90,7 +101,8 @@ tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
 tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
 REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
-	tests/mesh-tessellated.sh
+	tests/mesh-tessellated.sh \
+	tests/mesh-cad.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
 

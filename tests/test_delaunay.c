@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "mesh/dt.h"
+#include "mesh/flip.h"
 #include "geom/pred.h"
 #include "geom/ss.h"
 #include "mesh/tm.h"
@@ -1012,6 +1013,124 @@ START_TEST(hilbert_curve_steps_to_neighbours)
 }
 END_TEST
 
+/* ------------------------------------------------------------- flips */
+
+/* Five points: triangle xyz in the plane z = 0, apexes p above and a
+ * below it at height h; tets are (x y z p) and (y x z a), or the three
+ * around edge pa; ghosts close the hull. */
+static void bipyramid(tm_mesh *m, double h, int three, int mark)
+{
+    ck_assert_int_eq(tm_init(m, TM_FEAT_MARKERS), 0);
+    add(m, 0, 0, 0);       /* 1 x */
+    add(m, 1, 0, 0);       /* 2 y */
+    add(m, 0, 1, 0);       /* 3 z */
+    add(m, 0.3, 0.3, h);   /* 4 p */
+    add(m, 0.3, 0.3, -h);  /* 5 a */
+    static const uint32_t two[2][4] = {{1, 2, 3, 4}, {2, 1, 3, 5}};
+    static const uint32_t thr[3][4] = {{1, 2, 4, 5}, {2, 3, 4, 5}, {3, 1, 4, 5}};
+    int n = three ? 3 : 2;
+    ck_assert_int_eq(tm_room(m, 16), 0);
+    for (int i = 0; i < n; i++) {
+        uint32_t t = tm_alloc_tet(m);
+        memcpy(m->tets[t].v, three ? thr[i] : two[i], sizeof m->tets[t].v);
+        if (pred_orient3d(m->xyz + 3 * m->tets[t].v[0], m->xyz + 3 * m->tets[t].v[1],
+                          m->xyz + 3 * m->tets[t].v[2], m->xyz + 3 * m->tets[t].v[3]) < 0) {
+            uint32_t x = m->tets[t].v[2];
+            m->tets[t].v[2] = m->tets[t].v[3];
+            m->tets[t].v[3] = x;
+        }
+        for (int k = 0; k < 4; k++)
+            m->tets[t].n[k] = TM_LINK_NONE;
+    }
+    size_t bad;
+    ck_assert_int_eq(tm_link_faces(m, &bad), 0);
+    ck_assert_uint_eq(bad, 0);
+    ck_assert_int_eq(tm_add_ghosts(m, &bad), 0);
+    ck_assert_uint_eq(bad, 0);
+    tm_rebuild_hints(m);
+    if (mark) /* the face xyz between the two real tets */
+        for (int k = 0; k < 4; k++)
+            if (m->tets[0].v[k] == 4)
+                tm_mark_face(m, 0, k, 7);
+}
+
+static size_t real_tets(const tm_mesh *m)
+{
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        n += !tm_is_dead(m, t) && !tm_is_ghost(m, t);
+    return n;
+}
+
+static size_t not_delaunay(const tm_mesh *m, unsigned extra)
+{
+    vf_report r;
+    memset(&r, 0, sizeof r);
+    ck_assert_int_eq(vf_check(m, VF_TOPOLOGY | VF_ORIENTATION | VF_DELAUNAY | VF_HULL | extra, &r), 0);
+    ck_assert_uint_eq(r.bad_link + r.face_mismatch + r.inverted + r.flat + r.open_hull, 0);
+    return r.not_delaunay;
+}
+
+START_TEST(flip23_makes_a_bipyramid_delaunay)
+{
+    tm_mesh m;
+    bipyramid(&m, 0.05, 0, 0);
+    ck_assert_uint_gt(not_delaunay(&m, 0), 0);
+    uint32_t seed[2] = {0, 1};
+    flip_out out;
+    memset(&out, 0, sizeof out);
+    ck_assert_int_eq(flip_restore(&m, seed, 2, NULL, &out, 0), 0);
+    ck_assert_uint_eq(out.flips23, 1);
+    ck_assert_uint_eq(out.stuck, 0);
+    ck_assert_uint_eq(real_tets(&m), 3);
+    ck_assert_uint_eq(not_delaunay(&m, 0), 0);
+    check_counts(&m);
+    free(out.tets);
+    free(out.stuck_faces);
+    tm_free(&m);
+}
+END_TEST
+
+START_TEST(flip32_makes_a_bipyramid_delaunay)
+{
+    tm_mesh m;
+    bipyramid(&m, 2.0, 1, 0);
+    ck_assert_uint_gt(not_delaunay(&m, 0), 0);
+    uint32_t seed[3] = {0, 1, 2};
+    flip_out out;
+    memset(&out, 0, sizeof out);
+    ck_assert_int_eq(flip_restore(&m, seed, 3, NULL, &out, 0), 0);
+    ck_assert_uint_eq(out.flips32, 1);
+    ck_assert_uint_eq(real_tets(&m), 2);
+    ck_assert_uint_eq(not_delaunay(&m, 0), 0);
+    check_counts(&m);
+    free(out.tets);
+    free(out.stuck_faces);
+    tm_free(&m);
+}
+END_TEST
+
+/* A marked face is a constraint: never flipped, and not locally Delaunay
+ * only in the unconstrained sense. */
+START_TEST(flips_keep_marked_faces)
+{
+    tm_mesh m;
+    bipyramid(&m, 0.05, 0, 1);
+    uint32_t seed[2] = {0, 1};
+    flip_out out;
+    memset(&out, 0, sizeof out);
+    ck_assert_int_eq(flip_restore(&m, seed, 2, NULL, &out, 0), 0);
+    ck_assert_uint_eq(out.flips23 + out.flips32, 0);
+    ck_assert_uint_eq(real_tets(&m), 2);
+    ck_assert_uint_gt(not_delaunay(&m, 0), 0);
+    ck_assert_uint_eq(not_delaunay(&m, VF_CONSTRAINED), 0);
+    free(out.tets);
+    free(out.stuck_faces);
+    tm_free(&m);
+}
+END_TEST
+
+
 static Suite *delaunay_suite(void)
 {
     Suite *s = suite_create("delaunay");
@@ -1037,6 +1156,9 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, constrained_search_without_marks_changes_nothing);
     tcase_add_test(tc, special_links_are_reported_once_each);
     tcase_add_test(tc, locked_tets_block_the_search);
+    tcase_add_test(tc, flip23_makes_a_bipyramid_delaunay);
+    tcase_add_test(tc, flip32_makes_a_bipyramid_delaunay);
+    tcase_add_test(tc, flips_keep_marked_faces);
     suite_add_tcase(s, tc);
     tc = tcase_create("verify");
     tcase_set_timeout(tc, 120);

@@ -204,8 +204,10 @@ static int record(flip_out *out, const uint32_t *made, int nn)
     return 0;
 }
 
-/* The 3-2 flip of t and u (sharing face f of t) around their edge (e1,e2)
- * of that face, with the third tetrahedron around the edge; 1 if done. */
+/* The 3-2 flip of t and u, which share face (e1 e2 z), around their edge
+ * (e1 e2) when the third tetrahedron around it is (e1 e2 p a), p and a
+ * being the apexes of t and u: the ring p, a, z becomes a face with a
+ * tetrahedron on each side. 1 if done. */
 static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uint32_t e1,
                  uint32_t e2, uint32_t z, const flip_hooks *h, uint32_t *made, int *rc)
 {
@@ -224,23 +226,19 @@ static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[s1][s2]))
         return 0;
     const tm_tet *W = &m->tets[w];
-    uint32_t c = TM_NONE;
-    for (int k = 0; k < 4; k++)
-        if (W->v[k] != e1 && W->v[k] != e2 && W->v[k] != p && W->v[k] != a)
-            c = W->v[k];
-    if (c == TM_NONE || slot(W, e1) < 0 || slot(W, e2) < 0)
+    if (slot(W, e1) < 0 || slot(W, e2) < 0 || slot(W, p) < 0 || slot(W, a) < 0)
         return 0;
-    const double *P = X(m, p), *A = X(m, a), *C = X(m, c), *E1 = X(m, e1), *E2 = X(m, e2);
-    int o1 = pred_orient3d(P, A, C, E1), o2 = pred_orient3d(P, A, C, E2);
+    const double *P = X(m, p), *A = X(m, a), *Z = X(m, z), *E1 = X(m, e1), *E2 = X(m, e2);
+    int o1 = pred_orient3d(P, A, Z, E1), o2 = pred_orient3d(P, A, Z, E2);
     if (!o1 || !o2 || o1 == o2)
         return 0;
-    int q1 = pred_orient3d(E1, E2, P, A), q2 = pred_orient3d(E1, E2, A, C),
-        q3 = pred_orient3d(E1, E2, C, P);
+    int q1 = pred_orient3d(E1, E2, P, A), q2 = pred_orient3d(E1, E2, A, Z),
+        q3 = pred_orient3d(E1, E2, Z, P);
     if (!q1 || q1 != q2 || q2 != q3)
         return 0;
     uint32_t old[3] = {t, u, w};
-    uint32_t nv[2][4] = {{p, a, c, e1}, {p, a, c, e2}};
-    *rc = replace(m, old, 3, nv, 2, c, h, made);
+    uint32_t nv[2][4] = {{p, a, z, e1}, {p, a, z, e2}};
+    *rc = replace(m, old, 3, nv, 2, z, h, made);
     return *rc == 0;
 }
 
