@@ -67,11 +67,11 @@ static void oriented(const tm_mesh *m, uint32_t q[4], uint32_t in)
 }
 
 /* Replaces tetrahedra old[0..no) by tetrahedra with the vertices nv[0..nn)
- * (made positive here), linked to each other and to the region's outer
+ * (made positive here; a ghost's inside is the side of in[i]), linked to each other and to the region's outer
  * faces, which keep their marks; subsegment bits of the old edges are
  * kept. The new slots go to made[]. */
 static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], int nn,
-                   uint32_t in, const flip_hooks *h, uint32_t *made)
+                   const uint32_t *in, const flip_hooks *h, uint32_t *made)
 {
     outer_face of[16];
     int nof = 0;
@@ -123,7 +123,7 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
     for (int i = 0; i < nn; i++) {
         uint32_t n = tm_alloc_tet(m);
         made[i] = n;
-        oriented(m, nv[i], in);
+        oriented(m, nv[i], in[i]);
         memcpy(m->tets[n].v, nv[i], sizeof m->tets[n].v);
         for (int f = 0; f < 4; f++)
             m->tets[n].n[f] = TM_LINK_UNSET;
@@ -237,8 +237,8 @@ static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     if (!q1 || q1 != q2 || q2 != q3)
         return 0;
     uint32_t old[3] = {t, u, w};
-    uint32_t nv[2][4] = {{p, a, z, e1}, {p, a, z, e2}};
-    *rc = replace(m, old, 3, nv, 2, z, h, made);
+    uint32_t nv[2][4] = {{p, a, z, e1}, {p, a, z, e2}}, in[2] = {z, z};
+    *rc = replace(m, old, 3, nv, 2, in, h, made);
     return *rc == 0;
 }
 
@@ -276,7 +276,8 @@ static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
         return 0;
     uint32_t old[4] = {t, u, g1, g2};
     uint32_t nv[4][4] = {{p, a, e1, z}, {p, a, e2, z}, {p, a, e1, TM_VINF}, {p, a, e2, TM_VINF}};
-    *rc = replace(m, old, 4, nv, 4, z, h, made);
+    uint32_t in[4] = {z, z, z, z};
+    *rc = replace(m, old, 4, nv, 4, in, h, made);
     if (!*rc)
         *rc = h->facet(h->arg, e1, e2, p, a, made);
     return *rc == 0;
@@ -319,8 +320,8 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
         int nn = 0;
         if (o[0] && o[0] == o[1] && o[1] == o[2]) {
             uint32_t old[2] = {t, u};
-            uint32_t nv[3][4] = {{x, y, p, a}, {y, z, p, a}, {z, x, p, a}};
-            rc = replace(m, old, 2, nv, 3, p, h, made);
+            uint32_t nv[3][4] = {{x, y, p, a}, {y, z, p, a}, {z, x, p, a}}, in[3] = {p, p, p};
+            rc = replace(m, old, 2, nv, 3, in, h, made);
             nn = 3;
             if (out && !rc)
                 out->flips23++;
@@ -359,4 +360,58 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
     }
     free(st);
     return rc;
+}
+
+int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[2])
+{
+    if (!h || !h->facet || !m->marker || tm_is_dead(m, t) || tm_is_ghost(m, t))
+        return 0;
+    const tm_tet *T = &m->tets[t];
+    const uint32_t *v = T->v;
+    int mk[2], um[2], nm = 0, nu = 0;
+    for (int f = 0; f < 4; f++) {
+        if (m->flags[t] & TM_F_FACEMARK(f)) {
+            if (nm == 2)
+                return 0;
+            mk[nm++] = f;
+        } else {
+            if (nu == 2)
+                return 0;
+            um[nu++] = f;
+        }
+    }
+    if (m->marker[4 * (size_t)t + (size_t)mk[0]] != m->marker[4 * (size_t)t + (size_t)mk[1]])
+        return 0;
+    /* The marked faces (e1 e2 p) and (e1 e2 a) share the diagonal e1 e2;
+     * face f is opposite vertex v[f]. */
+    uint32_t p = v[mk[0]], a = v[mk[1]], e1 = v[um[0]], e2 = v[um[1]];
+    if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[um[0]][um[1]]))
+        return 0;
+    tm_link lg1 = T->n[mk[0]], lg2 = T->n[mk[1]], ln1 = T->n[um[0]], ln2 = T->n[um[1]];
+    if (tm_is_special(lg1) || tm_is_special(lg2) || tm_is_special(ln1) || tm_is_special(ln2))
+        return 0;
+    uint32_t g1 = tm_ltet(lg1), g2 = tm_ltet(lg2), n1 = tm_ltet(ln1), n2 = tm_ltet(ln2);
+    if (!tm_is_ghost(m, g1) || !tm_is_ghost(m, g2) || tm_is_ghost(m, n1) || tm_is_ghost(m, n2))
+        return 0;
+    /* n1 lies across face (e2 p a), n2 across (e1 p a); their far apexes
+     * are off the plane (else they are flat too: later). */
+    uint32_t q1 = m->tets[n1].v[tm_lface(ln1)], q2 = m->tets[n2].v[tm_lface(ln2)];
+    const double *P = X(m, p), *A = X(m, a), *E1 = X(m, e1), *E2 = X(m, e2);
+    const double *Q1 = X(m, q1), *Q2 = X(m, q2);
+    if (pred_orient3d(P, A, E2, Q1) == 0 || pred_orient3d(P, A, E1, Q2) == 0)
+        return 0;
+    /* The quadrilateral is convex: its diagonals cross (a 2D test, seen
+     * from q1 off the plane). */
+    int d1 = pred_orient3d(E1, E2, Q1, P), d2 = pred_orient3d(E1, E2, Q1, A);
+    int d3 = pred_orient3d(P, A, Q1, E1), d4 = pred_orient3d(P, A, Q1, E2);
+    if (!d1 || !d2 || !d3 || !d4 || d1 == d2 || d3 == d4)
+        return 0;
+    uint32_t old[3] = {t, g1, g2};
+    uint32_t nv[2][4] = {{p, a, e2, TM_VINF}, {p, a, e1, TM_VINF}}, in[2] = {q1, q2};
+    int rc = replace(m, old, 3, nv, 2, in, h, made);
+    if (rc)
+        return rc;
+    const uint32_t tets[4] = {n1, n2, made[0], made[1]};
+    rc = h->facet(h->arg, e1, e2, p, a, tets);
+    return rc ? rc : 1;
 }

@@ -71,4 +71,17 @@ typedef struct flip_out {
 int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hooks *h,
                  flip_out *out, size_t limit);
 
+/* Removes tetrahedron t, which the caller knows to be flat (its four
+ * vertices on one planar facet, up to rounding: a quadrilateral of a
+ * merged facet with both diagonals, as the Delaunay tetrahedralization of
+ * four cocircular points can leave), when two of
+ * its faces are marked boundary faces with the same marker and ghosts
+ * behind them, and its other two faces have real tetrahedra behind them
+ * that are not flat: those two faces become the boundary (the other
+ * diagonal of the quadrilateral), with new ghosts made[0..2), and
+ * hook->facet updates the facet triangulation and marks them as after a
+ * 2-2 flip (tets: the two real tetrahedra, then the two ghosts). Returns 1
+ * if removed, 0 if t is not such a tetrahedron, or a negative code. */
+int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[2]);
+
 #endif /* PDR_FLIP_H */

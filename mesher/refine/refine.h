@@ -217,6 +217,10 @@ typedef struct ref_stats {
                             flips (22: of two boundary subfacets) */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
+    size_t flats_removed; /* constrained: flat tetrahedra on merged facets
+                            removed (flip_remove_flat) */
+    size_t seditious;    /* constrained: tetrahedra left because their
+                            shortest edge is seditious (ref__cdt_seditious) */
     size_t reclassified; /* tetrahedra the final classification moved */
     size_t deferred;     /* parallel: bad tetrahedra put back unstarted
                             because a cavity in progress held them */

@@ -71,6 +71,7 @@
 #include <string.h>
 
 #include "geom/pred.h"
+#include "plc/fm.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
 
@@ -371,11 +372,47 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     return rc;
 }
 
+int ref__cdt_remove_flat(ref_mesher *r, uint32_t t)
+{
+    tm_mesh *m = &r->m;
+    if (!r->carved || !ref__flat_on_facet(r, m->tets[t].v))
+        return 0;
+    int rc = ref_region_room(r);
+    if (rc)
+        return rc;
+    flip_hooks fh = {copy_region, flip_facet, r};
+    uint32_t made[2];
+    rc = flip_remove_flat(m, t, &fh, made);
+    if (rc == 1) {
+        r->st.flips22--; /* flip_facet counted it */
+        r->st.flats_removed++;
+    }
+    return rc;
+}
+
 int ref_cdt_restore(ref_mesher *r)
 {
     tm_mesh *m = &r->m;
     if (!r->carved)
         return PDR_EINVAL;
+    /* Flat tetrahedra on merged facets first (four cocircular vertices of
+     * a quadrilateral): removed while any goes (one may wait for a flat
+     * neighbour). */
+    int rc = 0;
+    for (int again = 1; again && !rc;) {
+        again = 0;
+        for (uint32_t t = 0; t < m->nslots && !rc; t++) {
+            if (tm_is_dead(m, t) || tm_is_ghost(m, t))
+                continue;
+            rc = ref__cdt_remove_flat(r, t);
+            if (rc == 1) {
+                again = 1;
+                rc = 0;
+            }
+        }
+    }
+    if (rc)
+        return rc;
     uint32_t *all = malloc((m->nslots ? m->nslots : 1) * sizeof *all);
     if (!all)
         return PDR_ENOMEM;
@@ -383,7 +420,7 @@ int ref_cdt_restore(ref_mesher *r)
     for (uint32_t t = 0; t < m->nslots; t++)
         if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
             all[n++] = t;
-    int rc = ref__cdt_flip(r, all, n);
+    rc = ref__cdt_flip(r, all, n);
     free(all);
     return rc;
 }
@@ -439,4 +476,80 @@ int ref_carve(ref_mesher *r)
     tm_rebuild_hints(m);
     r->carved = 1;
     return 0;
+}
+
+/* ------------------------------------------------- seditious edges */
+
+/* The input segments mesh vertex v lies on: its own, or every segment
+ * at an input vertex. Returns how many (at most cap); *pv is the PLC
+ * vertex v is, or UINT32_MAX. */
+static size_t vertex_segments(const ref_mesher *r, uint32_t v, uint32_t *out, size_t cap,
+                              uint32_t *pv)
+{
+    const plc *p = r->p;
+    *pv = UINT32_MAX;
+    if (r->bd.vkind[v] == BD_V_SEGMENT) {
+        out[0] = r->bd.vfeat[v];
+        return 1;
+    }
+    if (r->bd.vkind[v] != BD_V_INPUT)
+        return 0;
+    uint32_t q = r->bd.vfeat[v];
+    *pv = q;
+    size_t n = 0;
+    for (size_t i = p->v_sstart[q]; i < p->v_sstart[q + 1] && n < cap; i++)
+        out[n++] = p->v_segs[i];
+    return n;
+}
+
+uint32_t ref__cdt_seditious(const ref_mesher *r, uint32_t a, uint32_t b)
+{
+    enum { CAP = 64 };
+    const plc *p = r->p;
+    uint32_t sa[CAP], sb[CAP], pa, pb;
+    size_t na = vertex_segments(r, a, sa, CAP, &pa), nb = vertex_segments(r, b, sb, CAP, &pb);
+    const double *xa = X(&r->m, a), *xb = X(&r->m, b);
+    const double c = cos(FM_NEEDLE_ANG * M_PI / 180.0), cos2 = c * c;
+    for (size_t i = 0; i < na; i++)
+        for (size_t j = 0; j < nb; j++) {
+            if (sa[i] == sb[j])
+                continue;
+            const uint32_t *s = p->segs[sa[i]].v, *u = p->segs[sb[j]].v;
+            uint32_t o = s[0] == u[0] || s[0] == u[1] ? s[0]
+                         : s[1] == u[0] || s[1] == u[1] ? s[1]
+                                                        : UINT32_MAX;
+            if (o == UINT32_MAX || o == pa || o == pb)
+                continue;
+            const double *xo = p->xyz[o];
+            const double *ea = p->xyz[s[0] == o ? s[1] : s[0]];
+            const double *eb = p->xyz[u[0] == o ? u[1] : u[0]];
+            double da[3], db[3];
+            v3_sub(ea, xo, da);
+            v3_sub(eb, xo, db);
+            /* the angle at o below FM_NEEDLE_ANG */
+            double dot = v3_dot(da, db);
+            if (!(dot > 0 && dot * dot > cos2 * v3_dot(da, da) * v3_dot(db, db)))
+                continue;
+            double ra = v3_dist2(xa, xo), rb = v3_dist2(xb, xo);
+            double lo = fmin(ra, rb), hi = fmax(ra, rb);
+            if (hi <= SEDITIOUS_SHELL * SEDITIOUS_SHELL * lo)
+                return o;
+        }
+    return UINT32_MAX;
+}
+
+uint32_t ref__cdt_seditious_tet(const ref_mesher *r, uint32_t t)
+{
+    const tm_mesh *m = &r->m;
+    const uint32_t *tv = m->tets[t].v;
+    int e = 0;
+    double lo = INFINITY;
+    for (int k = 0; k < 6; k++) {
+        double l = v3_dist2(X(m, tv[tm_edge_vtx[k][0]]), X(m, tv[tm_edge_vtx[k][1]]));
+        if (l < lo) {
+            lo = l;
+            e = k;
+        }
+    }
+    return ref__cdt_seditious(r, tv[tm_edge_vtx[e][0]], tv[tm_edge_vtx[e][1]]);
 }

@@ -300,12 +300,19 @@ size_t ref_interior_tets(const ref_mesher *r)
     return n;
 }
 
-/* The input feature tetrahedron t is left next to: an input vertex of
- * it, else a segment one of its vertices lies on, else a facet, else the
- * volume (kind BD_V_VOLUME). */
+/* The input feature tetrahedron t is left next to: the apex of the small
+ * angle its seditious shortest edge is across (constrained mode), else an
+ * input vertex of it, else a segment one of its vertices lies on, else a
+ * facet, else the volume (kind BD_V_VOLUME). */
 static void left_site(const ref_mesher *r, uint32_t t, int *kind, uint32_t *feature)
 {
     const uint32_t *v = r->m.tets[t].v;
+    uint32_t apex = r->o.constrained ? ref__cdt_seditious_tet(r, t) : UINT32_MAX;
+    if (apex != UINT32_MAX) {
+        *kind = BD_V_INPUT;
+        *feature = apex;
+        return;
+    }
     static const int order[3] = {BD_V_INPUT, BD_V_SEGMENT, BD_V_FACET};
     for (int o = 0; o < 3; o++)
         for (int k = 0; k < 4; k++)
@@ -383,7 +390,8 @@ void ref_count_bad(ref_mesher *r)
             r->st.left_size++;
         }
     }
-    qsort(keys, nkeys, sizeof *keys, cmp_u64);
+    if (nkeys)
+        qsort(keys, nkeys, sizeof *keys, cmp_u64);
     tally_sites(r, keys, nkeys);
     free(keys);
 }

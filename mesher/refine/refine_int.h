@@ -116,9 +116,32 @@ int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t
  * subsegment or subfacets queued for splitting. r->flipped lists the
  * tetrahedra the flips made. Returns 0 or a negative code. */
 int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t n);
+/* Removes t if it is a flat tetrahedron on a merged facet that
+ * flip_remove_flat removes (the facet triangulation follows). Returns 1 if
+ * removed, 0 if not, or a negative code. */
+int ref__cdt_remove_flat(ref_mesher *r, uint32_t t);
 /* For a circumcentre p that the constrained cavity r->cav searched from
  * tetrahedron t does not hold: the subfacet on the cavity's boundary that
  * the segment from t to p crosses (else one p lies beyond), or BD_NONE. */
 uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3]);
+
+/* Shewchuk's seditious edges (his 2D refinement's rule for small input
+ * angles), here for the constrained mode: edge ab whose ends lie on two
+ * input segments that meet at an input vertex o at less than FM_NEEDLE_ANG
+ * (a needle point), at distances from o within a factor SEDITIOUS_SHELL
+ * of each other (on one of the concentric shells of ref__split_point, or
+ * two input vertices equally far from o). Such an edge is much shorter
+ * than its distance to o, and a tetrahedron whose shortest edge it is
+ * stays bad whatever is inserted next to it until o's neighbourhood is
+ * refined down to the resolution: the refinement leaves it. On the corpus
+ * the needle keeps its one tetrahedron instead of growing to 306, all bad;
+ * the 64-triangle fan cone its 64 instead of 1,331 (510 bad); Shewchuk's
+ * 60 degrees also caught the 30-60 degree corners of ordinary tessellated
+ * spheres and tori and left bad tetrahedra there (sphere-0.08: 17).
+ * Returns o (a PLC vertex) or UINT32_MAX. */
+#define SEDITIOUS_SHELL 1.001
+uint32_t ref__cdt_seditious(const ref_mesher *r, uint32_t a, uint32_t b);
+/* The same for the shortest edge of tetrahedron t. */
+uint32_t ref__cdt_seditious_tet(const ref_mesher *r, uint32_t t);
 
 #endif /* PDR_REFINE_INT_H */
