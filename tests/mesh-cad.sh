@@ -70,4 +70,25 @@ strips-48 8170 0
 fancone-64 858 64
 needle 27 1
 EOF
+
+# With a volume bound the boundary is split far below the tessellation's
+# scale, next to its acute vertices (the torus has 162 below 60 degrees):
+# the refinement must still end, with a mesh that checks, within a few
+# times the volume's share of tetrahedra (a rule that let a face no flip
+# mends split its subsegment with no floor ran on to millions).
+for a in 2e-5 1e-5; do
+    name=torus-a$a
+    PDR_REF_CHECK=end timeout 120 "$PDR" mesh -a "$a" -o "$tmp/$name" "$data/torus-0.3.off" \
+        >"$tmp/$name.out" 2>&1
+    rc=$?
+    [ "$rc" -eq 0 ] || { grep -v '^pdr mesh: [0-9]' "$tmp/$name.out"; fail "$name: pdr mesh exited $rc"; }
+    nt=$(sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$tmp/$name.out")
+    # the torus's volume is 2 pi^2 0.3^2 = 1.78: at most 12 times 1.78 / a
+    max=$(awk -v a="$a" 'BEGIN { printf "%d", 12 * 1.78 / a }')
+    [ -n "$nt" ] && [ "$nt" -le "$max" ] || fail "$name: '$nt' tetrahedra (at most $max)"
+    "$PDR" check --plc "$data/torus-0.3.off" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1
+    other=$(grep -- '<-- DEFECT' "$tmp/$name.chk" | grep -v '^tetrahedra with radius-edge ratio')
+    [ -z "$other" ] || { cat "$tmp/$name.chk"; fail "$name: $other"; }
+    echo "$name: $nt tetrahedra"
+done
 echo "ok"

@@ -13,7 +13,7 @@ mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
 
 "$PDR" mesh -q 2.0 -o "$tmp/ex" "$ex" >"$tmp/out" 2>"$tmp/err" ||
-    { cat "$tmp/out" "$tmp/err"; fail "pdr mesh exited $?"; }
+    { rc=$?; cat "$tmp/out" "$tmp/err"; fail "pdr mesh exited $rc"; }
 cat "$tmp/out"
 grep -q '^input: .*: 28 vertices, .* 23 facets, 2 holes, 2 regions' "$tmp/out" ||
     fail "input summary"

@@ -22,7 +22,7 @@ grep -q 'radius-edge bound' "$tmp/help" || fail "--help does not describe -q"
 while read -r name vol least; do
     [ -n "$name" ] || continue
     "$PDR" mesh -q 2.0 -a "$vol" "$tmp/$name.poly" >"$tmp/$name.out" 2>"$tmp/$name.err" ||
-        { cat "$tmp/$name.out" "$tmp/$name.err"; fail "$name: pdr mesh exited $?"; }
+        { rc=$?; cat "$tmp/$name.out" "$tmp/$name.err"; fail "$name: pdr mesh exited $rc"; }
     cat "$tmp/$name.out"
     grep -q '^left above the bound: 0 tetrahedra with radius-edge >= 2$' "$tmp/$name.out" ||
         fail "$name: tetrahedra left above the bound"

@@ -35,7 +35,7 @@ run() { # NAME DOMAIN ARGS...: a parallel run that must succeed and check
     in=$tmp/$d.poly
     [ -e "$in" ] || in=$tmp/$d.off
     timeout 120 "$PDR" mesh "$@" -q 2 -o "$tmp/$name" "$in" >"$tmp/$name.out" 2>&1 ||
-        { cat "$tmp/$name.out"; fail "$name: pdr mesh $* exited $?"; }
+        { rc=$?; cat "$tmp/$name.out"; fail "$name: pdr mesh $* exited $rc"; }
     "$PDR" check --plc "$in" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1 ||
         { cat "$tmp/$name.chk"; fail "$name: pdr check found defects"; }
     grep -q '^left above the bound: 0 tetrahedra' "$tmp/$name.out" ||

@@ -10,7 +10,7 @@ trap 'rm -rf "$tmp"' EXIT
 data=$top_srcdir/tests/data/plc
 for f in tet.off tet.stl cube.smesh; do
     "$PDR" mesh -q 2 -a 0.001 -o "$tmp/$f" "$data/$f" >"$tmp/out" 2>&1 ||
-        { cat "$tmp/out"; fail "$f: pdr mesh exited $?"; }
+        { rc=$?; cat "$tmp/out"; fail "$f: pdr mesh exited $rc"; }
     grep -q '^left above the bound: 0 ' "$tmp/out" || fail "$f: tetrahedra left"
     "$PDR" check --plc "$data/$f" --max-ratio 2 "$tmp/$f" >"$tmp/chk" ||
         { cat "$tmp/chk"; fail "$f: pdr check found defects"; }

@@ -334,14 +334,6 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
                    double t[3])
 {
     mp_opts *o = &c->o;
-    /* The parallel refinement keeps a conforming mesh: its distributed
-     * cavities do not yet respect constraints (refine/refine_cdt.c). */
-    if (o->ref.constrained) {
-        fprintf(stderr, "pdr mesh: --mo cdt is not available with the parallel refinement yet; "
-                        "mesh this input without -n/--parallel\n");
-        return PDR_EUNSUPPORTED;
-    }
-    o->mo_auto = 0;
     int rc = mp_read(c);
     if (!rc)
         rc = mp_initial_mesh(c);
@@ -531,7 +523,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (po->check_end) {
         par_verify_report rep;
         memset(&rep, 0, sizeof rep);
-        size_t bad = ref_consistency(&s.r, stderr, 0) + par_verify_facets(&s, stderr) +
+        size_t bad = ref_consistency(&s.r, stderr, REF_CONSIST_PART) + par_verify_facets(&s, stderr) +
                      par_verify_sub(&s, &rep);
         fprintf(stderr, "pdr mesh: PE %d: check at the end of the refinement: %zu problem%s\n",
                 rank, bad, bad == 1 ? "" : "s");
@@ -652,9 +644,23 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         doubts += rows[k].region_doubts;
         elsewhere += rows[k].left_elsewhere;
     }
-    if (doubts || recovered || elsewhere)
-        rc = par_merge_reclassify(&c.r, recovered > 0, elsewhere > 0, &moved, &added);
-    if (!rc && (moved || recovered || elsewhere) && !c.o.quiet)
+    /* The constrained mode: the merged mesh is carved as Mo was; faces
+     * that a PE could not flip (next to its interface, or to another
+     * cavity's tetrahedra) are flipped here, and whatever that leaves bad
+     * is refined. */
+    int cdt = c.o.ref.constrained != 0;
+    if (cdt) {
+        c.r.carved = 1;
+        /* What a PE gave up it may have given up for want of the other
+         * PEs' tetrahedra (a split whose cavity reached them): tried
+         * again here. */
+        for (uint32_t t = 0; t < c.r.m.nslots; t++)
+            c.r.m.flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE | TM_F_QUEUED);
+        rc = ref_cdt_restore(&c.r);
+    }
+    if (!rc && (doubts || recovered || elsewhere || cdt))
+        rc = par_merge_reclassify(&c.r, recovered > 0, elsewhere > 0 || cdt, &moved, &added);
+    if (!rc && (moved || recovered || elsewhere || added) && !c.o.quiet)
         printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu "
                "missing pieces recovered (from %llu subsegments and %llu subfacets left on the "
                "PEs), %llu bad tetrahedra left by the PEs for a split on another PE, %zu points "

@@ -332,6 +332,17 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
             int crossed = 0;
             if (stop_marked && (ft & TM_F_FACEMARK(f))) {
                 if (!(c->may_cross && c->may_cross(c->cross_arg, m, t, f))) {
+                    /* The tetrahedron behind is the cavity's closure: the
+                     * new one on this face will link to it. */
+                    if (lock) {
+                        int r = take_lock(m, c, tm_ltet(l), lock);
+                        if (r <= 0) {
+                            clear_marks(m, c);
+                            c->status = DT_LOCKED;
+                            c->blocker = tm_ltet(l);
+                            return r;
+                        }
+                    }
                     rc = add_bface(c, t, f, DT_BND_MARKED, l);
                     c->nmarked++;
                     continue;
@@ -355,6 +366,15 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
                             c->may_cross(c->cross_arg, m, u, k);
                 }
                 if (!enter) {
+                    if (lock) {
+                        int r = take_lock(m, c, u, lock);
+                        if (r <= 0) {
+                            clear_marks(m, c);
+                            c->status = DT_LOCKED;
+                            c->blocker = u;
+                            return r;
+                        }
+                    }
                     rc = add_bface(c, t, f, DT_BND_OUTSIDE, l);
                     continue;
                 }
@@ -490,6 +510,55 @@ int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t
     }
     dt_cavity_abandon(m, c);
     return 1;
+}
+
+int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n, unsigned flags,
+                  dt_cavity *c)
+{
+    if (c->pending)
+        dt_cavity_abandon(m, c);
+    if (!n)
+        return PDR_EINVAL;
+    memcpy(c->p, p, sizeof c->p);
+    c->flags = flags;
+    c->status = DT_OK;
+    c->ntets = c->nbnd = c->nnew = c->nmarked = 0;
+    c->located = tets[0];
+    c->dup_vertex = c->blocker = TM_NONE;
+    if (n > c->cap_tets && pdr_grow((void **)&c->tets, &c->cap_tets, n, sizeof *c->tets))
+        return PDR_ENOMEM;
+    uint16_t *fl = m->flags;
+    for (size_t i = 0; i < n; i++) {
+        if (tm_is_dead(m, tets[i]) || (fl[tets[i]] & TM_F_CAVITY)) {
+            clear_marks(m, c);
+            return PDR_EINVAL;
+        }
+        fl[tets[i]] |= TM_F_CAVITY;
+        c->tets[c->ntets++] = tets[i];
+    }
+    c->pending = 1;
+    for (size_t i = 0; i < c->ntets; i++) {
+        uint32_t t = c->tets[i];
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            int reason;
+            if (tm_is_special(l))
+                reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
+            else if (fl[tm_ltet(l)] & TM_F_CAVITY)
+                continue;
+            else if ((flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
+                reason = DT_BND_MARKED;
+            else
+                reason = DT_BND_OUTSIDE;
+            if (add_bface(c, t, f, reason, l)) {
+                dt_cavity_abandon(m, c);
+                return PDR_ENOMEM;
+            }
+            c->nmarked += reason == DT_BND_MARKED;
+        }
+    }
+    return 0;
 }
 
 /* -------------------------------------------------------------- commit */

@@ -178,6 +178,14 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c);
  * PDR_ENOMEM (the cavity still pending). */
 int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t), void *arg);
 
+/* Makes tets[0..n) the pending cavity of p (no conflict test: the caller
+ * knows p sees every boundary face, e.g. p on an edge and the tetrahedra
+ * around it), with the boundary reasons of a search with flags. Returns 0,
+ * PDR_EINVAL (a tetrahedron dead or listed twice; nothing pending) or
+ * PDR_ENOMEM. */
+int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n, unsigned flags,
+                  dt_cavity *c);
+
 /* Inserts vertex v (already added with tm_add_vertex) by walking from
  * start. Returns 0 with c->status DT_OK (inserted; c->newtets), or
  * DT_DUPLICATE/DT_OUTSIDE_DOMAIN (not inserted), or a negative error. */

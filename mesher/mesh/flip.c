@@ -10,6 +10,10 @@
 
 #define X(m, v) ((m)->xyz + 3 * (size_t)(v))
 
+/* *rc of a try that found a tetrahedron locked by another owner (not an
+ * error: the face is left). */
+#define FLIP_LOCKED 1
+
 static void sort3(uint32_t k[3])
 {
     uint32_t x;
@@ -64,6 +68,18 @@ static void oriented(const tm_mesh *m, uint32_t q[4], uint32_t in)
         q[2] = q[3];
         q[3] = x;
     }
+}
+
+/* 1 if one of old[0..no) is locked by another owner than h's. */
+static int locked(const tm_mesh *m, const flip_hooks *h, const uint32_t *old, int no)
+{
+    if (!m->lock)
+        return 0;
+    uint32_t own = h ? h->lock_owner : 0;
+    for (int i = 0; i < no; i++)
+        if (m->lock[old[i]] != 0 && m->lock[old[i]] != own)
+            return 1;
+    return 0;
 }
 
 /* Replaces tetrahedra old[0..no) by tetrahedra with the vertices nv[0..nn)
@@ -125,6 +141,7 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
         made[i] = n;
         oriented(m, nv[i], in[i]);
         memcpy(m->tets[n].v, nv[i], sizeof m->tets[n].v);
+        m->nghost += (uint32_t)tm_is_ghost(m, n);
         for (int f = 0; f < 4; f++)
             m->tets[n].n[f] = TM_LINK_UNSET;
     }
@@ -155,6 +172,8 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
                 N->n[f] = of[q].outer;
                 if (!tm_is_special(of[q].outer))
                     m->tets[tm_ltet(of[q].outer)].n[tm_lface(of[q].outer)] = tm_mklink(n, f);
+                else if (of[q].outer != TM_LINK_NONE && h && h->relink)
+                    h->relink(h->arg, of[q].outer, n, f);
                 if (of[q].marked) {
                     m->flags[n] |= TM_F_FACEMARK(f);
                     if (m->marker)
@@ -163,7 +182,7 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
                 done = 1;
             }
             if (!done)
-                return PDR_ETOPOLOGY; /* cannot happen: the region is closed */
+                return PDR_ETOPOLOGY;
         }
         for (int e = 0; e < 6; e++) {
             uint32_t a = N->v[tm_edge_vtx[e][0]], b = N->v[tm_edge_vtx[e][1]];
@@ -237,9 +256,26 @@ static int try32(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     if (!q1 || q1 != q2 || q2 != q3)
         return 0;
     uint32_t old[3] = {t, u, w};
+    if (locked(m, h, old, 3)) {
+        *rc = FLIP_LOCKED;
+        return 0;
+    }
     uint32_t nv[2][4] = {{p, a, z, e1}, {p, a, z, e2}}, in[2] = {z, z};
     *rc = replace(m, old, 3, nv, 2, in, h, made);
     return *rc == 0;
+}
+
+/* 1 if the angle p-v-a is straight to within rounding (about 1e-6
+ * radians): v a point that split segment pa. */
+static int straight(const tm_mesh *m, uint32_t p, uint32_t v, uint32_t a)
+{
+    const double *P = X(m, p), *V = X(m, v), *A = X(m, a);
+    double d1[3] = {P[0] - V[0], P[1] - V[1], P[2] - V[2]};
+    double d2[3] = {A[0] - V[0], A[1] - V[1], A[2] - V[2]};
+    double dot = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2];
+    double n1 = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
+    double n2 = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
+    return dot < 0 && dot * dot >= (1.0 - 1e-12) * n1 * n2;
 }
 
 /* The 2-2 flip on the boundary (see flip.h): t and u share face (e1 e2 z)
@@ -259,6 +295,15 @@ static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     int s1 = slot(T, e1), s2 = slot(T, e2);
     if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[s1][s2]))
         return 0;
+    /* p e1 a (or p e2 a) along one segment, e1 a point splitting it: the
+     * quadrilateral is straight there, which rounding may show as convex,
+     * and the new diagonal would run along the segment. */
+    int tp = slot(T, p), ua = slot(U, a), u1 = slot(U, e1), u2 = slot(U, e2);
+    if (((m->flags[t] & TM_F_SUBSEG(tm_edge_of[tp][s1])) &&
+         (m->flags[u] & TM_F_SUBSEG(tm_edge_of[ua][u1])) && straight(m, p, e1, a)) ||
+        ((m->flags[t] & TM_F_SUBSEG(tm_edge_of[tp][s2])) &&
+         (m->flags[u] & TM_F_SUBSEG(tm_edge_of[ua][u2])) && straight(m, p, e2, a)))
+        return 0;
     tm_link lt = T->n[st], lu = U->n[su];
     if (tm_is_special(lt) || tm_is_special(lu))
         return 0;
@@ -275,6 +320,10 @@ static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     if (!o1 || !o2 || o1 == o2)
         return 0;
     uint32_t old[4] = {t, u, g1, g2};
+    if (locked(m, h, old, 4)) {
+        *rc = FLIP_LOCKED;
+        return 0;
+    }
     uint32_t nv[4][4] = {{p, a, e1, z}, {p, a, e2, z}, {p, a, e1, TM_VINF}, {p, a, e2, TM_VINF}};
     uint32_t in[4] = {z, z, z, z};
     *rc = replace(m, old, 4, nv, 4, in, h, made);
@@ -318,7 +367,10 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
                     pred_orient3d(P, A, X(m, z), X(m, x))};
         uint32_t made[4];
         int nn = 0;
-        if (o[0] && o[0] == o[1] && o[1] == o[2]) {
+        if (o[0] && o[0] == o[1] && o[1] == o[2] && locked(m, h, (uint32_t[2]){t, u}, 2)) {
+            if (out)
+                out->blocked++;
+        } else if (o[0] && o[0] == o[1] && o[1] == o[2]) {
             uint32_t old[2] = {t, u};
             uint32_t nv[3][4] = {{x, y, p, a}, {y, z, p, a}, {z, x, p, a}}, in[3] = {p, p, p};
             rc = replace(m, old, 2, nv, 3, in, h, made);
@@ -337,7 +389,11 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
                 else if (!rc && try22(m, t, u, p, a, ev[k][0], ev[k][1], ev[k][2], h, made, &rc))
                     nn = 4;
             }
-            if (out && nn == 4) {
+            if (rc == FLIP_LOCKED) {
+                rc = 0;
+                if (out)
+                    out->blocked++;
+            } else if (out && nn == 4) {
                 out->flips22++;
             } else if (out && nn) {
                 out->flips32++;
@@ -407,6 +463,8 @@ int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[
     if (!d1 || !d2 || !d3 || !d4 || d1 == d2 || d3 == d4)
         return 0;
     uint32_t old[3] = {t, g1, g2};
+    if (locked(m, h, old, 3))
+        return 0;
     uint32_t nv[2][4] = {{p, a, e2, TM_VINF}, {p, a, e1, TM_VINF}}, in[2] = {q1, q2};
     int rc = replace(m, old, 3, nv, 2, in, h, made);
     if (rc)

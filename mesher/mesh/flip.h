@@ -47,6 +47,10 @@
 
 typedef struct flip_hooks {
     void (*copy)(void *arg, uint32_t from, uint32_t to); /* may be NULL */
+    /* A new tetrahedron's face f took the special link outer (not
+     * TM_LINK_NONE: an interface face to another PE) of the face it
+     * replaces; may be NULL. */
+    void (*relink)(void *arg, tm_link outer, uint32_t t, int f);
     /* A 2-2 flip on the boundary replaced faces (e1 e2 p) and (e1 e2 a) by
      * (p a e1) and (p a e2), faces of tets[0..4) (the two new tetrahedra
      * and their ghosts); it must mark them (and return 0, or a negative
@@ -54,6 +58,10 @@ typedef struct flip_hooks {
     int (*facet)(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
                  const uint32_t tets[4]);
     void *arg;
+    /* With m->lock (the parallel refinement), a flip whose tetrahedra
+     * include one locked by another owner than this one (0: any lock)
+     * is not made: that face is left (flip_out.blocked). */
+    uint32_t lock_owner;
 } flip_hooks;
 
 typedef struct flip_out {
@@ -63,6 +71,7 @@ typedef struct flip_out {
                              they may be gone by the end) */
     size_t nstuck, cap_stuck;
     size_t flips23, flips32, flips22, stuck;
+    size_t blocked; /* faces left because a tetrahedron was locked */
 } flip_out;
 
 /* Flips until every face reachable as described above is locally Delaunay

@@ -118,7 +118,7 @@ static int serve_from(par_cav_ctx *cc, par_part *pt, uint32_t owner, const doubl
     }
     dt_cavity *c = &cc->scratch;
     c->lock_owner = owner;
-    int rc = dt_cavity_search(m, p, t, DT_LOCK, c);
+    int rc = dt_cavity_search(m, p, t, DT_LOCK | cc->search_flags, c);
     /* The search's locks now belong to the part (released with it). */
     for (size_t i = 0; !rc && i < c->nheld; i++)
         rc = push(&pt->held, c->held[i]);
@@ -133,8 +133,10 @@ static int serve_from(par_cav_ctx *cc, par_part *pt, uint32_t owner, const doubl
         return REPLY_DUPLICATE;
     for (size_t i = 0; !rc && i < c->ntets; i++)
         rc = push(&pt->cav, c->tets[i]);
+    /* Closure faces: those not in conflict, and in the constrained mode
+     * those of constraints and ghost walls. */
     for (size_t i = 0; !rc && i < c->nbnd; i++)
-        if (c->bnd[i].reason == DT_BND_OUTSIDE)
+        if (c->bnd[i].reason == DT_BND_OUTSIDE || c->bnd[i].reason == DT_BND_MARKED)
             rc = push(&pt->repoint, c->bnd[i].outer);
     /* Keep the marks (the caller clears the part's at the end) and the
      * locks; forget the search. */
@@ -779,13 +781,14 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
      * anything else runs here: for those, checking that no other cavity
      * holds a lock is enough. Only one that reaches another PE, and so
      * waits, is searched again taking its locks. */
-    int rc = dt_cavity_search(m, p, start, DT_CHECK_LOCKS, d);
+    unsigned fl = c->cc->search_flags;
+    int rc = dt_cavity_search(m, p, start, DT_CHECK_LOCKS | fl, d);
     int local = !rc && d->status == DT_OK;
     for (size_t i = 0; local && i < d->nbnd; i++)
         if (d->bnd[i].reason == DT_BND_REMOTE)
             local = 0;
     if (!rc && d->status == DT_OK && !local) {
-        rc = dt_cavity_search(m, p, start, DT_LOCK, d);
+        rc = dt_cavity_search(m, p, start, DT_LOCK | fl, d);
         *remote = 1; /* the same cavity, if it is one (DT_OK) */
     }
     for (size_t i = 0; !rc && i < d->nheld; i++)

@@ -169,6 +169,9 @@ typedef struct par_cav_ctx {
     double rtt;          /* moving average of a scatter-gather round's
                             wait, seconds (0 until measured) */
     int cat_service;     /* am_category of serving remote requests */
+    unsigned search_flags; /* dt_cavity_search flags of every search, with
+                            the locking ones (the constrained mode's:
+                            ref_cavity_flags) */
     /* Puts an imported piece of work back on this PE's queues: kind 0 a
      * tetrahedron, 1 a subsegment, 2 a subfacet (ids of this PE). */
     int (*requeue)(void *arg, int kind, uint32_t id);

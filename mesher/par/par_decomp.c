@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "par/par_decomp.h"
+#include "plc/fm.h"
 #include "par/par_wire.h"
 
 /* ------------------------------------------------------------- partition */
@@ -248,7 +249,7 @@ int par_decomp_run(const ref_mesher *mo, uint32_t size, uint32_t nparts, int see
 /* ------------------------------------------------------------------- PLC */
 
 #define PLC_VERSION 1u
-#define OPTS_VERSION 1u
+#define OPTS_VERSION 2u
 #define MAX_VATTR 4096u
 
 /* A name as a wire string, or "" when it is not one. */
@@ -566,6 +567,10 @@ int par_decomp_plc_decode(const void *msg, size_t len, plc *out, pdr_diag *diag)
         rc = PDR_EPARSE;
     if (!rc)
         rc = plc_validate(out, diag);
+    /* The derived data the refinement reads (needle points, sharp
+     * segments), as rank 0 computed them. */
+    if (!rc)
+        rc = fm_features(out, NULL);
     return rc;
 }
 
@@ -579,7 +584,8 @@ int par_decomp_opts_put(pr_buf *b, const ref_opts *o)
         if (!isfinite(x[k]))
             return PDR_EINVAL;
     if ((o->use_region_maxvol != 0 && o->use_region_maxvol != 1) ||
-        (o->order != REF_ORDER_FIFO && o->order != REF_ORDER_LIFO))
+        (o->order != REF_ORDER_FIFO && o->order != REF_ORDER_LIFO) ||
+        (o->constrained != 0 && o->constrained != 1))
         return PDR_EINVAL;
     size_t start = b->len;
     pr_put_u32(b, PAR_DECOMP_OPTS_MAGIC);
@@ -588,6 +594,7 @@ int par_decomp_opts_put(pr_buf *b, const ref_opts *o)
         pr_put_f64(b, x[k]);
     pr_put_u8(b, (uint8_t)o->use_region_maxvol);
     pr_put_u8(b, (uint8_t)o->order);
+    pr_put_u8(b, (uint8_t)o->constrained);
     if (b->err) {
         if (b->len >= start)
             b->len = start;
@@ -602,11 +609,12 @@ int par_decomp_opts_decode(const void *msg, size_t len, ref_opts *out)
     pr_reader_init(&rd, msg, len);
     uint32_t magic = 0, version = 0;
     double x[7];
-    uint8_t urm = 0, order = 0;
+    uint8_t urm = 0, order = 0, cdt = 0;
     pr_get_u32(&rd, &magic);
     pr_get_u32(&rd, &version);
     if (rd.err || magic != PAR_DECOMP_OPTS_MAGIC || version != OPTS_VERSION ||
-        get_finite(&rd, x, 7) || pr_get_u8(&rd, &urm) || pr_get_u8(&rd, &order) || urm > 1 ||
+        get_finite(&rd, x, 7) || pr_get_u8(&rd, &urm) || pr_get_u8(&rd, &order) ||
+        pr_get_u8(&rd, &cdt) || urm > 1 || cdt > 1 ||
         (order != REF_ORDER_FIFO && order != REF_ORDER_LIFO) || pr_reader_finish(&rd))
         return PDR_EPARSE;
     ref_default_opts(out);
@@ -619,6 +627,7 @@ int par_decomp_opts_decode(const void *msg, size_t len, ref_opts *out)
     out->rho = x[6];
     out->use_region_maxvol = urm;
     out->order = order;
+    out->constrained = cdt;
     out->progress = NULL;
     out->progress_arg = NULL;
     return 0;

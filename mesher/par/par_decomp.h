@@ -35,9 +35,10 @@
  * rebuilds the PLC with plc_add_* and validates it as pdr mesh does.
  *
  * Options message: u32 magic PAR_DECOMP_OPTS_MAGIC ("PDRO"), u32 version
- * 1, f64 ratio, maxvol, maxedge, min_dihedral, seg_maxlen, fac_maxrad, rho
- * (finite), u8 use_region_maxvol (0/1), u8 order (enum ref_order). The
- * progress callback does not travel.
+ * 2, f64 ratio, maxvol, maxedge, min_dihedral, seg_maxlen, fac_maxrad, rho
+ * (finite), u8 use_region_maxvol (0/1), u8 order (enum ref_order), u8
+ * constrained (0/1: Mo is a carved constrained Delaunay mesh, see
+ * refine/refine_cdt.c). The progress callback does not travel.
  */
 #ifndef PDR_PAR_DECOMP_H
 #define PDR_PAR_DECOMP_H

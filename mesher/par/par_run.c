@@ -167,6 +167,19 @@ static int hook_committed(void *arg, uint32_t v, const dt_cavity *c)
     return rc;
 }
 
+static uint32_t hook_owner(void *arg)
+{
+    par_run *pr = arg;
+    return pr->current ? pr->current->cav.owner : 0;
+}
+
+/* A flip gave interface face (t, f) a new tetrahedron (constrained mode). */
+static void hook_relink(void *arg, tm_link outer, uint32_t t, int f)
+{
+    par_run *pr = arg;
+    pr->s->ifc[outer - TM_LINK_SPECIAL].local = tm_mklink(t, f);
+}
+
 static int requeue(void *arg, int kind, uint32_t id)
 {
     par_run *pr = arg;
@@ -200,8 +213,13 @@ static int check_sub(par_run *pr, const char *when)
     if (!bad)
         return 0;
     if (r->o.log)
-        fprintf(r->o.log, "PE %u: %zu problems %s (step %llu)\n", pr->s->rank, bad, when,
-                (unsigned long long)pr->row->steps);
+        fprintf(r->o.log,
+                "PE %u: %zu problems %s (step %llu, %s; links: %zu asymmetric, %zu misoriented, "
+                "%zu bad remote, %zu stale interface, %zu open, %zu vertices, %zu counts)\n",
+                pr->s->rank, bad, when, (unsigned long long)pr->row->steps,
+                r->last_op ? r->last_op : "-", rep.asym_links,
+                rep.misoriented, rep.bad_remote, rep.stale_ifaces, rep.open_faces,
+                rep.bad_vertices, rep.bad_counts);
     return PDR_ETOPOLOGY;
 }
 
@@ -378,7 +396,10 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->cc.hook_arg = pr;
     pr->hooks.cavity = hook_cavity;
     pr->hooks.committed = hook_committed;
+    pr->hooks.owner = hook_owner;
+    pr->hooks.relink = hook_relink;
     pr->hooks.arg = pr;
+    pr->cc.search_flags = ref_cavity_flags(&s->r);
     s->r.hooks = &pr->hooks;
     /* The order of the bad tetrahedra (o->order). Newest first
      * everywhere (the sequential default, for the cache) makes a PE next

@@ -893,6 +893,8 @@ static int build(const par_wire *w, par_sub *s)
         return rc;
     tm_rebuild_hints(m);
     s->r.classified = 1;
+    /* A constrained Mo comes carved: its ghosts lie on the boundary. */
+    s->r.carved = s->r.o.constrained != 0;
     return 0;
 }
 

@@ -215,8 +215,14 @@ typedef struct ref_stats {
                             their 3D cavity kept a subfacet of their 2D one */
     size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's
                             flips (22: of two boundary subfacets) */
+    size_t flips_blocked; /* parallel constrained: faces not flipped
+                            because another cavity held a tetrahedron (the
+                            merged mesh is flipped once more at rank 0) */
     size_t missing_recovered; /* missing subsegments/subfacets split */
     size_t slivers_left; /* slivers not split (circumradius too small) */
+    size_t edge_star_splits; /* constrained: subsegment splits made in the
+                            tetrahedra around the edge (its constrained
+                            cavity was no star) */
     size_t flats_removed; /* constrained: flat tetrahedra on merged facets
                             removed (flip_remove_flat) */
     size_t seditious;    /* constrained: tetrahedra left because their
@@ -300,6 +306,11 @@ typedef struct ref_hooks {
     /* Called after vertex v was committed; c->newtets are the new
      * tetrahedra. Returns 0 or a negative code. */
     int (*committed)(void *arg, uint32_t v, const dt_cavity *c);
+    /* The constrained mode's flips: the lock owner of the running step
+     * (tetrahedra locked by any other are not flipped), and a new
+     * tetrahedron's face t, f that took over interface link outer. */
+    uint32_t (*owner)(void *arg);
+    void (*relink)(void *arg, tm_link outer, uint32_t t, int f);
     void *arg;
 } ref_hooks;
 
@@ -458,6 +469,9 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
  * more than two boundary faces) or PDR_ENOMEM. */
 int ref_carve(ref_mesher *r);
 
+/* The dt_cavity_search flags of a point's cavity in r: the constrained
+ * mode's (constraints not crossed, ghost walls once carved), or 0. */
+unsigned ref_cavity_flags(const ref_mesher *r);
 /* Makes a carved mesh a constrained Delaunay tetrahedralization again:
  * Lawson's flips over every face, and the subsegments and subfacets next
  * to faces no flip mends queued for splitting (ref_run splits them).
@@ -482,11 +496,16 @@ void ref_count_bad(ref_mesher *r);
 
 /* Checks that the marks on the mesh and the subsegment/subfacet tables
  * agree (every mark is a live, present piece; every present subfacet is a
- * marked face) and, with check_regions and no subfacet missing, that
- * regions change only across subfacets. Returns the number of
- * disagreements, each described on log when not NULL. Slow: for tests
- * and debugging. */
-size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions);
+ * marked face); with REF_CONSIST_REGIONS in what and no subfacet missing,
+ * that regions change only across subfacets; in the constrained mode
+ * with no boundary split pending, that every face that is no constraint
+ * is locally Delaunay, unless what has REF_CONSIST_PART (a PE's part,
+ * whose faces next to other PEs or other cavities may wait for the
+ * merge). Returns the number of disagreements, each described on log when
+ * not NULL. Slow: for tests and debugging. */
+#define REF_CONSIST_REGIONS 1
+#define REF_CONSIST_PART 2
+size_t ref_consistency(const ref_mesher *r, FILE *log, int what);
 
 /* Number of interior (non-exterior, non-ghost) tetrahedra. */
 size_t ref_interior_tets(const ref_mesher *r);

@@ -435,6 +435,50 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
     return 2;
 }
 
+struct edge_root {
+    ref_mesher *r;
+    int rc;
+};
+
+static int edge_root(void *arg, uint32_t s)
+{
+    struct edge_root *a = arg;
+    if (!(a->r->bd.facs[s].flags & BD_F_VISIT) && ref__list_add(a->r, s)) {
+        a->rc = PDR_ENOMEM;
+        return 1;
+    }
+    return 0;
+}
+
+int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb)
+{
+    ref__list_clear(r);
+    struct edge_root er = {r, 0};
+    bd_subfacs_on_edge(&r->bd, sa, sb, edge_root, &er);
+    if (er.rc)
+        return er.rc;
+    const bd_set *bd = &r->bd;
+    for (size_t i = 0; i < r->nlist; i++) {
+        uint32_t t = r->list[i];
+        for (int k = 0; k < 3; k++) {
+            const bd_subfac *T = &bd->facs[t];
+            uint32_t x = T->v[(k + 1) % 3], y = T->v[(k + 2) % 3];
+            if (is_split_edge(x, y, sa, sb))
+                continue;
+            if (ref__orient_facet(r->p, T->facet, X(&r->m, x), X(&r->m, y), p) <= 0)
+                return 1; /* the rounded point falls on or beyond this edge */
+            if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
+                return PDR_ENOMEM;
+            uint32_t *e = r->bedge[r->nbedge++];
+            e[0] = x;
+            e[1] = y;
+            e[2] = T->facet;
+            e[3] = t;
+        }
+    }
+    return 0;
+}
+
 /* ------------------------------------------------ boundary updates */
 
 /* The general search for a face of the mesh: tetrahedra around vertex a

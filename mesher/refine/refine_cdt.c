@@ -70,6 +70,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "plc/fm.h"
 #include "refine/refine_int.h"
@@ -111,6 +112,11 @@ static int on_visited(void *arg, uint32_t t)
 unsigned ref__cdt_flags(const ref_mesher *r)
 {
     return DT_STOP_MARKED | (r->carved ? DT_GHOST_WALLS : 0u);
+}
+
+unsigned ref_cavity_flags(const ref_mesher *r)
+{
+    return r->o.constrained ? ref__cdt_flags(r) : 0u;
 }
 
 struct start_arg {
@@ -162,54 +168,148 @@ static uint32_t piece_start(const ref_mesher *r, const double p[3], uint32_t a, 
     return s.found;
 }
 
-int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
-                          int missing)
+/* 1 if the pending cavity deletes every present subfacet of the 2D
+ * cavities (r->list): both its tetrahedra in the cavity. The faces crossed
+ * (each seen from both sides) are counted against the present subfacets
+ * of the list; on a PE an entry whose tetrahedra went to another PE is
+ * not crossed. */
+static int crosses_all(const ref_mesher *r)
 {
-    tm_mesh *m = &r->m;
-    dt_cavity *cav = &r->cav;
-    uint32_t t = piece_start(r, p, a, b, c, missing);
-    if (t == TM_NONE)
-        return 1;
-    r->split_a = a;
-    r->split_b = c == TM_NONE ? b : TM_NONE;
-    cav->may_cross = ref__cross_visited;
-    cav->cross_arg = r;
-    int rc = dt_cavity_search(m, p, t, ref__cdt_flags(r), cav);
-    cav->may_cross = NULL;
-    cav->cross_arg = NULL;
-    if (rc)
-        return rc;
-    if (cav->status != DT_OK) {
-        dt_cavity_abandon(m, cav);
-        return 1;
-    }
-    if (!dt_cavity_is_star(m, cav)) {
-        rc = dt_cavity_shrink(m, cav, on_visited, r);
-        if (rc) {
-            if (rc < 0)
-                dt_cavity_abandon(m, cav);
-            return rc;
-        }
-        r->st.shrunk++;
-    }
-    /* Every present subfacet of the 2D cavities must go: both its
-     * tetrahedra in the cavity. Count the faces crossed (each seen from
-     * both sides) against the present subfacets of the list. */
+    const tm_mesh *m = &r->m;
+    const dt_cavity *cav = &r->cav;
     size_t present = 0, sides = 0;
     for (size_t i = 0; i < r->nlist; i++)
         present += !(r->bd.facs[r->list[i]].flags & BD_F_MISSING);
     for (size_t i = 0; i < cav->ntets; i++) {
         uint32_t u = cav->tets[i];
         for (int f = 0; f < 4; f++) {
-            if (!(m->flags[u] & TM_F_FACEMARK(f)) || !ref__cross_visited(r, m, u, f))
+            if (!(m->flags[u] & TM_F_FACEMARK(f)) || !ref__cross_visited((void *)r, m, u, f))
                 continue;
             tm_link l = m->tets[u].n[f];
             if (!tm_is_special(l) && (m->flags[tm_ltet(l)] & TM_F_CAVITY))
                 sides++;
         }
     }
-    if (sides != 2 * present) {
+    return sides == 2 * present;
+}
+
+struct star_arg {
+    uint32_t *t;
+    size_t n, cap;
+    int rc;
+};
+
+static int collect(const tm_mesh *m, uint32_t t, void *arg)
+{
+    (void)m;
+    struct star_arg *s = arg;
+    if (pdr_grow((void **)&s->t, &s->cap, s->n + 1, sizeof *s->t)) {
+        s->rc = PDR_ENOMEM;
+        return 1;
+    }
+    s->t[s->n++] = t;
+    return 0;
+}
+
+/* The split of present subsegment ab at p whose constrained cavity is no
+ * star (an encroaching vertex next to a subfacet of its 2D cavity, where
+ * the cavity reaches round to the back of a face p does not see), asked
+ * for by a face no flip mends (a CDT needs the split): the
+ * cavity becomes the tetrahedra around ab, ghosts included, and the 2D
+ * cavities the subfacets on ab; every one is split in two, which is
+ * always valid for p on the edge, and the flips after the commit make the
+ * mesh a CDT again (TetGen splits an edge the same way). Returns as
+ * ref__cdt_search_piece. */
+static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32_t b)
+{
+    tm_mesh *m = &r->m;
+    uint32_t t;
+    if (!ref__find_in_star(m, a, b, TM_NONE, &t))
+        return r->hooks ? REF_CDT_ELSEWHERE : 1;
+    struct star_arg sa = {NULL, 0, 0, 0};
+    int around = ref_around_edge(m, t, a, b, collect, &sa);
+    int rc = sa.rc ? sa.rc : ref__cavity2d_edge(r, p, a, b);
+    if (!rc && around < 0)
+        rc = r->hooks ? REF_CDT_ELSEWHERE : 1; /* an edge ring left open */
+    /* Each tetrahedron around ab is cut in two: none may be flat (four
+     * vertices in a plane: its halves would be too). */
+    for (size_t i = 0; !rc && i < sa.n; i++) {
+        const uint32_t *v = m->tets[sa.t[i]].v;
+        if (!tm_is_ghost(m, sa.t[i]) &&
+            pred_orient3d(X(m, v[0]), X(m, v[1]), X(m, v[2]), X(m, v[3])) == 0)
+            rc = 1;
+    }
+    if (!rc)
+        rc = dt_cavity_set(m, p, sa.t, sa.n, ref__cdt_flags(r), &r->cav);
+    free(sa.t);
+    if (rc)
+        return rc == PDR_EINVAL ? 1 : rc;
+    /* p is rounded: each new tetrahedron must still be positive. */
+    if (!dt_cavity_is_star(m, &r->cav)) {
+        dt_cavity_abandon(m, &r->cav);
+        return 1;
+    }
+    if (!crosses_all(r)) {
+        dt_cavity_abandon(m, &r->cav);
+        return r->hooks ? REF_CDT_ELSEWHERE : 1;
+    }
+    for (size_t i = 0; i < r->cav.nbnd; i++)
+        if (r->cav.bnd[i].reason == DT_BND_REMOTE) {
+            dt_cavity_abandon(m, &r->cav);
+            return REF_CDT_ELSEWHERE;
+        }
+    r->st.edge_star_splits++;
+    return 0;
+}
+
+int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
+                          int missing, int edge_star)
+{
+    tm_mesh *m = &r->m;
+    dt_cavity *cav = &r->cav;
+    uint32_t t = piece_start(r, p, a, b, c, missing);
+    if (t == TM_NONE)
+        return r->hooks ? REF_CDT_ELSEWHERE : 1;
+    r->split_a = a;
+    r->split_b = c == TM_NONE ? b : TM_NONE;
+    cav->may_cross = ref__cross_visited;
+    cav->cross_arg = r;
+    /* On a PE (the parallel hooks): the split is made here only if its
+     * cavity lies on this PE and no other cavity holds any of it; the
+     * merged mesh gets the others at rank 0. */
+    unsigned lk = r->hooks && m->lock ? DT_CHECK_LOCKS : 0u;
+    int rc = dt_cavity_search(m, p, t, ref__cdt_flags(r) | lk, cav);
+    cav->may_cross = NULL;
+    cav->cross_arg = NULL;
+    if (rc)
+        return rc;
+    if (cav->status == DT_LOCKED)
+        return REF_CDT_LOCKED;
+    if (cav->status != DT_OK) {
         dt_cavity_abandon(m, cav);
+        return 1;
+    }
+    for (size_t i = 0; r->hooks && i < cav->nbnd; i++)
+        if (cav->bnd[i].reason == DT_BND_REMOTE) {
+            dt_cavity_abandon(m, cav);
+            return REF_CDT_ELSEWHERE;
+        }
+    if (!dt_cavity_is_star(m, cav)) {
+        rc = dt_cavity_shrink(m, cav, on_visited, r);
+        if (rc < 0) {
+            dt_cavity_abandon(m, cav);
+            return rc;
+        }
+        if (rc)
+            return edge_star && c == TM_NONE && !missing ? edge_star_cavity(r, p, a, b) : rc;
+        r->st.shrunk++;
+    }
+        if (!crosses_all(r)) {
+        dt_cavity_abandon(m, cav);
+        if (edge_star && c == TM_NONE && !missing)
+            return edge_star_cavity(r, p, a, b);
+        if (r->hooks)
+            return REF_CDT_ELSEWHERE; /* a subfacet of it may be elsewhere */
         r->st.cdt_refused++;
         return 1;
     }
@@ -297,8 +397,9 @@ static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t 
     tm_mesh *m = &r->m;
     bd_set *bd = &r->bd;
     uint32_t s1 = bd_find_subfac(bd, e1, e2, p), s2 = bd_find_subfac(bd, e1, e2, a);
-    if (s1 == BD_NONE || s2 == BD_NONE || bd->facs[s1].facet != bd->facs[s2].facet)
+    if (s1 == BD_NONE || s2 == BD_NONE || bd->facs[s1].facet != bd->facs[s2].facet) {
         return PDR_ETOPOLOGY;
+    }
     uint32_t f = bd->facs[s1].facet;
     bd_kill_subfac(bd, s1);
     bd_kill_subfac(bd, s2);
@@ -327,17 +428,38 @@ static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t 
     return 0;
 }
 
+/* flip_hooks.relink: the parallel hook's, with its own argument. */
+static void relink(void *arg, tm_link outer, uint32_t t, int f)
+{
+    ref_mesher *r = arg;
+    r->hooks->relink(r->hooks->arg, outer, t, f);
+}
+
+/* The flips' hooks: regions, facet triangulations, and with the parallel
+ * hooks the interface faces and the running cavity's lock owner. */
+static flip_hooks flip_hooks_of(ref_mesher *r)
+{
+    flip_hooks fh = {.copy = copy_region, .facet = flip_facet, .arg = r};
+    if (r->hooks) {
+        fh.relink = r->hooks->relink ? relink : NULL;
+        fh.lock_owner = r->hooks->owner ? r->hooks->owner(r->hooks->arg) : 0;
+    }
+    return fh;
+}
+
 int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
 {
     tm_mesh *m = &r->m;
     int rc = ref_region_room(r);
-    flip_hooks fh = {copy_region, flip_facet, r};
+    flip_hooks fh = flip_hooks_of(r);
     r->flipped.n = r->flipped.nstuck = 0;
     if (!rc)
         rc = flip_restore(m, seed, nseed, &fh, &r->flipped, 0);
     /* A face no flip mends lies against a subsegment that is not strongly
      * Delaunay (a CDT with it may not exist): it is split, under the same
-     * floor as a split some vertex's encroachment asks for. */
+     * floor as a split some vertex's encroachment asks for (none lets the
+     * splits cascade into acute input vertices), in the tetrahedra around
+     * it if its constrained cavity is no star. */
     for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
         tm_link l = r->flipped.stuck_faces[i];
         uint32_t t = tm_ltet(l);
@@ -368,7 +490,9 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     r->st.flips23 += r->flipped.flips23;
     r->st.flips32 += r->flipped.flips32;
     r->st.flips_stuck += r->flipped.stuck;
+    r->st.flips_blocked += r->flipped.blocked;
     r->flipped.flips23 = r->flipped.flips32 = r->flipped.flips22 = r->flipped.stuck = 0;
+    r->flipped.blocked = 0;
     return rc;
 }
 
@@ -380,7 +504,7 @@ int ref__cdt_remove_flat(ref_mesher *r, uint32_t t)
     int rc = ref_region_room(r);
     if (rc)
         return rc;
-    flip_hooks fh = {copy_region, flip_facet, r};
+    flip_hooks fh = flip_hooks_of(r);
     uint32_t made[2];
     rc = flip_remove_flat(m, t, &fh, made);
     if (rc == 1) {

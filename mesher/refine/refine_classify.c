@@ -191,14 +191,14 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
 
 /* ---------------------------------------------------- checks and counts */
 
-size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
+size_t ref_consistency(const ref_mesher *r, FILE *log, int what)
 {
     const tm_mesh *m = &r->m;
     const bd_set *bd = &r->bd;
     size_t bad = 0;
     /* While a subfacet is missing, the marks do not yet separate the
      * regions there: check regions only when none is. */
-    int regions = r->classified && check_regions;
+    int regions = r->classified && (what & REF_CONSIST_REGIONS);
     for (uint32_t i = 0; i < bd->nfacs && regions; i++)
         if ((bd->facs[i].flags & (BD_F_DEAD | BD_F_MISSING)) == BD_F_MISSING)
             regions = 0;
@@ -275,7 +275,8 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int check_regions)
         bad++;
     }
     free(marked);
-    if (r->carved && r->segq.n == r->segq.head && r->facq.n == r->facq.head) {
+    if (r->carved && !r->hooks && !(what & REF_CONSIST_PART) && r->segq.n == r->segq.head &&
+        r->facq.n == r->facq.head) {
         /* The constrained mode keeps a CDT: every face that is no
          * constraint locally Delaunay, once the boundary splits that the
          * flips asked for (refine_run.c, queue_new_tets) are done. */

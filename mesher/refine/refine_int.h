@@ -82,6 +82,12 @@ int ref__list_add(ref_mesher *r, uint32_t s);
 void ref__list_clear(ref_mesher *r);
 int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb, uint32_t *ea,
                        uint32_t *eb);
+/* The 2D cavity of point p on subsegment sa-sb made of the subfacets on
+ * that edge alone (each split in two): r->list and r->bedge as
+ * ref__grow_cavity2d leaves them. Returns 0, 1 when p (rounded) does not
+ * lie strictly inside one of those subfacets' other edges, or
+ * PDR_ENOMEM. */
+int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb);
 /* A tetrahedron with face abc (edge ab when c is TM_NONE), found from a's
  * star; 1 if found. */
 int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout);
@@ -107,10 +113,15 @@ unsigned ref__cdt_flags(const ref_mesher *r);
  * (face, c != TM_NONE), missing or present, whose 2D cavities are in
  * r->list: searched into r->cav crossing only those subfacets, made a star,
  * and deleting every present subfacet of the list. Returns 0 (r->cav
- * pending), 1 when there is no such cavity (nothing pending), or a
- * negative code. */
+ * pending), 1 when there is no such cavity (nothing pending), with the
+ * parallel hooks REF_CDT_ELSEWHERE when it is not all on this PE or
+ * REF_CDT_LOCKED when another cavity holds some of it (nothing pending),
+ * or a negative code. With edge_star, a present subsegment whose cavity
+ * cannot be made a star is split in the tetrahedra around it instead. */
+#define REF_CDT_ELSEWHERE 2
+#define REF_CDT_LOCKED 3
 int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
-                          int missing);
+                          int missing, int edge_star);
 /* Lawson's flips from tetrahedra seed[0..n) (mesh/flip.h), the facet
  * triangulations following its 2-2 flips; faces no flip mends have their
  * subsegment or subfacets queued for splitting. r->flipped lists the

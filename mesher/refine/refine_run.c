@@ -469,8 +469,9 @@ static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_
  * would be nearer than rmin to an existing one: rmin is how the
  * refinement keeps splits caused by nearby features or bad tetrahedra
  * from cascading (see ref_opts.rho and split_tet). A missing subsegment is
- * always split: the mesh must conform. */
-static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
+ * always split: the mesh must conform. queued: the split comes from the
+ * subsegment queue (constrained mode: a face no flip mends asked for it). */
+static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int *result)
 {
     tm_mesh *m = &r->m;
     bd_subseg S = r->bd.segs[id];
@@ -489,11 +490,19 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int *result)
         int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
         if (g > 0)
             r->anomalies++; /* not expected for a point on the segment */
-        rc = g < 0 ? g : ref__cdt_search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing);
+        /* A queued split of a present subsegment is one a face that no
+         * flip mends asks for (ref__cdt_flip): the CDT needs it. */
+        rc = g < 0 ? g : ref__cdt_search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing, queued);
         if (rc) {
             ref__list_clear(r);
             if (rc < 0)
                 return rc;
+            if (rc == REF_CDT_LOCKED)
+                return REF_SETBACK;
+            if (rc == REF_CDT_ELSEWHERE) {
+                *result = SPLIT_ELSEWHERE;
+                return 0;
+            }
             return below_resolution(r, p, missing, &r->bd.segs[id].flags);
         }
     } else {
@@ -592,7 +601,7 @@ static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done, in
     for (size_t i = 0; i < n; i++) {
         if (r->bd.segs[ids[i]].flags & BD_F_DEAD)
             continue;
-        int res, rc = split_subseg(r, ids[i], rmin, &res);
+        int res, rc = split_subseg(r, ids[i], rmin, 0, &res);
         if (rc)
             return rc;
         if (res == SPLIT_DONE)
@@ -628,15 +637,23 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
         }
         /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
         int res;
-        rc = split_subseg(r, sid, rmin, &res);
-        *result = res == SPLIT_DONE ? SPLIT_DEFERRED : SPLIT_REFUSED;
+        rc = split_subseg(r, sid, rmin, 0, &res);
+        *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
+                  : res == SPLIT_ELSEWHERE ? SPLIT_ELSEWHERE
+                                           : SPLIT_REFUSED;
         return rc;
     }
-    rc = ref__cdt_search_piece(r, c, G.v[0], G.v[1], G.v[2], missing);
+    rc = ref__cdt_search_piece(r, c, G.v[0], G.v[1], G.v[2], missing, 0);
     if (rc) {
         ref__list_clear(r);
         if (rc < 0)
             return rc;
+        if (rc == REF_CDT_LOCKED)
+            return REF_SETBACK;
+        if (rc == REF_CDT_ELSEWHERE) {
+            *result = SPLIT_ELSEWHERE;
+            return 0;
+        }
         if (missing)
             return below_resolution(r, c, missing, &r->bd.facs[id].flags);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
@@ -769,7 +786,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         }
         /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
         int res;
-        rc = split_subseg(r, sid, rmin, &res);
+        rc = split_subseg(r, sid, rmin, 0, &res);
         *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
                   : res == SPLIT_ELSEWHERE ? SPLIT_ELSEWHERE
                                            : SPLIT_REFUSED;
@@ -1112,7 +1129,7 @@ static int process_seg(ref_mesher *r, uint32_t id, float rmin)
         return 0;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int res;
-    return split_subseg(r, id, rmin, &res);
+    return split_subseg(r, id, rmin, 1, &res);
 }
 
 static int process_fac(ref_mesher *r, uint32_t id, float rmin)
