@@ -69,7 +69,17 @@ uvsphere 2613 100
 strips-48 8170 0
 fancone-64 858 64
 needle 27 1
+quadtorus 361 0
 EOF
+
+# The quad torus is written as a scanner writes a quad mesh: no face is
+# planar, and one face has no area (two of its corners are one vertex).
+# The reader cuts the faces into triangles and drops the empty one, and
+# says so (a .poly facet stays as it is: tests/plc-errors.sh).
+grep -q '^input repair: 192 non-planar polygons cut into triangles$' "$tmp/quadtorus.out" ||
+    fail "quadtorus: no line for the 192 polygons cut"
+grep -q '^input repair: 1 face with fewer than 3 distinct corners dropped' "$tmp/quadtorus.out" ||
+    fail "quadtorus: no line for the face dropped"
 
 # With a volume bound the boundary is split far below the tessellation's
 # scale, next to its acute vertices (the torus has 162 below 60 degrees):

@@ -78,6 +78,7 @@ EXTRA_DIST += \
 	tests/data/surf/gridtorus.off \
 	tests/data/surf/needle.off \
 	tests/data/surf/octa-6.off \
+	tests/data/surf/quadtorus.off \
 	tests/data/surf/sphere-0.2.off \
 	tests/data/surf/strips-48.off \
 	tests/data/surf/torus-0.3.off \

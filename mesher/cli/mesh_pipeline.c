@@ -133,6 +133,12 @@ int mp_read(mp_ctx *c)
                "(%.3f s)\n",
                input_name(c), p->nv, p->nseg, p->nfacet, p->nhole, p->nhole == 1 ? "" : "s",
                p->nregion, p->nregion == 1 ? "" : "s", c->sec[MP_READ]);
+    if (!c->o.quiet && p->read_dropped)
+        printf("input repair: %zu face%s with fewer than 3 distinct corners dropped (no "
+               "area)\n", p->read_dropped, p->read_dropped == 1 ? "" : "s");
+    if (!c->o.quiet && p->read_split)
+        printf("input repair: %zu non-planar polygon%s cut into triangles\n", p->read_split,
+               p->read_split == 1 ? "" : "s");
     if (!c->o.quiet && (c->fm.triangles_merged || c->fm.sharp_segments || c->fm.acute_vertices ||
                         c->fm.smooth_segments))
         printf("input preparation: %zu coplanar triangles merged (%zu facets before, %zu "

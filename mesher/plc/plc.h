@@ -151,6 +151,10 @@ typedef struct plc {
      * triangles into polygons covers the same points, so it makes none);
      * plc_init() sets 0. */
     int skip_intersections;
+    /* What the surface readers (.off, .stl) mended (plc/plc_read.c):
+     * faces dropped because their corners are fewer than three distinct
+     * vertices, polygons that were not planar cut into triangles. */
+    size_t read_dropped, read_split;
 } plc;
 
 /* Relative flatness tolerance of facets (TetGen-like; see plc_validate). */

@@ -26,14 +26,17 @@
  *    they usually mean a wrong count in a header.
  *  - .off: "OFF" (counts may follow on the same line), "<nv> <nf> [ne]",
  *    vertices "x y z", faces "<n> i1 .. in [colour ...]" with 0-based
- *    indices; every face is a facet with marker 0. The COFF/NOFF/4OFF/STOFF
- *    variants and binary OFF are not supported.
+ *    indices; every face is a facet with marker 0, mended as the surface
+ *    faces below say. The COFF/NOFF/4OFF/STOFF variants and binary OFF
+ *    are not supported.
  *  - .stl: binary when the size is exactly 84 + 50 * (triangle count in
  *    the header), ASCII otherwise (which must start with "solid"). Several
  *    solids in one ASCII file are read as one surface. Every triangle is a
  *    facet with marker 0 (coplanar neighbours are not merged into one
  *    facet, so their shared edges are segments for the mesher); vertices
- *    with equal coordinates are merged (-0 equals +0).
+ *    with equal coordinates are merged (-0 equals +0), and a triangle two
+ *    of whose corners are then one vertex is dropped (see the surface
+ *    faces below).
  * File names are matched on their extension, case-insensitively.
  */
 #include "config.h"
@@ -47,6 +50,7 @@
 #include <sys/types.h>
 
 #include "base/pdr_util.h"
+#include "geom/pred.h"
 #include "plc/plc.h"
 #include "plc/plc_int.h"
 #include "base/textin.h"
@@ -385,6 +389,164 @@ static int read_tetgen(plc *p, FILE *f, const char *path, pdr_diag *diag, int sm
 
 /* --------------------------------------------------------------------- OFF */
 
+/* ------------------------------------------------------ surface faces */
+
+/* The faces of a surface file (.off, .stl) as CAD tools and scanners write
+ * them, mended where the fix is certain and loses nothing:
+ *  - a corner repeated next to itself is one corner; a face left with
+ *    fewer than three has no area (a triangle whose two corners are one
+ *    vertex after the STL vertices are merged) and is dropped: its other
+ *    edge is used once in each direction by it, so the surface stays
+ *    closed without it;
+ *  - a polygon whose corners are not in one plane (quad meshes from
+ *    scanners and modellers, within 1e-7 of flat but beyond the planarity
+ *    tolerance) is cut into triangles by ear clipping in its projection
+ *    along its Newell normal, each triangle a facet of its own; one whose
+ *    projection is no simple polygon is kept whole, and the validation
+ *    then names it.
+ * Counted in p->read_dropped and p->read_split. */
+
+/* 1 if 2D point q lies inside or on the triangle abc (counterclockwise). */
+static int in_triangle2(const double *a, const double *b, const double *c, const double *q)
+{
+    return pred_orient2d(a, b, q) >= 0 && pred_orient2d(b, c, q) >= 0 &&
+           pred_orient2d(c, a, q) >= 0;
+}
+
+/* Ear clipping of polygon c[0..n) (n > 3, distinct corners) projected
+ * along normal nrm; adds every triangle as a facet. Returns 0, 1 when the
+ * projection has no ear at some step (not a simple polygon: nothing
+ * added), or PDR_ENOMEM. */
+static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3], long line)
+{
+    int axis = 0;
+    for (int k = 1; k < 3; k++)
+        if (fabs(nrm[k]) > fabs(nrm[axis]))
+            axis = k;
+    /* (u, v) counterclockwise when seen against the normal */
+    int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    if (nrm[axis] < 0) {
+        int s = u;
+        u = v;
+        v = s;
+    }
+    double (*q)[2] = malloc(n * sizeof *q);
+    uint32_t *idx = malloc(n * sizeof *idx);
+    uint32_t(*tri)[3] = malloc((n - 2) * sizeof *tri);
+    int rc = q && idx && tri ? 0 : PDR_ENOMEM;
+    uint32_t left = n, ntri = 0;
+    for (uint32_t i = 0; i < n && !rc; i++) {
+        q[i][0] = p->xyz[c[i]][u];
+        q[i][1] = p->xyz[c[i]][v];
+        idx[i] = i;
+    }
+    while (!rc && left > 3) {
+        uint32_t ear = left;
+        for (uint32_t i = 0; i < left && ear == left; i++) {
+            uint32_t a = idx[(i + left - 1) % left], b = idx[i], d = idx[(i + 1) % left];
+            if (pred_orient2d(q[a], q[b], q[d]) <= 0)
+                continue;
+            int empty = 1;
+            for (uint32_t j = 0; j < left && empty; j++) {
+                uint32_t o = idx[j];
+                if (o != a && o != b && o != d)
+                    empty = !in_triangle2(q[a], q[b], q[d], q[o]);
+            }
+            if (empty)
+                ear = i;
+        }
+        if (ear == left) {
+            rc = 1;
+            break;
+        }
+        tri[ntri][0] = c[idx[(ear + left - 1) % left]];
+        tri[ntri][1] = c[idx[ear]];
+        tri[ntri][2] = c[idx[(ear + 1) % left]];
+        ntri++;
+        memmove(idx + ear, idx + ear + 1, (left - ear - 1) * sizeof *idx);
+        left--;
+    }
+    if (!rc) {
+        if (pred_orient2d(q[idx[0]], q[idx[1]], q[idx[2]]) <= 0)
+            rc = 1;
+        else {
+            tri[ntri][0] = c[idx[0]];
+            tri[ntri][1] = c[idx[1]];
+            tri[ntri][2] = c[idx[2]];
+            ntri++;
+        }
+    }
+    for (uint32_t i = 0; i < ntri && !rc; i++)
+        if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, tri[i], 3, line))
+            rc = PDR_ENOMEM;
+    free(q);
+    free(idx);
+    free(tri);
+    return rc;
+}
+
+/* Adds face c[0..n) of a surface file as a facet, mended as above (c is
+ * changed). tol: the planarity tolerance in length units. Returns 0 or
+ * PDR_ENOMEM. */
+static int add_surface_face(plc *p, uint32_t *c, uint32_t n, long line, double tol)
+{
+    uint32_t k = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (!k || c[i] != c[k - 1])
+            c[k++] = c[i];
+    while (k > 1 && c[k - 1] == c[0])
+        k--;
+    if (k < 3) {
+        p->read_dropped++;
+        return 0;
+    }
+    if (k > 3) {
+        double nrm[3] = {0, 0, 0}, ctr[3] = {0, 0, 0};
+        for (uint32_t i = 0; i < k; i++) {
+            const double *a = p->xyz[c[i]], *b = p->xyz[c[(i + 1) % k]];
+            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+            for (int j = 0; j < 3; j++)
+                ctr[j] += a[j] / k;
+        }
+        double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+        double worst = 0;
+        for (uint32_t i = 0; i < k && len > 0; i++) {
+            const double *a = p->xyz[c[i]];
+            double d = fabs(nrm[0] * (a[0] - ctr[0]) + nrm[1] * (a[1] - ctr[1]) +
+                            nrm[2] * (a[2] - ctr[2])) / len;
+            if (d > worst)
+                worst = d;
+        }
+        if (worst > tol) {
+            int rc = clip_ears(p, c, k, nrm, line);
+            if (rc <= 0) {
+                p->read_split += !rc;
+                return rc;
+            }
+        }
+    }
+    return plc_begin_facet(p, 0, line) || plc_add_polygon(p, c, k, line) ? PDR_ENOMEM : 0;
+}
+
+/* The planarity tolerance in length units of a surface whose vertices are
+ * all read: as plc_validate measures it. */
+static double surface_tol(const plc *p)
+{
+    double lo[3], hi[3], s = 0;
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = p->nv ? p->xyz[0][k] : 0.0;
+    for (size_t v = 1; v < p->nv; v++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], p->xyz[v][k]);
+            hi[k] = fmax(hi[k], p->xyz[v][k]);
+        }
+    for (int k = 0; k < 3; k++)
+        s += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    return p->planar_tol * sqrt(s);
+}
+
 static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
 {
     textin t;
@@ -392,6 +554,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     textin_attach(&t, in, path, diag);
     p->base = 0;
     long nv, nf, ne;
+    double tol = 0;
     uint32_t *c = NULL;
     size_t cap = 0;
     if ((rc = need_line(&t, "the OFF header")))
@@ -440,7 +603,9 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
                 goto out;
         }
         /* Anything after the corners is a colour: ignored. */
-        if (plc_begin_facet(p, 0, t.line) || plc_add_polygon(p, c, (uint32_t)n, t.line)) {
+        if (f == 0)
+            tol = surface_tol(p);
+        if (add_surface_face(p, c, (uint32_t)n, t.line, tol)) {
             rc = oom(&t);
             goto out;
         }
@@ -543,7 +708,7 @@ static int read_stl_binary(plc *p, FILE *f, const char *path, unsigned long ntri
             if (!rc && vmerge_insert(&m, p, x, 0, &c[k]))
                 rc = PDR_ENOMEM;
         }
-        if (!rc && (plc_begin_facet(p, 0, 0) || plc_add_polygon(p, c, 3, 0)))
+        if (!rc && add_surface_face(p, c, 3, 0, 0.0))
             rc = PDR_ENOMEM;
         if (rc)
             break;
@@ -637,7 +802,9 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
         if ((rc = need_line(&t, "a facet")) ||
             (rc = expect_word(&t, "endfacet", "after 'endloop'")))
             break;
-        if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, c, (uint32_t)n, line)) {
+        /* The vertices are not all read yet: a polygon of more than
+         * three corners (which no STL writer makes) is kept whole. */
+        if (add_surface_face(p, c, (uint32_t)n, line, INFINITY)) {
             rc = oom(&t);
             break;
         }
