@@ -16,7 +16,7 @@ dist_noinst_SCRIPTS += tools/bench-parallel
 # Repeated parallel runs with faults (tests/stress-smoke.sh runs it small).
 dist_noinst_SCRIPTS += tools/stress-parallel
 EXTRA_DIST += bench/parallel.md
-dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces
+dist_noinst_SCRIPTS += tools/gen-surfaces tools/bench-surfaces tools/public-surfaces
 EXTRA_DIST += bench/surfaces.md
 # The paper's Table 1, Table 2 and figures (tests/tables.sh runs them small).
 dist_noinst_SCRIPTS += tools/table1 tools/table2 tools/figures
