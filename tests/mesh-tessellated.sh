@@ -79,7 +79,7 @@ case $rc in
     ;;
 124) fail "needle: still running after 120 s" ;;
 *)
-    grep -Eq '^pdr mesh: (stopped after inserting|the boundary recovery does not terminate)' \
+    grep -Eq '^pdr mesh: (stopped after inserting|the boundary recovery (does not terminate|cannot recover))' \
         "$tmp/needle.out" || { cat "$tmp/needle.out"; fail "needle: exit $rc without a clear error"; }
     [ ! -e "$tmp/needle.ele" ] || fail "needle: a mesh was written although it failed"
     echo "needle: $(grep '^pdr mesh: ' "$tmp/needle.out" | cut -c1-100)..."

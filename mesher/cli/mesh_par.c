@@ -685,9 +685,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (c.r.stopped_below)
             fprintf(stderr,
                     "pdr mesh: finishing the merged mesh at rank 0: a missing boundary piece "
-                    "near (%.9g, %.9g, %.9g) would need a split closer than the resolution "
-                    "floor; nothing written\n",
-                    c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2]);
+                    "near (%.9g, %.9g, %.9g) %s; nothing written\n",
+                    c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2],
+                    c.r.stop_hidden ? "has no split with a valid constrained cavity"
+                                    : "would need a split closer than the resolution floor");
         else
             fprintf(stderr, "pdr mesh: finishing the merged mesh at rank 0 failed: %s\n",
                     pdr_strerror(rc));

@@ -153,6 +153,25 @@ int mp_read(mp_ctx *c)
 
 /* ----------------------------------------------------- initial mesh */
 
+/* Where a vertex of kind vkind (bd.h) on input feature feat lies, as " on
+ * the segment between input vertices A and B", " on facet F (line L)" or
+ * " inside the volume". */
+static void feature_name(const plc *p, int vkind, uint32_t feat, char *buf, size_t size)
+{
+    switch (vkind) {
+    case BD_V_SEGMENT:
+        snprintf(buf, size, " on the segment between input vertices %ld and %ld",
+                 plc_vnum(p, p->segs[feat].v[0]), plc_vnum(p, p->segs[feat].v[1]));
+        break;
+    case BD_V_FACET:
+        snprintf(buf, size, " on facet %u (line %ld)", feat + 1, p->facets[feat].line);
+        break;
+    default:
+        snprintf(buf, size, " inside the volume");
+        break;
+    }
+}
+
 /* The message of a run stopped by the bound on inserted points: how many,
  * and where the last one went, which is where the refinement runs on. */
 static int point_limit(mp_ctx *c)
@@ -161,6 +180,19 @@ static int point_limit(mp_ctx *c)
     const ref_mesher *r = &c->r;
     const plc *p = &c->p;
     size_t n = r->st.seg_points + r->st.fac_points + r->st.tet_points;
+    if (r->stopped_below && r->stop_hidden) {
+        char where[160];
+        feature_name(p, r->stop_vkind, r->stop_feat, where, sizeof where);
+        pdr_cli_error(MP_CMD,
+                      "the boundary recovery cannot recover a missing piece of the boundary%s: "
+                      "after %zu points, the split at (%.17g, %.17g, %.17g) has no valid "
+                      "constrained cavity (facets around it, long thin triangles nearly in the "
+                      "plane of their neighbours, hide part of what it must replace; a "
+                      "recovery by cavity retriangulation, as TetGen's, is not implemented) "
+                      "(nothing written)",
+                      where, n, r->stop_at[0], r->stop_at[1], r->stop_at[2]);
+        return PDR_ELIMIT;
+    }
     if (r->stopped_below) {
         pdr_cli_error(MP_CMD,
                       "the boundary recovery does not terminate: after %zu points a missing "
@@ -176,19 +208,7 @@ static int point_limit(mp_ctx *c)
     char where[256] = "";
     if (v) {
         const double *x = r->m.xyz + 3 * (size_t)v;
-        uint32_t f = r->bd.vfeat[v];
-        switch (r->bd.vkind[v]) {
-        case BD_V_SEGMENT:
-            snprintf(where, sizeof where, " on the segment between input vertices %ld and %ld",
-                     plc_vnum(p, p->segs[f].v[0]), plc_vnum(p, p->segs[f].v[1]));
-            break;
-        case BD_V_FACET:
-            snprintf(where, sizeof where, " on facet %u (line %ld)", f + 1, p->facets[f].line);
-            break;
-        default:
-            snprintf(where, sizeof where, " inside the volume");
-            break;
-        }
+        feature_name(p, r->bd.vkind[v], r->bd.vfeat[v], where, sizeof where);
         size_t l = strlen(where);
         snprintf(where + l, sizeof where - l, " at (%.6g, %.6g, %.6g)", x[0], x[1], x[2]);
     }

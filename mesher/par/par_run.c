@@ -255,8 +255,10 @@ static void refine_thread(am_ctx_t *am, void *arg)
             const double *x = pr->s->r.stop_at;
             pdr_line(stderr,
                      "pdr mesh: PE %u: a missing boundary piece near (%.9g, %.9g, %.9g) is "
-                     "left to rank 0 (its split would fall below the resolution floor here)\n",
-                     pr->s->rank, x[0], x[1], x[2]);
+                     "left to rank 0 (%s)\n",
+                     pr->s->rank, x[0], x[1], x[2],
+                     pr->s->r.stop_hidden ? "its split has no valid constrained cavity here"
+                                          : "its split would fall below the resolution floor here");
             pr->s->r.stopped_below = 0;
             break;
         }

@@ -377,6 +377,13 @@ typedef struct ref_mesher {
                            REF_MIN_SPACING times the bounding-box diagonal */
     int stopped_below; /* a run stopped because a missing piece needed a
                           split below min_spacing, at stop_at */
+    int stop_hidden;   /* ... or, in the constrained mode, because that
+                          split's cavity could not be made: nearby
+                          constraints hide part of what it replaces; the
+                          piece lies on input feature stop_feat of kind
+                          stop_vkind (BD_V_SEGMENT, BD_V_FACET) */
+    int stop_vkind;
+    uint32_t stop_feat;
     double stop_at[3];
     flip_out flipped;  /* constrained: the last insertion's flips */
     uint32_t *miss;    /* new subfacets missing from T */

@@ -461,7 +461,25 @@ static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_
     }
     memcpy(r->stop_at, p, sizeof r->stop_at);
     r->stopped_below = 1;
+    r->stop_hidden = 0;
     return PDR_ELIMIT;
+}
+
+/* As below_resolution, for a split refused because its constrained
+ * cavity could not be made (refine_cdt.c: other constraints hide part of
+ * what the point must replace), not because of the floor: a missing
+ * piece stops the run with r->stop_hidden and the piece's input feature
+ * (vkind BD_V_SEGMENT or BD_V_FACET, feat) for the message. */
+static int hidden_piece(ref_mesher *r, const double *p, int missing, uint16_t *flags, int vkind,
+                        uint32_t feat)
+{
+    int rc = below_resolution(r, p, missing, flags);
+    if (rc) {
+        r->stop_hidden = 1;
+        r->stop_vkind = vkind;
+        r->stop_feat = feat;
+    }
+    return rc;
 }
 
 /* Splits subsegment id. A split of a present subsegment is refused
@@ -503,7 +521,7 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int
                 *result = SPLIT_ELSEWHERE;
                 return 0;
             }
-            return below_resolution(r, p, missing, &r->bd.segs[id].flags);
+            return hidden_piece(r, p, missing, &r->bd.segs[id].flags, BD_V_SEGMENT, S.seg);
         }
     } else {
         rc = search_piece(r, p, S.v[0], S.v[1], TM_NONE, &setback);
@@ -655,7 +673,7 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
             return 0;
         }
         if (missing)
-            return below_resolution(r, c, missing, &r->bd.facs[id].flags);
+            return hidden_piece(r, c, missing, &r->bd.facs[id].flags, BD_V_FACET, G.facet);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
         r->st.tolerated++;
         return 0;
