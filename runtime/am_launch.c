@@ -27,10 +27,13 @@
  * Transports: ipc (default for local jobs: sockets in a private temporary
  * directory that the launcher removes) or tcp (required for hostfiles;
  * bound to 127.0.0.1 unless --bind says otherwise). On tcp, when libzmq
- * has CURVE, the launcher makes one key pair per job and the PEs encrypt
- * and authenticate with it (runtime/CONTROL.md, "CURVE": the job's
- * "public" key is given only to the job's PEs and acts as a shared job
- * secret).
+ * has CURVE, the launcher makes a key pair per PE and one for the
+ * rendezvous; each PE gets its own secret key and every PE's public key,
+ * in a key block it reads from a descriptor (a memfd for a forked PE,
+ * ssh's standard input for a remote one), and admits only the job's keys
+ * (runtime/CONTROL.md, "CURVE and ZAP"). The rendezvous is a CURVE server
+ * too, with a ZAP handler that admits the same keys, and takes rank 0's
+ * endpoint from rank 0's key only.
  */
 #include "config.h"
 
@@ -43,6 +46,7 @@
 #include <string.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
@@ -79,7 +83,9 @@ typedef struct launch {
     char **hosts;          /* per rank, NULL for local */
     char ipc_dir[64];
     uint64_t job;
-    char curve_pub[41], curve_sec[41];
+    char (*pub)[41], (*sec)[41]; /* CURVE: a key pair per PE (tcp) */
+    char rdv_pub[41], rdv_sec[41]; /* CURVE: the rendezvous' key pair */
+    am__zap *zap;          /* the rendezvous' ZAP handler */
     void *zctx, *rdv;      /* rendezvous server (tcp) */
     char rdv_ep[512];
     char *root_ep;
@@ -210,8 +216,22 @@ static int rdv_open(launch *L)
     L->rdv = L->zctx ? zmq_socket(L->zctx, ZMQ_ROUTER) : NULL;
     if (!L->rdv)
         return -1;
-    int zero = 0;
+    int zero = 0, one = 1;
     zmq_setsockopt(L->rdv, ZMQ_LINGER, &zero, sizeof zero);
+    if (L->curve) {
+        /* The handler first: libzmq admits every client while none is
+         * bound. */
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "%s: ", L->prog);
+        if (am__zap_start(L->zctx, (const char (*)[41])L->pub, L->np, prefix,
+                          "the rendezvous", &L->zap) ||
+            zmq_setsockopt(L->rdv, ZMQ_CURVE_SERVER, &one, sizeof one) ||
+            zmq_setsockopt(L->rdv, ZMQ_CURVE_SECRETKEY, L->rdv_sec, 40) ||
+            zmq_setsockopt(L->rdv, ZMQ_ZAP_DOMAIN, "am", 2)) {
+            lerr(L, "cannot make the rendezvous a CURVE server");
+            return -1;
+        }
+    }
     const char *adv = L->rdv_host;
     char bind_ep[300];
     if (L->hosts) {
@@ -276,15 +296,28 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
         zmq_getsockopt(L->rdv, ZMQ_RCVMORE, &more, &ml);
         if (!more || idn > (int)sizeof id)
             continue;
-        int n = zmq_recv(L->rdv, req, sizeof req - 1, ZMQ_DONTWAIT);
-        if (n < 0)
+        zmq_msg_t m;
+        zmq_msg_init(&m);
+        int n = zmq_msg_recv(&m, L->rdv, ZMQ_DONTWAIT);
+        if (n < 0) {
+            zmq_msg_close(&m);
             continue;
-        req[n < (int)sizeof req - 1 ? n : (int)sizeof req - 1] = '\0';
+        }
+        size_t k = (size_t)n < sizeof req - 1 ? (size_t)n : sizeof req - 1;
+        memcpy(req, zmq_msg_data(&m), k);
+        req[k] = '\0';
+        /* With CURVE, the ZAP handler named the client's rank: only rank
+         * 0 may publish. */
+        const char *uid = L->curve ? zmq_msg_gets(&m, "User-Id") : NULL;
+        int from_root = !L->curve || (uid && !strcmp(uid, "0"));
+        zmq_msg_close(&m);
         char job[32];
         snprintf(job, sizeof job, "%llu", (unsigned long long)L->job);
         size_t jl = strlen(job);
-        if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
-            req[4 + jl] == ' ' && !L->root_ep) {
+        if (!strncmp(req, "PUT ", 4) && !from_root) {
+            rdv_reply(L, id, (size_t)idn, "ERR only rank 0 publishes");
+        } else if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
+                   req[4 + jl] == ' ' && !L->root_ep) {
             L->root_ep = strdup(req + 5 + jl);
             rdv_reply(L, id, (size_t)idn, L->root_ep ? "OK" : "ERR no memory");
             char ep[1200];
@@ -376,13 +409,55 @@ static int make_env(launch *L, int r, char env[NENV][1200])
 
 static void default_signals(void);
 
+/* PE r's CURVE key block in a memfd (close-on-exec, read from the
+ * start), or -1 with errno set. Not a file: nothing to remove, and
+ * nothing another process can open by name. */
+static int key_fd(const launch *L, int r)
+{
+    char *block;
+    size_t len;
+    if (am__keys_format(L->pub, L->sec, L->np, r, L->rdv_pub, &block, &len)) {
+        errno = ENOMEM;
+        return -1;
+    }
+    int fd = memfd_create("am-curve-keys", MFD_CLOEXEC);
+    size_t off = 0;
+    while (fd >= 0 && off < len) {
+        ssize_t w = write(fd, block + off, len - off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            close(fd);
+            fd = -1;
+            break;
+        }
+        off += (size_t)w;
+    }
+    memset(block, 0, len);
+    free(block);
+    if (fd >= 0 && lseek(fd, 0, SEEK_SET) != 0) {
+        close(fd);
+        fd = -1;
+    }
+    return fd;
+}
+
 static pid_t start_local(launch *L, int r)
 {
     char env[NENV][1200];
     int n = make_env(L, r, env);
+    int kfd = -1;
+    if (L->curve) {
+        if ((kfd = key_fd(L, r)) < 0)
+            return -1;
+        snprintf(env[n++], 1200, "AM_CURVE_KEYS=fd:%d", kfd);
+    }
     pid_t pid = fork();
-    if (pid != 0)
+    if (pid != 0) {
+        if (kfd >= 0)
+            close(kfd);
         return pid;
+    }
     default_signals();
     /* A PE must not outlive its launcher, even one killed with SIGKILL. If
      * the launcher died before the death signal was set, leave now. */
@@ -392,19 +467,17 @@ static pid_t start_local(launch *L, int r)
      * (close-on-exec) does not. */
     if (L->report_wr >= 0)
         fcntl(L->report_wr, F_SETFD, 0);
+    if (kfd >= 0)
+        fcntl(kfd, F_SETFD, 0);
     /* Nothing of an enclosing job may leak into this one. */
     static const char *const stale[] = {
         "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
-        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_SERVER_PUBLIC",
-        "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
+        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_KEYS",
+        "AM_CURVE_SERVER_PUBLIC", "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
     for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
         unsetenv(stale[i]);
     for (int i = 0; i < n; i++)
         putenv(env[i]);
-    if (L->curve && !strcmp(L->transport, "tcp")) {
-        setenv("AM_CURVE_SERVER_PUBLIC", L->curve_pub, 1);
-        setenv("AM_CURVE_SERVER_SECRET", L->curve_sec, 1);
-    }
     execvp(L->cmd[0], L->cmd);
     fprintf(stderr, "%s: cannot run %s: %s\n", L->prog, L->cmd[0], strerror(errno));
     _exit(127);
@@ -419,13 +492,16 @@ static void default_signals(void)
         signal(caught[i], SIG_DFL);
 }
 
-/* Remote rank: ssh HOST sh -c 'read keys; cd DIR; exec env VARS PROGRAM ARGS'.
- * The CURVE keys go through ssh's stdin, not the command line, so that
- * they do not show in ps on either host. */
+/* Remote rank: ssh HOST sh -c 'cd DIR && exec env VARS PROGRAM ARGS'.
+ * The CURVE key block goes through ssh's stdin (AM_CURVE_KEYS=fd:0), not
+ * the command line or the environment, so that it shows in ps on neither
+ * host and has no length limit. */
 static pid_t start_remote(launch *L, int r)
 {
     char env[NENV][1200];
     int n = make_env(L, r, env);
+    if (L->curve)
+        snprintf(env[n++], 1200, "AM_CURVE_KEYS=fd:0");
     char *script = NULL, *cmd = NULL;
     size_t sl = 0, sc = 0, cl = 0, cc = 0;
     char cwd[4096];
@@ -433,11 +509,7 @@ static pid_t start_remote(launch *L, int r)
         snprintf(cwd, sizeof cwd, ".");
     int use_keys = L->curve;
     int bad = 0;
-    const char *pre = use_keys ? "read -r AM_CURVE_SERVER_PUBLIC "
-                                 "AM_CURVE_SERVER_SECRET && export "
-                                 "AM_CURVE_SERVER_PUBLIC AM_CURVE_SERVER_SECRET "
-                                 "&& cd "
-                               : "cd ";
+    const char *pre = "cd ";
     script = malloc(sc = strlen(pre) + 1);
     if (!script)
         return -1;
@@ -494,12 +566,28 @@ static pid_t start_remote(launch *L, int r)
     free(cmd);
     if (use_keys) {
         close(keys[0]);
-        if (pid > 0) {
-            char line[100];
-            int k = snprintf(line, sizeof line, "%s %s\n", L->curve_pub,
-                             L->curve_sec);
-            ssize_t w = write(keys[1], line, (size_t)k);
-            (void)w;
+        char *block = NULL;
+        size_t len = 0;
+        if (pid > 0 && !am__keys_format(L->pub, L->sec, L->np, r, L->rdv_pub,
+                                        &block, &len)) {
+            /* ssh takes the block into its channel window (2 MiB) without
+             * waiting for the remote PE; a dead ssh must not kill the
+             * launcher with SIGPIPE. */
+            struct sigaction ign, old_pipe;
+            memset(&ign, 0, sizeof ign);
+            ign.sa_handler = SIG_IGN;
+            sigaction(SIGPIPE, &ign, &old_pipe);
+            for (size_t off = 0; off < len;) {
+                ssize_t w = write(keys[1], block + off, len - off);
+                if (w < 0 && errno == EINTR)
+                    continue;
+                if (w <= 0)
+                    break;
+                off += (size_t)w;
+            }
+            sigaction(SIGPIPE, &old_pipe, NULL);
+            memset(block, 0, len);
+            free(block);
         }
         close(keys[1]);
     }
@@ -887,8 +975,14 @@ static void cleanup(launch *L)
         close(L->report_wr);
     if (L->rdv)
         zmq_close(L->rdv);
+    am__zap_stop(&L->zap);
     if (L->zctx)
         zmq_ctx_term(L->zctx);
+    if (L->sec)
+        memset(L->sec, 0, sizeof *L->sec * (size_t)L->np);
+    memset(L->rdv_sec, 0, sizeof L->rdv_sec);
+    free(L->pub);
+    free(L->sec);
     if (L->hosts)
         for (int r = 0; r < L->np; r++)
             free(L->hosts[r]);
@@ -1085,12 +1179,25 @@ int am_launch_main(int argc, char **argv, const char *prog)
             goto out;
         }
         start_watch(&L);
-    } else if (rdv_open(&L)) {
-        lerr(&L, "cannot start the rendezvous server");
-        goto out;
+    } else {
+        /* A key pair per PE and one for the rendezvous. */
+        if (L.curve) {
+            L.pub = calloc(np, sizeof *L.pub);
+            L.sec = calloc(np, sizeof *L.sec);
+            int ok = L.pub && L.sec &&
+                     zmq_curve_keypair(L.rdv_pub, L.rdv_sec) == 0;
+            for (int r = 0; ok && r < L.np; r++)
+                ok = zmq_curve_keypair(L.pub[r], L.sec[r]) == 0;
+            if (!ok) {
+                lerr(&L, "cannot make CURVE keys: %s", zmq_strerror(errno));
+                goto out;
+            }
+        }
+        if (rdv_open(&L)) {
+            lerr(&L, "cannot start the rendezvous server");
+            goto out;
+        }
     }
-    if (L.curve && zmq_curve_keypair(L.curve_pub, L.curve_sec) != 0)
-        L.curve = 0;
 
     /* Non-blocking: a PE never waits to report (a full pipe loses the
      * line, and the launcher falls back on the order of the exits). */

@@ -1337,7 +1337,7 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
             printf("stranger: PE 1 counted %llu frames from sockets outside "
                    "the job (curve %s)\n",
                    (unsigned long long)st.rejected,
-                   getenv("AM_CURVE_SERVER_PUBLIC") ? "on" : "off");
+                   am_curve_key(ctx, 0) ? "on" : "off");
         } else {
             CHECK(st.rejected == (uint64_t)expected,
                   "PE 1 rejected %llu frames, expected %d",
