@@ -1,0 +1,95 @@
+#!/bin/sh
+# CURVE and ZAP on tcp (runtime/CONTROL.md, "CURVE and ZAP"), on 127.0.0.1
+# only. A 2-PE job over tcp, with a key pair per PE made by am-run, waits
+# while strangers try to get in, then exchanges messages:
+#  - CURVE strangers that know the server's public key (PE 1's, or the
+#    rendezvous') but hold a key pair of their own, and strangers in clear
+#    (ZeroMQ's NULL mechanism), each several times: none completes a
+#    handshake or gets a reply, PE 1 never sees their frames (0 rejected),
+#    the job still delivers every message in order;
+#  - PE 1's statistics count the refusals (security: zap_refused 3 from 1
+#    address, handshakes_failed >= 5) and its log has exactly one line
+#    about 127.0.0.1 and one about the failed clear-text handshakes; am-run
+#    logs the strangers at its rendezvous once.
+. "$top_srcdir/tests/am-lib.sh"
+
+ST=$top_builddir/tests/zap_stranger
+[ -x "$ST" ] || { echo "zap_stranger not built"; exit 99; }
+"$top_builddir/tests/curve_keypair" >/dev/null 2>&1
+case $? in
+0) ;;
+77) echo "SKIP: this libzmq has no CURVE"; exit 77 ;;
+*) exit 99 ;;
+esac
+
+mkdir "$work/d" "$work/stats" || exit 99
+timeout --kill-after=5 90 "$AMRUN" -n 2 -t tcp --stats "$work/stats" -- \
+    "$MP" zap "$work/d" 200 "$tag" >"$work/out" 2>&1 &
+jobpid=$!
+# On a failure the job is released first, so that nothing is left behind.
+release() {
+    touch "$work/d/go"
+    wait "$jobpid"
+}
+for _ in $(seq 1 300); do
+    [ -s "$work/d/info" ] && break
+    kill -0 "$jobpid" 2>/dev/null || break
+    sleep 0.1
+done
+[ -s "$work/d/info" ] || { release; fail "the job did not start"; }
+read -r ep key rdv rdvkey jobid <"$work/d/info"
+echo "PE 1 at $ep, key $key; rendezvous $rdv, key $rdvkey; job $jobid"
+[ "$key" != - ] && [ "$rdvkey" != - ] || { release; fail "CURVE is off in a tcp job"; }
+
+# stranger WHAT ARGS: one attempt; it must be kept out.
+stranger() {
+    what=$1
+    shift
+    "$ST" "$@" >"$work/st" 2>&1
+    st=$?
+    sed "s/^/  $what: /" "$work/st"
+    [ "$st" -eq 0 ] || { release; fail "$what got in: $(cat "$work/st")"; }
+}
+for i in 1 2 3; do
+    stranger "CURVE stranger $i at PE 1" "$ep" curve "$key" frame
+done
+for i in 1 2; do
+    stranger "clear-text stranger $i at PE 1" "$ep" null frame
+done
+for i in 1 2 3; do
+    stranger "CURVE stranger $i at the rendezvous" "$rdv" curve "$rdvkey" "GET $jobid"
+done
+stranger "clear-text stranger at the rendezvous" "$rdv" null "GET $jobid"
+# Rank 0's key is the only one that may publish; a stranger cannot even ask.
+stranger "CURVE stranger publishing at the rendezvous" "$rdv" curve "$rdvkey" \
+    "PUT $jobid tcp://127.0.0.1:1"
+
+release
+rc=$?
+no_leftovers
+expect_ok "the job with strangers"
+expect_line "^zap: PE 0 got its peer's 200 messages in order, rejected 0 frames (curve on)" "PE 0"
+expect_line "^zap: PE 1 got its peer's 200 messages in order, rejected 0 frames (curve on)" "PE 1"
+
+# The statistics of PE 1.
+json=$work/stats/stats-1.json
+[ -s "$json" ] || fail "no $json"
+grep '"security"' "$json"
+grep -q '"rejected": {"total": 0,' "$json" || fail "PE 1 rejected frames: $(grep rejected "$json")"
+grep -q '"curve": true, "keys": 2, "zap_refused": 3, "strangers": 1,' "$json" ||
+    fail "PE 1 did not count 3 refusals from 1 address: $(grep security "$json")"
+failed=$(sed -n 's/.*"handshakes_failed": \([0-9]*\).*/\1/p' "$json")
+[ "${failed:-0}" -ge 5 ] || fail "PE 1 counted $failed failed handshakes, not at least 5"
+
+# One line per stranger address at PE 1, one for the clear-text ones, one
+# at the rendezvous.
+n=$(grep -c "^am: PE 1: refused a connection to this PE from 127.0.0.1: its CURVE key is not one of the job's" "$work/out")
+[ "$n" -eq 1 ] || fail "PE 1 logged the stranger at 127.0.0.1 $n times, not once"
+n=$(grep -c "^am: PE 1: a client of tcp://127.0.0.1:[0-9]* failed its handshake: the other side does not use CURVE" "$work/out")
+[ "$n" -eq 1 ] || fail "PE 1 logged the clear-text strangers $n times, not once"
+n=$(grep -c "^am-run: refused a connection to the rendezvous from 127.0.0.1" "$work/out")
+[ "$n" -eq 1 ] || fail "am-run logged the rendezvous' stranger $n times, not once"
+n=$(grep -c "refused\|failed its handshake" "$work/out")
+[ "$n" -eq 3 ] || fail "$n lines about strangers, not 3"
+sed 's/^/  | /' "$work/out"
+echo "zap: ok"
