@@ -11,6 +11,10 @@
 #    address, handshakes_failed >= 5) and its log has exactly one line
 #    about 127.0.0.1 and one about the failed clear-text handshakes; am-run
 #    logs the strangers at its rendezvous once.
+# Then jobs started by hand (a rendezvous file, tcp on 127.0.0.1): with a
+# key file AM_CURVE_KEYS of mode 0600 (tests/curve_keypair -n 2), the same
+# file of mode 0644 (refused by every PE, saying why), and the older
+# AM_CURVE_SERVER_PUBLIC/SECRET (one key pair shared by every PE).
 . "$top_srcdir/tests/am-lib.sh"
 
 ST=$top_builddir/tests/zap_stranger
@@ -92,4 +96,41 @@ n=$(grep -c "^am-run: refused a connection to the rendezvous from 127.0.0.1" "$w
 n=$(grep -c "refused\|failed its handshake" "$work/out")
 [ "$n" -eq 3 ] || fail "$n lines about strangers, not 3"
 sed 's/^/  | /' "$work/out"
+
+# --- jobs started by hand
+# hand NAME VAR=VALUE...: a 2-PE job (am_mp coll) with these variables;
+# outputs in $work/NAME.R, exit statuses in $codes.
+hand() {
+    name=$1
+    shift
+    rm -f "$work/rdv"
+    pids=
+    for r in 0 1; do
+        env AM_RANK=$r AM_SIZE=2 AM_JOB=79 AM_RENDEZVOUS="file:$work/rdv" \
+            AM_BOOT_TIMEOUT=10 "$@" timeout 30 "$MP" coll "$tag" \
+            >"$work/$name.$r" 2>&1 &
+        pids="$pids $!"
+    done
+    codes=
+    for p in $pids; do
+        wait "$p"
+        codes="$codes $?"
+    done
+    no_leftovers
+}
+(umask 077 && "$top_builddir/tests/curve_keypair" -n 2 >"$work/keys") || exit 99
+hand file AM_CURVE_KEYS="$work/keys"
+[ "$codes" = " 0 0" ] || { cat "$work"/file.*; fail "a job with a key file failed ($codes)"; }
+grep -q "^coll: 2 PEs" "$work/file.0" || fail "the job with a key file gave no result"
+echo "by hand with AM_CURVE_KEYS=FILE (mode 0600): ok"
+chmod 644 "$work/keys"
+hand open AM_CURVE_KEYS="$work/keys"
+[ "$codes" = " 1 1" ] || { cat "$work"/open.*; fail "a key file others can read was used ($codes)"; }
+grep -q "only its owner can read (mode 0644; chmod 600 it)" "$work/open.0" ||
+    { cat "$work/open.0"; fail "no clear error for a key file of mode 0644"; }
+echo "by hand with a key file of mode 0644: refused"
+pair=$("$top_builddir/tests/curve_keypair") || exit 99
+hand shared AM_CURVE_SERVER_PUBLIC="${pair% *}" AM_CURVE_SERVER_SECRET="${pair#* }"
+[ "$codes" = " 0 0" ] || { cat "$work"/shared.*; fail "a job with AM_CURVE_SERVER_PUBLIC/SECRET failed ($codes)"; }
+echo "by hand with AM_CURVE_SERVER_PUBLIC/SECRET: ok"
 echo "zap: ok"
