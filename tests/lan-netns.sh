@@ -32,8 +32,11 @@ esac
 # The job's keys with PE 3's pair swapped for a foreign one.
 other=$("$top_builddir/tests/curve_keypair") || exit 99
 bad_keys=$work/bad_keys
-(umask 077 && sed -e "s|^public 3 .*|public 3 ${other% *}|" \
-    -e "s|^secret 3 .*|secret 3 ${other#* }|" "$keys" >"$bad_keys") || exit 99
+# (awk, not sed: Z85 keys may hold '&'.)
+(umask 077 && awk -v pub="${other% *}" -v sec="${other#* }" '
+    $1 == "public" && $2 == 3 { print "public 3 " pub; next }
+    $1 == "secret" && $2 == 3 { print "secret 3 " sec; next }
+    { print }' "$keys" >"$bad_keys") || exit 99
 
 # Names unique to this run; interface names stay within 15 characters.
 nsa=pdr-lan-$$-a
