@@ -89,7 +89,9 @@ failed=$(sed -n 's/.*"handshakes_failed": \([0-9]*\).*/\1/p' "$json")
 # at the rendezvous.
 n=$(grep -c "^am: PE 1: refused a connection to this PE from 127.0.0.1: its CURVE key is not one of the job's" "$work/out")
 [ "$n" -eq 1 ] || fail "PE 1 logged the stranger at 127.0.0.1 $n times, not once"
-n=$(grep -c "^am: PE 1: a client of tcp://127.0.0.1:[0-9]* failed its handshake: the other side does not use CURVE" "$work/out")
+# (Which side notices the mismatch first varies: "does not use CURVE", or
+# the stranger hung up first, "ended during the handshake".)
+n=$(grep -c "^am: PE 1: a client of tcp://127.0.0.1:[0-9]* failed its handshake: " "$work/out")
 [ "$n" -eq 1 ] || fail "PE 1 logged the clear-text strangers $n times, not once"
 n=$(grep -c "^am-run: refused a connection to the rendezvous from 127.0.0.1" "$work/out")
 [ "$n" -eq 1 ] || fail "am-run logged the rendezvous' stranger $n times, not once"

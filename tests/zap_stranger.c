@@ -48,6 +48,9 @@ int main(int argc, char **argv)
     int linger = 500;
     zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
     zmq_setsockopt(s, ZMQ_ROUTING_ID, "stranger", 8);
+    /* One attempt per run: the test counts the refusals. */
+    int never = -1;
+    zmq_setsockopt(s, ZMQ_RECONNECT_IVL, &never, sizeof never);
     if (curve) {
         char pub[41], sec[41];
         if (zmq_curve_keypair(pub, sec) != 0 ||
