@@ -43,10 +43,11 @@
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
  *                          from a socket without the job's CURVE key got in
- *   am_mp zap DIR N        a target for strangers (tests/am-zap.sh): rank 0
+ *   am_mp zap DIR N [S]    a target for strangers (tests/am-zap.sh): rank 0
  *                          writes DIR/info (PE 1's endpoint and CURVE key,
  *                          the rendezvous' endpoint and key, the job id),
- *                          every PE waits for DIR/go, then each PE sends
+ *                          PE 1 computes S seconds without polling (default
+ *                          0), every PE waits for DIR/go, then each PE sends
  *                          its peer N messages; each must arrive exactly
  *                          once and no frame may have been rejected
  *   am_mp sleep S          (no libam) sleeps S seconds: a PE to stop
@@ -1281,7 +1282,7 @@ static void zap_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
     zap_got++;
 }
 
-static int run_zap(am_ctx_t *ctx, const char *dir, int n)
+static int run_zap(am_ctx_t *ctx, const char *dir, int n, double spin)
 {
     int r = am_rank(ctx);
     CHECK(am_size(ctx) == 2, "zap wants 2 PEs");
@@ -1302,6 +1303,12 @@ static int run_zap(am_ctx_t *ctx, const char *dir, int n)
             fclose(f);
             rename(tmp, path);
         }
+    }
+    /* A PE busy computing does not poll: strangers may come meanwhile. */
+    if (r == 1 && spin > 0) {
+        double end = now_s() + spin;
+        while (now_s() < end)
+            ;
     }
     /* The strangers come now; the PEs keep polling. */
     snprintf(path, sizeof path, "%s/go", dir);
@@ -1496,7 +1503,7 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
     else if (!strcmp(mode, "zap") && argc > 3)
-        rc = run_zap(ctx, argv[2], arg2);
+        rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
         fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
