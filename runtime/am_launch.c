@@ -141,7 +141,7 @@ static void usage(const launch *L, FILE *out)
             "ssh)\n"
             "      --stats DIR         every PE writes DIR/stats-RANK.json at "
             "am_finalize\n"
-            "      --no-curve          no CURVE encryption on tcp\n"
+            "      --no-curve          tcp without CURVE (no encryption, no keys)\n"
             "      --timeout SEC       stop the job after SEC seconds (exit %d)\n"
             "      --grace SEC         after a PE fails, wait SEC before "
             "stopping the others (10)\n"
