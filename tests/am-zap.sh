@@ -14,7 +14,10 @@
 # Then jobs started by hand (a rendezvous file, tcp on 127.0.0.1): with a
 # key file AM_CURVE_KEYS of mode 0600 (tests/curve_keypair -n 2), the same
 # file of mode 0644 (refused by every PE, saying why), and the older
-# AM_CURVE_SERVER_PUBLIC/SECRET (one key pair shared by every PE).
+# AM_CURVE_SERVER_PUBLIC/SECRET (one key pair shared by every PE); and an
+# impostor holding PE 2's key pair who speaks as PE 1 to rank 0 of a 3-PE
+# job: its handshake succeeds (the key is the job's), its frame is
+# rejected (the key is not PE 1's).
 . "$top_srcdir/tests/am-lib.sh"
 
 ST=$top_builddir/tests/zap_stranger
@@ -135,4 +138,25 @@ pair=$("$top_builddir/tests/curve_keypair") || exit 99
 hand shared AM_CURVE_SERVER_PUBLIC="${pair% *}" AM_CURVE_SERVER_SECRET="${pair#* }"
 [ "$codes" = " 0 0" ] || { cat "$work"/shared.*; fail "a job with AM_CURVE_SERVER_PUBLIC/SECRET failed ($codes)"; }
 echo "by hand with AM_CURVE_SERVER_PUBLIC/SECRET: ok"
+
+(umask 077 && "$top_builddir/tests/curve_keypair" -n 3 >"$work/keys3") || exit 99
+rm -f "$work/rdv"
+env AM_RANK=0 AM_SIZE=3 AM_JOB=80 AM_RENDEZVOUS="file:$work/rdv" \
+    AM_CURVE_KEYS="$work/keys3" AM_BOOT_TIMEOUT=3 timeout 30 "$MP" coll "$tag" \
+    >"$work/imp.0" 2>&1 &
+p0=$!
+for _ in $(seq 1 100); do
+    [ -s "$work/rdv" ] && break
+    sleep 0.05
+done
+key() { awk -v w="$1" -v r="$2" '$1 == w && $2 == r { print $3 }' "$work/keys3"; }
+STRANGER_PUBLIC=$(key public 2) STRANGER_SECRET=$(key secret 2) STRANGER_RANK=1 \
+    "$ST" "$(cat "$work/rdv")" curve "$(key public 0)" frame >"$work/st" 2>&1
+st=$?
+wait "$p0"
+no_leftovers
+sed 's/^/  impostor: /' "$work/st" "$work/imp.0"
+[ "$st" -eq 1 ] || fail "the impostor with a key of the job was not admitted ($st)"
+grep -q "dropped a frame from PE 1: unknown routing id: its CURVE key is PE 2's" "$work/imp.0" ||
+    fail "rank 0 did not reject a frame from PE 2's key under PE 1's routing id"
 echo "zap: ok"

@@ -9,10 +9,14 @@
  * own (not one of the job's) that knows the server's public key SERVERKEY,
  * or in clear (ZeroMQ's NULL mechanism), and sends either a well-formed
  * libam frame (a user message to handler 12, "sender" 0, from routing id
- * "stranger") or the text TEXT (a rendezvous request such as "GET JOB").
+ * "stranger"; see below) or the text TEXT (a rendezvous request such as "GET JOB").
  * It watches its own socket's handshake and waits up to 2 s for a reply.
  * Prints one line: "stranger: handshake succeeded|refused (...)|unknown,
  * reply: none|TEXT".
+ *
+ * With STRANGER_PUBLIC and STRANGER_SECRET set, it uses that key pair
+ * instead of a fresh one (a key of the job: an impostor), and with
+ * STRANGER_RANK=R it sends as PE R (routing id 'P' R, header sender R).
  *
  * Exit status: 0 if the stranger was kept out (no handshake succeeded, no
  * reply), 1 if it got in, 99 if it could not run (automake's hard error).
@@ -47,14 +51,28 @@ int main(int argc, char **argv)
     /* Long enough for a frame to leave if the stranger got in. */
     int linger = 500;
     zmq_setsockopt(s, ZMQ_LINGER, &linger, sizeof linger);
-    zmq_setsockopt(s, ZMQ_ROUTING_ID, "stranger", 8);
+    const char *as = getenv("STRANGER_RANK");
+    uint32_t sender = as ? (uint32_t)strtoul(as, NULL, 10) : 0;
+    if (as) {
+        uint8_t id[5] = {'P'};
+        put32(id + 1, sender);
+        zmq_setsockopt(s, ZMQ_ROUTING_ID, id, sizeof id);
+    } else {
+        zmq_setsockopt(s, ZMQ_ROUTING_ID, "stranger", 8);
+    }
     /* One attempt per run: the test counts the refusals. */
     int never = -1;
     zmq_setsockopt(s, ZMQ_RECONNECT_IVL, &never, sizeof never);
     if (curve) {
         char pub[41], sec[41];
-        if (zmq_curve_keypair(pub, sec) != 0 ||
-            zmq_setsockopt(s, ZMQ_CURVE_SERVERKEY, argv[3], 40) ||
+        const char *gp = getenv("STRANGER_PUBLIC"), *gs = getenv("STRANGER_SECRET");
+        if (gp && gs && strlen(gp) == 40 && strlen(gs) == 40) {
+            memcpy(pub, gp, 41);
+            memcpy(sec, gs, 41);
+        } else if (zmq_curve_keypair(pub, sec) != 0) {
+            return 99;
+        }
+        if (zmq_setsockopt(s, ZMQ_CURVE_SERVERKEY, argv[3], 40) ||
             zmq_setsockopt(s, ZMQ_CURVE_PUBLICKEY, pub, 40) ||
             zmq_setsockopt(s, ZMQ_CURVE_SECRETKEY, sec, 40)) {
             fprintf(stderr, "zap_stranger: CURVE: %s\n", zmq_strerror(zmq_errno()));
@@ -73,7 +91,7 @@ int main(int argc, char **argv)
         /* The header of proto/PROTOCOL.md: magic, version 1, no flags,
          * handler 12, sender 0, payload 4 bytes, sequence 0. */
         uint8_t f[28] = {'P', 'D', 'R', 0xA7, 1, 0, 12, 0};
-        put32(f + 8, 0);
+        put32(f + 8, sender);
         put32(f + 12, 4);
         memcpy(f + 24, "evil", 4);
         zmq_send(s, f, sizeof f, ZMQ_DONTWAIT);
