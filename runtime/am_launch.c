@@ -975,6 +975,13 @@ static void cleanup(launch *L)
         close(L->report_wr);
     if (L->rdv)
         zmq_close(L->rdv);
+    if (am__zap_refused(L->zap))
+        lerr(L, "the rendezvous refused %llu connection%s from %llu "
+                "address%s (keys not of the job)",
+             (unsigned long long)am__zap_refused(L->zap),
+             am__zap_refused(L->zap) == 1 ? "" : "s",
+             (unsigned long long)am__zap_strangers(L->zap),
+             am__zap_strangers(L->zap) == 1 ? "" : "es");
     am__zap_stop(&L->zap);
     if (L->zctx)
         zmq_ctx_term(L->zctx);

@@ -218,7 +218,7 @@ int am__transport_open(am_ctx_t *ctx)
     /* libzmq's I/O thread blocks on a full monitor pipe, heartbeats and
      * all; every stranger's attempt queues two events, and a PE that
      * computes for seconds does not read them. So the pipe holds about
-     * 100,000 messages (a few MiB), not libzmq's 1,000. */
+     * 100,000 messages (a few MiB), not libzmq's 2,000 (1,000 a side). */
     ctx->mon = zmq_socket(ctx->zctx, ZMQ_PAIR);
     if (!ctx->mon || set_int(ctx->mon, ZMQ_RCVHWM, 100000) != 0 ||
         zmq_connect(ctx->mon, mon_ep) != 0)

@@ -10,7 +10,7 @@
 #  - PE 1's statistics count the refusals (security: zap_refused 3 from 1
 #    address, handshakes_failed >= 5) and its log has exactly one line
 #    about 127.0.0.1 and one about the failed clear-text handshakes; am-run
-#    logs the strangers at its rendezvous once.
+#    logs the strangers at its rendezvous once, and sums them up at the end.
 # Then jobs started by hand (a rendezvous file, tcp on 127.0.0.1): with a
 # key file AM_CURVE_KEYS of mode 0600 (tests/curve_keypair -n 2), the same
 # file of mode 0644 (refused by every PE, saying why), and the older
@@ -98,8 +98,10 @@ n=$(grep -c "^am: PE 1: a client of tcp://127.0.0.1:[0-9]* failed its handshake:
 [ "$n" -eq 1 ] || fail "PE 1 logged the clear-text strangers $n times, not once"
 n=$(grep -c "^am-run: refused a connection to the rendezvous from 127.0.0.1" "$work/out")
 [ "$n" -eq 1 ] || fail "am-run logged the rendezvous' stranger $n times, not once"
+grep -q "^am-run: the rendezvous refused 4 connections from 1 address (keys not of the job)$" "$work/out" ||
+    fail "am-run did not sum up the refusals at its rendezvous"
 n=$(grep -c "refused\|failed its handshake" "$work/out")
-[ "$n" -eq 3 ] || fail "$n lines about strangers, not 3"
+[ "$n" -eq 4 ] || fail "$n lines about strangers, not 4"
 sed 's/^/  | /' "$work/out"
 
 # --- jobs started by hand
