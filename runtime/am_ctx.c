@@ -440,6 +440,12 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
                               "two Z85 keys of 40 characters");
         if (rc)
             return rc;
+    } else if (keys && !strncmp(keys, "fd:", 3)) {
+        /* Not needed (one PE, or ipc): the descriptor is not left open
+         * for the program and what it starts. */
+        long fd;
+        if (!parse_long(keys + 3, 3, 1 << 20, &fd))
+            close((int)fd);
     }
     if (!ctx->transport || !ctx->bind_addr)
         return AM_ENOMEM;

@@ -1119,7 +1119,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
         lerr(&L, "a --hostfile job needs --transport tcp");
         return EXIT_USAGE;
     }
-    L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve");
+    /* A one-PE job has no connection to protect. */
+    L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve") &&
+              L.np > 1;
 
     int rc = 1, handlers_set = 0;
     if (getrandom(&L.job, sizeof L.job, 0) != (ssize_t)sizeof L.job)
