@@ -43,6 +43,13 @@ tests_test_am_latency_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_latency_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_latency_LDFLAGS = $(AM_LDFLAGS) -static
 
+check_PROGRAMS += tests/test_am_keys
+TESTS += tests/test_am_keys
+tests_test_am_keys_SOURCES = tests/test_am_keys.c
+tests_test_am_keys_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_keys_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_keys_LDFLAGS = $(AM_LDFLAGS) -static
+
 check_PROGRAMS += tests/test_am_stats
 TESTS += tests/test_am_stats
 tests_test_am_stats_SOURCES = tests/test_am_stats.c
