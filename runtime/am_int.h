@@ -425,6 +425,8 @@ struct am_ctx_s {
     struct am__zap *zap;   /* ZAP handler admitting the job's keys */
     uint64_t hs_failed;    /* failed handshakes the monitor reported */
     int hs_warned;         /* ... of accepted connections, logged once */
+    int hs_stranger;       /* the last monitor event was the failed
+                              handshake of an accepted connection */
     unsigned char *hs_peer_warned; /* per PE: a failed handshake with it
                               was logged (size entries, CURVE only) */
     char **overrides;      /* "AM_NAME=VALUE" from --am-name=value args */

@@ -1069,6 +1069,7 @@ static void handshake_failed(am_ctx_t *ctx, uint16_t event, uint32_t value,
         }
         return;
     }
+    ctx->hs_stranger = 1;
     if (event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH || ctx->hs_warned++)
         return;
     am__warn(ctx, "a client of %s failed its handshake: %s (not one of the "
@@ -1113,9 +1114,18 @@ static void read_monitor(am_ctx_t *ctx, double now)
         if (event == ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL ||
             event == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL ||
             event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+            ctx->hs_stranger = 0;
             handshake_failed(ctx, event, value, where);
             continue;
         }
+        /* libzmq reports a failed handshake and then, at once, from the
+         * same I/O thread, the disconnect of that connection. An unnamed
+         * disconnect right after a stranger's failed handshake is the
+         * stranger's: it does not make the accepted peers suspects (which
+         * would probe each of them for the next 2 s, a PING per peer per
+         * housekeeping round, for every attempt of a port scanner). */
+        int stranger = ctx->hs_stranger;
+        ctx->hs_stranger = 0;
         if (event != ZMQ_EVENT_DISCONNECTED || ctx->state != AM__RUNNING)
             continue;
         int named = 0;
@@ -1126,7 +1136,7 @@ static void read_monitor(am_ctx_t *ctx, double now)
                 named = 1;
             }
         }
-        if (!named)
+        if (!named && !stranger)
             for (int pe = 0; pe < ctx->size; pe++)
                 if (pe != ctx->rank && !ctx->peers[pe].connected_to)
                     suspect(ctx, pe, now);

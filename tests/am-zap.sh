@@ -6,7 +6,8 @@
 #    rendezvous') but hold a key pair of their own, and strangers in clear
 #    (ZeroMQ's NULL mechanism), each several times: none completes a
 #    handshake or gets a reply, PE 1 never sees their frames (0 rejected),
-#    the job still delivers every message in order;
+#    the job still delivers every message in order; strangers at PE 0 do
+#    not make it probe PE 1 (a stranger's disconnect is not a peer's);
 #  - PE 1's statistics count the refusals (security: zap_refused 3 from 1
 #    address, handshakes_failed >= 5) and its log has exactly one line
 #    about 127.0.0.1 and one about the failed clear-text handshakes; am-run
@@ -44,7 +45,7 @@ for _ in $(seq 1 300); do
     sleep 0.1
 done
 [ -s "$work/d/info" ] || { release; fail "the job did not start"; }
-read -r ep key rdv rdvkey jobid <"$work/d/info"
+read -r ep key rdv rdvkey jobid ep0 key0 <"$work/d/info"
 echo "PE 1 at $ep, key $key; rendezvous $rdv, key $rdvkey; job $jobid"
 [ "$key" != - ] && [ "$rdvkey" != - ] || { release; fail "CURVE is off in a tcp job"; }
 
@@ -63,6 +64,10 @@ done
 for i in 1 2; do
     stranger "clear-text stranger $i at PE 1" "$ep" null frame
 done
+# PE 0 has accepted a connection (PE 1's): a stranger's disconnect must not
+# make PE 1 a suspect (no PING probes).
+stranger "CURVE stranger at PE 0" "$ep0" curve "$key0" frame
+stranger "clear-text stranger at PE 0" "$ep0" null frame
 for i in 1 2 3; do
     stranger "CURVE stranger $i at the rendezvous" "$rdv" curve "$rdvkey" "GET $jobid"
 done
@@ -101,7 +106,9 @@ n=$(grep -c "^am-run: refused a connection to the rendezvous from 127.0.0.1" "$w
 grep -q "^am-run: the rendezvous refused 4 connections from 1 address (keys not of the job)$" "$work/out" ||
     fail "am-run did not sum up the refusals at its rendezvous"
 n=$(grep -c "refused\|failed its handshake" "$work/out")
-[ "$n" -eq 4 ] || fail "$n lines about strangers, not 4"
+[ "$n" -eq 6 ] || fail "$n lines about strangers, not 6 (2 at each PE, 2 at the rendezvous)"
+grep -q '"ping": {"sent": 0,' "$work/stats/stats-0.json" ||
+    fail "strangers' disconnects made PE 0 probe PE 1: $(grep -o '"ping": {[^}]*}' "$work/stats/stats-0.json")"
 sed 's/^/  | /' "$work/out"
 
 # --- jobs started by hand

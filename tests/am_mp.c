@@ -45,7 +45,8 @@
  *                          from a socket without the job's CURVE key got in
  *   am_mp zap DIR N [S]    a target for strangers (tests/am-zap.sh): rank 0
  *                          writes DIR/info (PE 1's endpoint and CURVE key,
- *                          the rendezvous' endpoint and key, the job id),
+ *                          the rendezvous' endpoint and key, the job id,
+ *                          PE 0's endpoint and key),
  *                          PE 1 computes S seconds without polling (default
  *                          0), every PE waits for DIR/go, then each PE sends
  *                          its peer N messages; each must arrive exactly
@@ -1298,8 +1299,10 @@ static int run_zap(am_ctx_t *ctx, const char *dir, int n, double spin)
         FILE *f = fopen(tmp, "w");
         CHECK(f != NULL, "cannot write %s", tmp);
         if (f) {
-            fprintf(f, "%s %s %s %s %s\n", am_endpoint(ctx, 1), k1 ? k1 : "-",
-                    rdv ? rdv : "-", kr ? kr : "-", job ? job : "-");
+            const char *k0 = am_curve_key(ctx, 0);
+            fprintf(f, "%s %s %s %s %s %s %s\n", am_endpoint(ctx, 1),
+                    k1 ? k1 : "-", rdv ? rdv : "-", kr ? kr : "-",
+                    job ? job : "-", am_endpoint(ctx, 0), k0 ? k0 : "-");
             fclose(f);
             rename(tmp, path);
         }
