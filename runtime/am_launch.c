@@ -142,6 +142,9 @@ static void usage(const launch *L, FILE *out)
             "      --stats DIR         every PE writes DIR/stats-RANK.json at "
             "am_finalize\n"
             "      --no-curve          tcp without CURVE (no encryption, no keys)\n"
+            "      --write-keys FILE   only write a CURVE key file for P PEs "
+            "started by another\n"
+            "                          launcher (AM_CURVE_KEYS=FILE on each)\n"
             "      --timeout SEC       stop the job after SEC seconds (exit %d)\n"
             "      --grace SEC         after a PE fails, wait SEC before "
             "stopping the others (10)\n"
@@ -884,6 +887,51 @@ static int wait_job(launch *L)
     return 0;
 }
 
+/* am-run -n P --write-keys FILE: a CURVE key file for a job of P PEs
+ * started by another launcher (mpirun, srun, by hand: AM_CURVE_KEYS=FILE
+ * on every PE). It holds every PE's secret, so it is made with mode 0600
+ * and never over an existing file. */
+static int keys_file(const launch *L, const char *path)
+{
+    if (!zmq_has("curve")) {
+        lerr(L, "this libzmq has no CURVE");
+        return 1;
+    }
+    size_t np = (size_t)L->np;
+    char (*pub)[41] = calloc(np, sizeof *pub), (*sec)[41] = calloc(np, sizeof *sec);
+    char *block = NULL;
+    size_t len = 0;
+    int ok = pub && sec;
+    for (int r = 0; ok && r < L->np; r++)
+        ok = zmq_curve_keypair(pub[r], sec[r]) == 0;
+    ok = ok && !am__keys_format(pub, sec, L->np, -1, NULL, &block, &len);
+    int fd = ok ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600) : -1;
+    if (ok && fd < 0)
+        lerr(L, "cannot make %s: %s", path, strerror(errno));
+    size_t off = 0;
+    while (fd >= 0 && off < len) {
+        ssize_t w = write(fd, block + off, len - off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            lerr(L, "cannot write %s: %s", path, strerror(errno));
+            break;
+        }
+        off += (size_t)w;
+    }
+    int done = fd >= 0 && off == len && close(fd) == 0;
+    if (fd >= 0 && !done)
+        unlink(path);
+    if (block)
+        memset(block, 0, len);
+    if (sec)
+        memset(sec, 0, sizeof *sec * np);
+    free(block);
+    free(pub);
+    free(sec);
+    return done ? 0 : 1;
+}
+
 /* ------------------------------------------------------------------ main */
 
 static int parse_double(const char *s, double *out)
@@ -1016,9 +1064,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
     L.grace = 10;
     L.curve = 1;
     L.ssh = getenv("AM_SSH") && *getenv("AM_SSH") ? getenv("AM_SSH") : "ssh";
-    const char *stats = NULL;
+    const char *stats = NULL, *write_keys = NULL;
     enum { O_BIND = 256, O_HOSTFILE, O_RDV, O_SSH, O_STATS, O_NOCURVE,
-           O_TIMEOUT, O_GRACE };
+           O_TIMEOUT, O_GRACE, O_WRITE_KEYS };
     static const struct option opts[] = {
         {"np", required_argument, NULL, 'n'},
         {"transport", required_argument, NULL, 't'},
@@ -1032,6 +1080,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
         {"no-curve", no_argument, NULL, O_NOCURVE},
         {"timeout", required_argument, NULL, O_TIMEOUT},
         {"grace", required_argument, NULL, O_GRACE},
+        {"write-keys", required_argument, NULL, O_WRITE_KEYS},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int c;
@@ -1088,6 +1137,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
         case O_STATS:
             stats = optarg;
             break;
+        case O_WRITE_KEYS:
+            write_keys = optarg;
+            break;
         case O_NOCURVE:
             L.curve = 0;
             break;
@@ -1107,6 +1159,8 @@ int am_launch_main(int argc, char **argv, const char *prog)
             return EXIT_USAGE;
         }
     }
+    if (write_keys && L.np)
+        return keys_file(&L, write_keys);
     if (L.np == 0 || optind >= argc) {
         lerr(&L, L.np ? "no PROGRAM to run" : "-n P is required");
         fprintf(stderr, "Try '%s --help'.\n", L.prog);

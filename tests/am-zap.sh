@@ -13,7 +13,7 @@
 #    about 127.0.0.1 and one about the failed clear-text handshakes; am-run
 #    logs the strangers at its rendezvous once, and sums them up at the end.
 # Then jobs started by hand (a rendezvous file, tcp on 127.0.0.1): with a
-# key file AM_CURVE_KEYS of mode 0600 (tests/curve_keypair -n 2), the same
+# key file AM_CURVE_KEYS of mode 0600 (am-run -n 2 --write-keys), the same
 # file of mode 0644 (refused by every PE, saying why), and the older
 # AM_CURVE_SERVER_PUBLIC/SECRET (one key pair shared by every PE); and an
 # impostor holding PE 2's key pair who speaks as PE 1 to rank 0 of a 3-PE
@@ -132,7 +132,9 @@ hand() {
     done
     no_leftovers
 }
-(umask 077 && "$top_builddir/tests/curve_keypair" -n 2 >"$work/keys") || exit 99
+"$AMRUN" -n 2 --write-keys "$work/keys" || fail "am-run --write-keys failed"
+[ "$(stat -c %a "$work/keys")" = 600 ] || fail "am-run --write-keys made a file of mode $(stat -c %a "$work/keys")"
+"$AMRUN" -n 2 --write-keys "$work/keys" 2>/dev/null && fail "am-run --write-keys overwrote a key file"
 hand file AM_CURVE_KEYS="$work/keys"
 [ "$codes" = " 0 0" ] || { cat "$work"/file.*; fail "a job with a key file failed ($codes)"; }
 grep -q "^coll: 2 PEs" "$work/file.0" || fail "the job with a key file gave no result"
