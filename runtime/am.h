@@ -233,9 +233,11 @@ AM_EXPORT const char *am_version(void);
  * (ucontext|fast), AM_BOOT_TIMEOUT, AM_HEARTBEAT (seconds), AM_HWM (ZeroMQ
  * high-water mark, default 0 = unlimited: the send windows bound memory),
  * AM_SEND_WINDOW and AM_SEND_QUEUE (bytes, suffix k, M or G for powers of
- * 1024; see am_send), AM_CURVE_SERVER_PUBLIC/SECRET
- * (CURVE keys for tcp, made by am-run: a socket without them cannot get a
- * frame in; protocol notes: runtime/CONTROL.md). opts fields, when set,
+ * 1024; see am_send), AM_CURVE_KEYS (tcp: the job's CURVE keys, made by
+ * am-run, as "fd:N" or the path of a file only its owner can read: only
+ * the job's PEs can connect; AM_CURVE_SERVER_PUBLIC/SECRET, one key pair
+ * shared by every PE, are still accepted; protocol notes:
+ * runtime/CONTROL.md, "CURVE and ZAP"). opts fields, when set,
  * win over the environment. The caller owns *out (am_finalize). */
 AM_EXPORT int am_init(int *argc, char ***argv, const am_opts_t *opts,
                       am_ctx_t **out);
@@ -252,6 +254,14 @@ AM_EXPORT int am_size(const am_ctx_t *ctx);
 /* The endpoint PE pe listens on ("ipc://..." or "tcp://..."), owned by ctx;
  * NULL if pe is out of range or the job has one PE. */
 AM_EXPORT const char *am_endpoint(const am_ctx_t *ctx, int pe);
+
+/* PE pe's CURVE public key (40 Z85 characters), or with pe =
+ * AM_CURVE_RENDEZVOUS the key of the launcher's tcp rendezvous; owned by
+ * ctx. NULL when CURVE is off (ipc, am-run --no-curve), for a rendezvous
+ * without a key, or if pe is out of range. Public keys are not secrets:
+ * they let a peer check whom it talks to (runtime/CONTROL.md). */
+#define AM_CURVE_RENDEZVOUS (-1)
+AM_EXPORT const char *am_curve_key(const am_ctx_t *ctx, int pe);
 
 /* Replaces the fatal-error handler (NULL restores the default). A handler
  * that returns leaves the context failed: later calls return the error

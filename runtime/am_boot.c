@@ -97,7 +97,18 @@ static int tcp_rendezvous(am_ctx_t *ctx, const char *server, const char *req,
     int zero = 0;
     zmq_setsockopt(s, ZMQ_LINGER, &zero, sizeof zero);
     int rc = AM_ETIMEOUT;
-    if (zmq_connect(s, server) != 0) {
+    /* With the launcher's key the rendezvous is a CURVE server whose ZAP
+     * handler admits the job's keys only: strangers can neither read nor
+     * publish rank 0's endpoint. */
+    const am__keys *k = ctx->keys;
+    if (k && k->rdv[0] &&
+        (zmq_setsockopt(s, ZMQ_CURVE_SERVERKEY, k->rdv, 40) ||
+         zmq_setsockopt(s, ZMQ_CURVE_PUBLICKEY, k->public_, 40) ||
+         zmq_setsockopt(s, ZMQ_CURVE_SECRETKEY, k->secret, 40))) {
+        am__warn(ctx, "cannot set CURVE keys for the rendezvous: %s",
+                 zmq_strerror(errno));
+        rc = AM_ETRANSPORT;
+    } else if (zmq_connect(s, server) != 0) {
         am__warn(ctx, "cannot reach the rendezvous %s: %s", server,
                  zmq_strerror(errno));
         rc = AM_ELAUNCH;
@@ -212,8 +223,10 @@ static int boot_wait(am_ctx_t *ctx, int (*done)(const am_ctx_t *),
         double left = deadline - am__now();
         if (left <= 0)
             break;
-        zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLIN, 0};
-        zmq_poll(&it, 1, left > 0.05 ? 50 : (long)(left * 1000) + 1);
+        zmq_pollitem_t it[2] = {{ctx->sock, 0, ZMQ_POLLIN, 0},
+                                {ctx->mon, 0, ZMQ_POLLIN, 0}};
+        zmq_poll(it, 2, left > 0.05 ? 50 : (long)(left * 1000) + 1);
+        am__read_monitor(ctx);
     }
     char missing[256] = "";
     size_t len = 0;

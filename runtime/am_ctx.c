@@ -160,6 +160,15 @@ const char *am_endpoint(const am_ctx_t *ctx, int pe)
     return ctx->peers[pe].endpoint;
 }
 
+const char *am_curve_key(const am_ctx_t *ctx, int pe)
+{
+    if (!ctx || !ctx->keys)
+        return NULL;
+    if (pe == AM_CURVE_RENDEZVOUS)
+        return ctx->keys->rdv[0] ? ctx->keys->rdv : NULL;
+    return pe >= 0 && pe < ctx->keys->n ? ctx->keys->pub[pe] : NULL;
+}
+
 /* ------------------------------------------------------------ environment */
 
 const char *am__env(const am_ctx_t *ctx, const char *name)
@@ -410,18 +419,33 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         if (errno || *end)
             return bad_option(ctx, "AM_JOB", v, "an integer job id");
     }
+    /* CURVE keys (tcp only; ipc never uses them): AM_CURVE_KEYS, or the
+     * older single key pair shared by every PE. */
+    const char *keys = am__env(ctx, "AM_CURVE_KEYS");
     const char *pub = am__env(ctx, "AM_CURVE_SERVER_PUBLIC");
     const char *sec = am__env(ctx, "AM_CURVE_SERVER_SECRET");
-    if (pub || sec) {
-        if (!pub || !sec || strlen(pub) != 40 || strlen(sec) != 40)
-            return bad_option(ctx, "AM_CURVE_SERVER_PUBLIC/SECRET", "...",
-                              "two Z85 keys of 40 characters");
+    if ((keys || pub || sec) && !strcmp(ctx->transport, "tcp") &&
+        ctx->size > 1) {
         if (!zmq_has("curve")) {
             am__warn(ctx, "CURVE keys given but this libzmq has no CURVE");
             return AM_EINVAL;
         }
-        ctx->curve_public = strdup(pub);
-        ctx->curve_secret = strdup(sec);
+        int rc;
+        if (keys)
+            rc = am__keys_read(ctx, keys, ctx->rank, ctx->size,
+                               ctx->boot_timeout, &ctx->keys);
+        else if ((rc = am__keys_shared(pub ? pub : "", sec ? sec : "",
+                                       ctx->size, &ctx->keys)) == AM_EINVAL)
+            return bad_option(ctx, "AM_CURVE_SERVER_PUBLIC/SECRET", "...",
+                              "two Z85 keys of 40 characters");
+        if (rc)
+            return rc;
+    } else if (keys && !strncmp(keys, "fd:", 3)) {
+        /* Not needed (one PE, or ipc): the descriptor is not left open
+         * for the program and what it starts. */
+        long fd;
+        if (!parse_long(keys + 3, 3, 1 << 20, &fd))
+            close((int)fd);
     }
     if (!ctx->transport || !ctx->bind_addr)
         return AM_ENOMEM;
@@ -516,8 +540,8 @@ static void destroy(am_ctx_t *ctx)
     free(ctx->root_ep);
     free(ctx->rendezvous);
     free(ctx->rdv_file);
-    free(ctx->curve_public);
-    free(ctx->curve_secret);
+    am__keys_free(&ctx->keys);
+    free(ctx->hs_peer_warned);
     if (ctx->report_fd >= 0)
         close(ctx->report_fd);
     free(ctx);
@@ -664,6 +688,7 @@ int am_finalize(am_ctx_t **pctx)
             rc = AM_ESTATE;
     }
     if (ctx->stats_dir) {
+        am__read_monitor(ctx); /* failed handshakes, for the counts */
         size_t n = strlen(ctx->stats_dir) + 32;
         char *path = malloc(n);
         if (path) {

@@ -20,6 +20,8 @@
  *   am_latency.c    latency/bandwidth specs, delayed delivery
  *   am_control.c    bodies of the runtime's control messages
  *   am_launch.c     am-run / pdr run launcher and rendezvous server
+ *   am_keys.c       the job's CURVE keys: reading and writing key blocks
+ *   am_zap.c        the ZAP handler admitting only the job's CURVE keys
  *
  * Control frames reach the module that handles them through one dispatch
  * table (section "control dispatch" below), and every send, of any kind,
@@ -417,7 +419,16 @@ struct am_ctx_s {
     char *root_ep;
     char *rendezvous;
     uint64_t job;
-    char *curve_public, *curve_secret; /* z85, NULL if CURVE is off */
+    /* CURVE (tcp): this PE's key pair, the public key of every PE (rank
+     * order) and of the tcp rendezvous; all NULL if CURVE is off. */
+    struct am__keys *keys;
+    struct am__zap *zap;   /* ZAP handler admitting the job's keys */
+    uint64_t hs_failed;    /* failed handshakes the monitor reported */
+    int hs_warned;         /* ... of accepted connections, logged once */
+    int hs_stranger;       /* the last monitor event was the failed
+                              handshake of an accepted connection */
+    unsigned char *hs_peer_warned; /* per PE: a failed handshake with it
+                              was logged (size entries, CURVE only) */
     char **overrides;      /* "AM_NAME=VALUE" from --am-name=value args */
     int noverrides;
     char *rdv_file;        /* rank 0: rendezvous file it wrote */
@@ -477,6 +488,49 @@ struct am_ctx_s {
     am__latency lat;
 };
 
+/* ------------------------------------------------------------ CURVE keys */
+
+/* The CURVE keys of one PE of a job (am_keys.c; format in CONTROL.md,
+ * "CURVE and ZAP"). Z85 strings of 40 characters, NUL-terminated. */
+typedef struct am__keys {
+    int n;                  /* job size: entries of pub */
+    char (*pub)[41];        /* every PE's public key, rank order */
+    char secret[41];        /* this PE's secret key */
+    char public_[41];       /* this PE's public key (= pub[rank]) */
+    char rdv[41];           /* the tcp rendezvous' public key, "" if none */
+} am__keys;
+
+/* Reads a key block for PE rank of a job of size PEs from spec: "fd:N"
+ * (a descriptor, read to the block's end; closed unless N <= 2) or the
+ * path of a file that only its owner may read. Checks that every public
+ * key is there and that the secret key belongs to pub[rank]. On error
+ * prints why (am__warn) and returns AM_EINVAL or AM_ENOMEM. The caller
+ * owns *out (am__keys_free). */
+int am__keys_read(const am_ctx_t *ctx, const char *spec, int rank, int size,
+                  double timeout, am__keys **out);
+/* One key pair shared by every PE (AM_CURVE_SERVER_PUBLIC/SECRET). */
+int am__keys_shared(const char *pub, const char *sec, int size, am__keys **out);
+void am__keys_free(am__keys **k);
+/* Appends the key block of PE rank to *buf (malloc'd, *len bytes):
+ * every public key, rank's secret (every secret if rank < 0), and the
+ * rendezvous key if rdv is not NULL. Returns 0 or AM_ENOMEM. */
+int am__keys_format(char (*pub)[41], char (*sec)[41], int n, int rank,
+                    const char *rdv, char **buf, size_t *len);
+
+/* am_zap.c: a ZAP handler thread in zctx admitting CURVE clients whose
+ * public key is one of keys[0..n-1] (Z85); the user id of an admitted
+ * client is its index, or empty if the key appears twice. Refusals are
+ * counted and logged once per address with prefix ("am: PE 3: ") and
+ * naming what is protected ("this PE"). Must be started before the
+ * server sockets bind and stopped after they are closed. */
+typedef struct am__zap am__zap;
+int am__zap_start(void *zctx, const char (*keys)[41], int n,
+                  const char *prefix, const char *what, am__zap **out);
+/* Stops the thread and frees; sets *z to NULL. */
+void am__zap_stop(am__zap **z);
+uint64_t am__zap_refused(am__zap *z);   /* clients refused */
+uint64_t am__zap_strangers(am__zap *z); /* distinct addresses refused */
+
 /* ------------------------------------------------- cross-module internals */
 
 /* am_ctx.c */
@@ -520,6 +574,9 @@ int am__socket_readable(am_ctx_t *ctx);
 int am__flush_sendq(am_ctx_t *ctx);
 /* Reads socket monitor events and probes suspected peers. */
 void am__check_peers(am_ctx_t *ctx);
+/* Reads socket monitor events only (counts failed handshakes; while
+ * booting, disconnects are not judged). */
+void am__read_monitor(am_ctx_t *ctx);
 /* Validates a received frame (identity part and body); fills *src, *hdr.
  * Returns 0 or the reason (enum am__reject) + 1. Exposed for unit tests. */
 int am__frame_check(const am_ctx_t *ctx, const void *id, size_t id_len,

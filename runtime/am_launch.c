@@ -27,10 +27,13 @@
  * Transports: ipc (default for local jobs: sockets in a private temporary
  * directory that the launcher removes) or tcp (required for hostfiles;
  * bound to 127.0.0.1 unless --bind says otherwise). On tcp, when libzmq
- * has CURVE, the launcher makes one key pair per job and the PEs encrypt
- * and authenticate with it (runtime/CONTROL.md, "CURVE": the job's
- * "public" key is given only to the job's PEs and acts as a shared job
- * secret).
+ * has CURVE, the launcher makes a key pair per PE and one for the
+ * rendezvous; each PE gets its own secret key and every PE's public key,
+ * in a key block it reads from a descriptor (a memfd for a forked PE,
+ * ssh's standard input for a remote one), and admits only the job's keys
+ * (runtime/CONTROL.md, "CURVE and ZAP"). The rendezvous is a CURVE server
+ * too, with a ZAP handler that admits the same keys, and takes rank 0's
+ * endpoint from rank 0's key only.
  */
 #include "config.h"
 
@@ -43,6 +46,7 @@
 #include <string.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
@@ -79,7 +83,9 @@ typedef struct launch {
     char **hosts;          /* per rank, NULL for local */
     char ipc_dir[64];
     uint64_t job;
-    char curve_pub[41], curve_sec[41];
+    char (*pub)[41], (*sec)[41]; /* CURVE: a key pair per PE (tcp) */
+    char rdv_pub[41], rdv_sec[41]; /* CURVE: the rendezvous' key pair */
+    am__zap *zap;          /* the rendezvous' ZAP handler */
     void *zctx, *rdv;      /* rendezvous server (tcp) */
     char rdv_ep[512];
     char *root_ep;
@@ -135,7 +141,10 @@ static void usage(const launch *L, FILE *out)
             "ssh)\n"
             "      --stats DIR         every PE writes DIR/stats-RANK.json at "
             "am_finalize\n"
-            "      --no-curve          no CURVE encryption on tcp\n"
+            "      --no-curve          tcp without CURVE (no encryption, no keys)\n"
+            "      --write-keys FILE   only write a CURVE key file for P PEs "
+            "started by another\n"
+            "                          launcher (AM_CURVE_KEYS=FILE on each)\n"
             "      --timeout SEC       stop the job after SEC seconds (exit %d)\n"
             "      --grace SEC         after a PE fails, wait SEC before "
             "stopping the others (10)\n"
@@ -210,8 +219,22 @@ static int rdv_open(launch *L)
     L->rdv = L->zctx ? zmq_socket(L->zctx, ZMQ_ROUTER) : NULL;
     if (!L->rdv)
         return -1;
-    int zero = 0;
+    int zero = 0, one = 1;
     zmq_setsockopt(L->rdv, ZMQ_LINGER, &zero, sizeof zero);
+    if (L->curve) {
+        /* The handler first: libzmq admits every client while none is
+         * bound. */
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "%s: ", L->prog);
+        if (am__zap_start(L->zctx, (const char (*)[41])L->pub, L->np, prefix,
+                          "the rendezvous", &L->zap) ||
+            zmq_setsockopt(L->rdv, ZMQ_CURVE_SERVER, &one, sizeof one) ||
+            zmq_setsockopt(L->rdv, ZMQ_CURVE_SECRETKEY, L->rdv_sec, 40) ||
+            zmq_setsockopt(L->rdv, ZMQ_ZAP_DOMAIN, "am", 2)) {
+            lerr(L, "cannot make the rendezvous a CURVE server");
+            return -1;
+        }
+    }
     const char *adv = L->rdv_host;
     char bind_ep[300];
     if (L->hosts) {
@@ -276,15 +299,28 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
         zmq_getsockopt(L->rdv, ZMQ_RCVMORE, &more, &ml);
         if (!more || idn > (int)sizeof id)
             continue;
-        int n = zmq_recv(L->rdv, req, sizeof req - 1, ZMQ_DONTWAIT);
-        if (n < 0)
+        zmq_msg_t m;
+        zmq_msg_init(&m);
+        int n = zmq_msg_recv(&m, L->rdv, ZMQ_DONTWAIT);
+        if (n < 0) {
+            zmq_msg_close(&m);
             continue;
-        req[n < (int)sizeof req - 1 ? n : (int)sizeof req - 1] = '\0';
+        }
+        size_t k = (size_t)n < sizeof req - 1 ? (size_t)n : sizeof req - 1;
+        memcpy(req, zmq_msg_data(&m), k);
+        req[k] = '\0';
+        /* With CURVE, the ZAP handler named the client's rank: only rank
+         * 0 may publish. */
+        const char *uid = L->curve ? zmq_msg_gets(&m, "User-Id") : NULL;
+        int from_root = !L->curve || (uid && !strcmp(uid, "0"));
+        zmq_msg_close(&m);
         char job[32];
         snprintf(job, sizeof job, "%llu", (unsigned long long)L->job);
         size_t jl = strlen(job);
-        if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
-            req[4 + jl] == ' ' && !L->root_ep) {
+        if (!strncmp(req, "PUT ", 4) && !from_root) {
+            rdv_reply(L, id, (size_t)idn, "ERR only rank 0 publishes");
+        } else if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
+                   req[4 + jl] == ' ' && !L->root_ep) {
             L->root_ep = strdup(req + 5 + jl);
             rdv_reply(L, id, (size_t)idn, L->root_ep ? "OK" : "ERR no memory");
             char ep[1200];
@@ -376,13 +412,55 @@ static int make_env(launch *L, int r, char env[NENV][1200])
 
 static void default_signals(void);
 
+/* PE r's CURVE key block in a memfd (close-on-exec, read from the
+ * start), or -1 with errno set. Not a file: nothing to remove, and
+ * nothing another process can open by name. */
+static int key_fd(const launch *L, int r)
+{
+    char *block;
+    size_t len;
+    if (am__keys_format(L->pub, L->sec, L->np, r, L->rdv_pub, &block, &len)) {
+        errno = ENOMEM;
+        return -1;
+    }
+    int fd = memfd_create("am-curve-keys", MFD_CLOEXEC);
+    size_t off = 0;
+    while (fd >= 0 && off < len) {
+        ssize_t w = write(fd, block + off, len - off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            close(fd);
+            fd = -1;
+            break;
+        }
+        off += (size_t)w;
+    }
+    memset(block, 0, len);
+    free(block);
+    if (fd >= 0 && lseek(fd, 0, SEEK_SET) != 0) {
+        close(fd);
+        fd = -1;
+    }
+    return fd;
+}
+
 static pid_t start_local(launch *L, int r)
 {
     char env[NENV][1200];
     int n = make_env(L, r, env);
+    int kfd = -1;
+    if (L->curve) {
+        if ((kfd = key_fd(L, r)) < 0)
+            return -1;
+        snprintf(env[n++], 1200, "AM_CURVE_KEYS=fd:%d", kfd);
+    }
     pid_t pid = fork();
-    if (pid != 0)
+    if (pid != 0) {
+        if (kfd >= 0)
+            close(kfd);
         return pid;
+    }
     default_signals();
     /* A PE must not outlive its launcher, even one killed with SIGKILL. If
      * the launcher died before the death signal was set, leave now. */
@@ -392,19 +470,17 @@ static pid_t start_local(launch *L, int r)
      * (close-on-exec) does not. */
     if (L->report_wr >= 0)
         fcntl(L->report_wr, F_SETFD, 0);
+    if (kfd >= 0)
+        fcntl(kfd, F_SETFD, 0);
     /* Nothing of an enclosing job may leak into this one. */
     static const char *const stale[] = {
         "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
-        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_SERVER_PUBLIC",
-        "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
+        "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_KEYS",
+        "AM_CURVE_SERVER_PUBLIC", "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
     for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
         unsetenv(stale[i]);
     for (int i = 0; i < n; i++)
         putenv(env[i]);
-    if (L->curve && !strcmp(L->transport, "tcp")) {
-        setenv("AM_CURVE_SERVER_PUBLIC", L->curve_pub, 1);
-        setenv("AM_CURVE_SERVER_SECRET", L->curve_sec, 1);
-    }
     execvp(L->cmd[0], L->cmd);
     fprintf(stderr, "%s: cannot run %s: %s\n", L->prog, L->cmd[0], strerror(errno));
     _exit(127);
@@ -419,13 +495,16 @@ static void default_signals(void)
         signal(caught[i], SIG_DFL);
 }
 
-/* Remote rank: ssh HOST sh -c 'read keys; cd DIR; exec env VARS PROGRAM ARGS'.
- * The CURVE keys go through ssh's stdin, not the command line, so that
- * they do not show in ps on either host. */
+/* Remote rank: ssh HOST sh -c 'cd DIR && exec env VARS PROGRAM ARGS'.
+ * The CURVE key block goes through ssh's stdin (AM_CURVE_KEYS=fd:0), not
+ * the command line or the environment, so that it shows in ps on neither
+ * host and has no length limit. */
 static pid_t start_remote(launch *L, int r)
 {
     char env[NENV][1200];
     int n = make_env(L, r, env);
+    if (L->curve)
+        snprintf(env[n++], 1200, "AM_CURVE_KEYS=fd:0");
     char *script = NULL, *cmd = NULL;
     size_t sl = 0, sc = 0, cl = 0, cc = 0;
     char cwd[4096];
@@ -433,11 +512,7 @@ static pid_t start_remote(launch *L, int r)
         snprintf(cwd, sizeof cwd, ".");
     int use_keys = L->curve;
     int bad = 0;
-    const char *pre = use_keys ? "read -r AM_CURVE_SERVER_PUBLIC "
-                                 "AM_CURVE_SERVER_SECRET && export "
-                                 "AM_CURVE_SERVER_PUBLIC AM_CURVE_SERVER_SECRET "
-                                 "&& cd "
-                               : "cd ";
+    const char *pre = "cd ";
     script = malloc(sc = strlen(pre) + 1);
     if (!script)
         return -1;
@@ -494,12 +569,28 @@ static pid_t start_remote(launch *L, int r)
     free(cmd);
     if (use_keys) {
         close(keys[0]);
-        if (pid > 0) {
-            char line[100];
-            int k = snprintf(line, sizeof line, "%s %s\n", L->curve_pub,
-                             L->curve_sec);
-            ssize_t w = write(keys[1], line, (size_t)k);
-            (void)w;
+        char *block = NULL;
+        size_t len = 0;
+        if (pid > 0 && !am__keys_format(L->pub, L->sec, L->np, r, L->rdv_pub,
+                                        &block, &len)) {
+            /* ssh takes the block into its channel window (2 MiB) without
+             * waiting for the remote PE; a dead ssh must not kill the
+             * launcher with SIGPIPE. */
+            struct sigaction ign, old_pipe;
+            memset(&ign, 0, sizeof ign);
+            ign.sa_handler = SIG_IGN;
+            sigaction(SIGPIPE, &ign, &old_pipe);
+            for (size_t off = 0; off < len;) {
+                ssize_t w = write(keys[1], block + off, len - off);
+                if (w < 0 && errno == EINTR)
+                    continue;
+                if (w <= 0)
+                    break;
+                off += (size_t)w;
+            }
+            sigaction(SIGPIPE, &old_pipe, NULL);
+            memset(block, 0, len);
+            free(block);
         }
         close(keys[1]);
     }
@@ -796,6 +887,51 @@ static int wait_job(launch *L)
     return 0;
 }
 
+/* am-run -n P --write-keys FILE: a CURVE key file for a job of P PEs
+ * started by another launcher (mpirun, srun, by hand: AM_CURVE_KEYS=FILE
+ * on every PE). It holds every PE's secret, so it is made with mode 0600
+ * and never over an existing file. */
+static int keys_file(const launch *L, const char *path)
+{
+    if (!zmq_has("curve")) {
+        lerr(L, "this libzmq has no CURVE");
+        return 1;
+    }
+    size_t np = (size_t)L->np;
+    char (*pub)[41] = calloc(np, sizeof *pub), (*sec)[41] = calloc(np, sizeof *sec);
+    char *block = NULL;
+    size_t len = 0;
+    int ok = pub && sec;
+    for (int r = 0; ok && r < L->np; r++)
+        ok = zmq_curve_keypair(pub[r], sec[r]) == 0;
+    ok = ok && !am__keys_format(pub, sec, L->np, -1, NULL, &block, &len);
+    int fd = ok ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600) : -1;
+    if (ok && fd < 0)
+        lerr(L, "cannot make %s: %s", path, strerror(errno));
+    size_t off = 0;
+    while (fd >= 0 && off < len) {
+        ssize_t w = write(fd, block + off, len - off);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            lerr(L, "cannot write %s: %s", path, strerror(errno));
+            break;
+        }
+        off += (size_t)w;
+    }
+    int done = fd >= 0 && off == len && close(fd) == 0;
+    if (fd >= 0 && !done)
+        unlink(path);
+    if (block)
+        memset(block, 0, len);
+    if (sec)
+        memset(sec, 0, sizeof *sec * np);
+    free(block);
+    free(pub);
+    free(sec);
+    return done ? 0 : 1;
+}
+
 /* ------------------------------------------------------------------ main */
 
 static int parse_double(const char *s, double *out)
@@ -887,8 +1023,21 @@ static void cleanup(launch *L)
         close(L->report_wr);
     if (L->rdv)
         zmq_close(L->rdv);
+    if (am__zap_refused(L->zap))
+        lerr(L, "the rendezvous refused %llu connection%s from %llu "
+                "address%s (keys not of the job)",
+             (unsigned long long)am__zap_refused(L->zap),
+             am__zap_refused(L->zap) == 1 ? "" : "s",
+             (unsigned long long)am__zap_strangers(L->zap),
+             am__zap_strangers(L->zap) == 1 ? "" : "es");
+    am__zap_stop(&L->zap);
     if (L->zctx)
         zmq_ctx_term(L->zctx);
+    if (L->sec)
+        memset(L->sec, 0, sizeof *L->sec * (size_t)L->np);
+    memset(L->rdv_sec, 0, sizeof L->rdv_sec);
+    free(L->pub);
+    free(L->sec);
     if (L->hosts)
         for (int r = 0; r < L->np; r++)
             free(L->hosts[r]);
@@ -915,9 +1064,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
     L.grace = 10;
     L.curve = 1;
     L.ssh = getenv("AM_SSH") && *getenv("AM_SSH") ? getenv("AM_SSH") : "ssh";
-    const char *stats = NULL;
+    const char *stats = NULL, *write_keys = NULL;
     enum { O_BIND = 256, O_HOSTFILE, O_RDV, O_SSH, O_STATS, O_NOCURVE,
-           O_TIMEOUT, O_GRACE };
+           O_TIMEOUT, O_GRACE, O_WRITE_KEYS };
     static const struct option opts[] = {
         {"np", required_argument, NULL, 'n'},
         {"transport", required_argument, NULL, 't'},
@@ -931,6 +1080,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
         {"no-curve", no_argument, NULL, O_NOCURVE},
         {"timeout", required_argument, NULL, O_TIMEOUT},
         {"grace", required_argument, NULL, O_GRACE},
+        {"write-keys", required_argument, NULL, O_WRITE_KEYS},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int c;
@@ -987,6 +1137,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
         case O_STATS:
             stats = optarg;
             break;
+        case O_WRITE_KEYS:
+            write_keys = optarg;
+            break;
         case O_NOCURVE:
             L.curve = 0;
             break;
@@ -1006,6 +1159,8 @@ int am_launch_main(int argc, char **argv, const char *prog)
             return EXIT_USAGE;
         }
     }
+    if (write_keys && L.np)
+        return keys_file(&L, write_keys);
     if (L.np == 0 || optind >= argc) {
         lerr(&L, L.np ? "no PROGRAM to run" : "-n P is required");
         fprintf(stderr, "Try '%s --help'.\n", L.prog);
@@ -1018,7 +1173,9 @@ int am_launch_main(int argc, char **argv, const char *prog)
         lerr(&L, "a --hostfile job needs --transport tcp");
         return EXIT_USAGE;
     }
-    L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve");
+    /* A one-PE job has no connection to protect. */
+    L.curve = L.curve && !strcmp(L.transport, "tcp") && zmq_has("curve") &&
+              L.np > 1;
 
     int rc = 1, handlers_set = 0;
     if (getrandom(&L.job, sizeof L.job, 0) != (ssize_t)sizeof L.job)
@@ -1085,12 +1242,25 @@ int am_launch_main(int argc, char **argv, const char *prog)
             goto out;
         }
         start_watch(&L);
-    } else if (rdv_open(&L)) {
-        lerr(&L, "cannot start the rendezvous server");
-        goto out;
+    } else {
+        /* A key pair per PE and one for the rendezvous. */
+        if (L.curve) {
+            L.pub = calloc(np, sizeof *L.pub);
+            L.sec = calloc(np, sizeof *L.sec);
+            int ok = L.pub && L.sec &&
+                     zmq_curve_keypair(L.rdv_pub, L.rdv_sec) == 0;
+            for (int r = 0; ok && r < L.np; r++)
+                ok = zmq_curve_keypair(L.pub[r], L.sec[r]) == 0;
+            if (!ok) {
+                lerr(&L, "cannot make CURVE keys: %s", zmq_strerror(errno));
+                goto out;
+            }
+        }
+        if (rdv_open(&L)) {
+            lerr(&L, "cannot start the rendezvous server");
+            goto out;
+        }
     }
-    if (L.curve && zmq_curve_keypair(L.curve_pub, L.curve_sec) != 0)
-        L.curve = 0;
 
     /* Non-blocking: a PE never waits to report (a full pipe loses the
      * line, and the launcher falls back on the order of the exits). */

@@ -165,6 +165,17 @@ static void write_json(am_ctx_t *ctx, FILE *f)
         lower[k] = '\0';
         fprintf(f, ", \"%s\": %llu", lower, (unsigned long long)ctx->rejected[i]);
     }
+    /* CURVE: clients the ZAP handler refused (a key not of the job), the
+     * distinct addresses they came from, and every failed handshake the
+     * socket monitor reported (those too, plus clients without CURVE or
+     * without this PE's public key, and peers that refused our key). */
+    fprintf(f, "},\n  \"security\": {\"curve\": %s, \"keys\": %d, "
+               "\"zap_refused\": %llu, \"strangers\": %llu, "
+               "\"handshakes_failed\": %llu",
+            ctx->keys ? "true" : "false", ctx->keys ? ctx->keys->n : 0,
+            (unsigned long long)am__zap_refused(ctx->zap),
+            (unsigned long long)am__zap_strangers(ctx->zap),
+            (unsigned long long)ctx->hs_failed);
     fprintf(f, "},\n  \"latency\": {\"spec\": ");
     json_str(f, ctx->lat.spec);
     fprintf(f, ", \"bandwidth\": ");

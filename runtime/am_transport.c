@@ -205,24 +205,49 @@ int am__transport_open(am_ctx_t *ctx)
         return AM_ETRANSPORT;
     }
 
+    /* The monitor reports disconnects (failure detection) and failed
+     * handshakes (strangers, and peers that refuse our key). */
     char mon_ep[64];
     snprintf(mon_ep, sizeof mon_ep, "inproc://am-monitor-%p", (void *)ctx);
-    if (zmq_socket_monitor(ctx->sock, mon_ep, ZMQ_EVENT_DISCONNECTED) != 0)
+    if (zmq_socket_monitor(ctx->sock, mon_ep,
+                           ZMQ_EVENT_DISCONNECTED |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0)
         return AM_ETRANSPORT;
+    /* libzmq's I/O thread blocks on a full monitor pipe, heartbeats and
+     * all; every stranger's attempt queues two events, and a PE that
+     * computes for seconds does not read them. So the pipe holds about
+     * 100,000 messages (a few MiB), not libzmq's 2,000 (1,000 a side). */
     ctx->mon = zmq_socket(ctx->zctx, ZMQ_PAIR);
-    if (!ctx->mon || zmq_connect(ctx->mon, mon_ep) != 0)
+    if (!ctx->mon || set_int(ctx->mon, ZMQ_RCVHWM, 100000) != 0 ||
+        zmq_connect(ctx->mon, mon_ep) != 0)
         return AM_ETRANSPORT;
     set_int(ctx->mon, ZMQ_LINGER, 0);
 
-    /* CURVE: this socket is the server on connections it accepts. The
-     * options are copied into the listener at bind time, so switching to
-     * client options before each connect (am__connect_peer) does not
-     * change the accepted side. */
+    /* CURVE (CONTROL.md, "CURVE and ZAP"): this socket is the server on
+     * the connections it accepts, with this PE's key pair, and the ZAP
+     * handler admits only the job's keys. The handler is bound before the
+     * socket binds: libzmq admits every client while none is. The server
+     * options are copied into the listener at bind time; the client
+     * options set before each connect (am__connect_peer) use the same
+     * key pair and only name the peer's public key. */
     int tcp = !strcmp(ctx->transport, "tcp");
-    if (tcp && ctx->curve_secret) {
+    if (tcp && ctx->keys) {
+        char prefix[32];
+        snprintf(prefix, sizeof prefix, "am: PE %d: ", ctx->rank);
+        if (!(ctx->hs_peer_warned = calloc((size_t)ctx->size, 1)))
+            return AM_ENOMEM;
+        rc = am__zap_start(ctx->zctx, (const char (*)[41])ctx->keys->pub,
+                           ctx->keys->n, prefix, "this PE", &ctx->zap);
+        if (rc) {
+            am__warn(ctx, "cannot start the ZAP handler: %s", am_strerror(rc));
+            return rc;
+        }
         rc = set_int(ctx->sock, ZMQ_CURVE_SERVER, 1);
-        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY, ctx->curve_secret,
-                             40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY,
+                             ctx->keys->secret, 40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_ZAP_DOMAIN, "am", 2);
         if (rc) {
             am__warn(ctx, "cannot enable CURVE: %s", zmq_strerror(errno));
             return AM_ETRANSPORT;
@@ -279,6 +304,8 @@ void am__transport_close(am_ctx_t *ctx)
         zmq_close(ctx->sock);
         ctx->sock = NULL;
     }
+    /* After the socket: while it may still accept, ZAP must answer. */
+    am__zap_stop(&ctx->zap);
     if (ctx->zctx) {
         zmq_ctx_term(ctx->zctx);
         ctx->zctx = NULL;
@@ -292,14 +319,13 @@ int am__connect_peer(am_ctx_t *ctx, int pe)
     am__routing_id(pe, id);
     if (zmq_setsockopt(ctx->sock, ZMQ_CONNECT_ROUTING_ID, id, sizeof id))
         return AM_ETRANSPORT;
-    if (!strncmp(p->endpoint, "tcp://", 6) && ctx->curve_secret) {
-        char pub[41], sec[41];
-        if (zmq_curve_keypair(pub, sec) != 0)
-            return AM_ETRANSPORT;
+    if (!strncmp(p->endpoint, "tcp://", 6) && ctx->keys) {
         int rc = zmq_setsockopt(ctx->sock, ZMQ_CURVE_SERVERKEY,
-                                ctx->curve_public, 40);
-        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_PUBLICKEY, pub, 40);
-        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY, sec, 40);
+                                ctx->keys->pub[pe], 40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_PUBLICKEY,
+                             ctx->keys->public_, 40);
+        rc |= zmq_setsockopt(ctx->sock, ZMQ_CURVE_SECRETKEY,
+                             ctx->keys->secret, 40);
         if (rc)
             return AM_ETRANSPORT;
     }
@@ -892,6 +918,18 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
             zmq_msg_close(&fr.msg);
             continue;
         }
+        /* With CURVE, a client's frames carry the rank the ZAP handler
+         * found for its key: a PE cannot speak under another's routing
+         * id. (Frames on connections this PE made carry none: there the
+         * server proved it holds the key of the PE we meant.) */
+        const char *uid = ctx->zap ? zmq_msg_gets(&fr.msg, "User-Id") : NULL;
+        if (uid && *uid && strtol(uid, NULL, 10) != src) {
+            char detail[64];
+            snprintf(detail, sizeof detail, "its CURVE key is PE %.8s's", uid);
+            am__reject(ctx, AM__REJ_IDENTITY, src, detail);
+            zmq_msg_close(&fr.msg);
+            continue;
+        }
         am__peer *p = &ctx->peers[src];
         if (fr.hdr.seq > p->recv_seq)
             am__warn(ctx, "sequence gap from PE %d (expected %llu, got %llu): "
@@ -986,7 +1024,64 @@ static void suspect(am_ctx_t *ctx, int pe, double now)
     ctx->suspects++;
 }
 
-/* Reads the monitor's queued events; marks the peers they may concern. */
+/* Why a handshake failed, from a monitor event and its value. */
+static const char *handshake_why(uint16_t event, uint32_t value, char *buf,
+                                 size_t n)
+{
+    if (event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH)
+        snprintf(buf, n, "the other side refused the key (ZAP status %u)",
+                 (unsigned)value);
+    else if (event == ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL)
+        snprintf(buf, n, "the connection ended during the handshake (%s)",
+                 zmq_strerror((int)value));
+    else if (value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
+        snprintf(buf, n, "the other side does not use CURVE");
+    else if (value == ZMQ_PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC)
+        snprintf(buf, n, "a CURVE box did not open: the client does not "
+                         "know the server's public key");
+    else
+        snprintf(buf, n, "protocol error 0x%x", (unsigned)value);
+    return buf;
+}
+
+/* A failed handshake the monitor reported, while booting or running. On
+ * a connection this PE made, libzmq names the peer's endpoint: logged once
+ * per peer (a PE of another job, or keys that do not match; libzmq keeps
+ * retrying). On an accepted one it names only this PE's endpoint, not the
+ * client's address: a refusal by the ZAP handler was logged there, with
+ * the address; other failures (a client without CURVE, or without this
+ * PE's public key) are logged once. All are counted. */
+static void handshake_failed(am_ctx_t *ctx, uint16_t event, uint32_t value,
+                             const char *where)
+{
+    char why[160];
+    ctx->hs_failed++;
+    for (int pe = 0; pe < ctx->size; pe++) {
+        am__peer *p = &ctx->peers[pe];
+        if (pe == ctx->rank || !p->connected_to || !p->endpoint ||
+            strcmp(p->endpoint, where))
+            continue;
+        if (ctx->hs_peer_warned && !ctx->hs_peer_warned[pe]) {
+            ctx->hs_peer_warned[pe] = 1;
+            am__warn(ctx, "the CURVE handshake with PE %d at %s failed: %s "
+                          "(keys of another job?); retrying",
+                     pe, where, handshake_why(event, value, why, sizeof why));
+        }
+        return;
+    }
+    ctx->hs_stranger = 1;
+    if (event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH || ctx->hs_warned++)
+        return;
+    am__warn(ctx, "a client of %s failed its handshake: %s (not one of the "
+                  "job's PEs; libzmq does not say from where; further failed "
+                  "handshakes are only counted)",
+             where, handshake_why(event, value, why, sizeof why));
+}
+
+/* Reads the monitor's queued events: counts failed handshakes and, while
+ * running, marks the peers a disconnect may concern. Also called while
+ * booting, so that events do not pile up (libzmq's I/O thread blocks on a
+ * full monitor pipe). */
 static void read_monitor(am_ctx_t *ctx, double now)
 {
     for (;;) {
@@ -997,8 +1092,11 @@ static void read_monitor(am_ctx_t *ctx, double now)
             return;
         }
         uint16_t event = 0;
-        if (zmq_msg_size(&ev) >= 2)
-            memcpy(&event, zmq_msg_data(&ev), 2); /* native byte order */
+        uint32_t value = 0;
+        if (zmq_msg_size(&ev) >= 6) { /* native byte order */
+            memcpy(&event, zmq_msg_data(&ev), 2);
+            memcpy(&value, (const uint8_t *)zmq_msg_data(&ev) + 2, 4);
+        }
         int more = zmq_msg_more(&ev);
         zmq_msg_close(&ev);
         char where[AM__EP_MAX] = "";
@@ -1013,6 +1111,21 @@ static void read_monitor(am_ctx_t *ctx, double now)
             }
             zmq_msg_close(&addr);
         }
+        if (event == ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL ||
+            event == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL ||
+            event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+            ctx->hs_stranger = 0;
+            handshake_failed(ctx, event, value, where);
+            continue;
+        }
+        /* libzmq reports a failed handshake and then, at once, from the
+         * same I/O thread, the disconnect of that connection. An unnamed
+         * disconnect right after a stranger's failed handshake is the
+         * stranger's: it does not make the accepted peers suspects (which
+         * would probe each of them for the next 2 s, a PING per peer per
+         * housekeeping round, for every attempt of a port scanner). */
+        int stranger = ctx->hs_stranger;
+        ctx->hs_stranger = 0;
         if (event != ZMQ_EVENT_DISCONNECTED || ctx->state != AM__RUNNING)
             continue;
         int named = 0;
@@ -1023,11 +1136,17 @@ static void read_monitor(am_ctx_t *ctx, double now)
                 named = 1;
             }
         }
-        if (!named)
+        if (!named && !stranger)
             for (int pe = 0; pe < ctx->size; pe++)
                 if (pe != ctx->rank && !ctx->peers[pe].connected_to)
                     suspect(ctx, pe, now);
     }
+}
+
+void am__read_monitor(am_ctx_t *ctx)
+{
+    if (ctx->mon)
+        read_monitor(ctx, am__now());
 }
 
 /* 1 if ROUTER_MANDATORY refuses a PING to pe (its connection is gone). */

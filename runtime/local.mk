@@ -23,15 +23,18 @@ libam_la_SOURCES = \
 	runtime/am_stats.c \
 	runtime/am_latency.c \
 	runtime/am_control.c \
-	runtime/am_launch.c
+	runtime/am_launch.c \
+	runtime/am_keys.c \
+	runtime/am_zap.c
 if LIBAM_FAST_SWITCH
 libam_la_SOURCES += runtime/am_switch_x86_64.S
 endif
 EXTRA_DIST += runtime/am_switch_x86_64.S
 libam_la_CPPFLAGS = $(AM_CPPFLAGS) -DAM_BUILDING
-libam_la_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
+libam_la_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS) -pthread
 libam_la_LIBADD = libpdrproto.la $(ZMQ_LIBS) $(EVENT_LIBS) -lm
-libam_la_LDFLAGS = $(AM_LDFLAGS) -version-info $(LIBAM_LT_VERSION) -no-undefined
+libam_la_LDFLAGS = $(AM_LDFLAGS) -version-info $(LIBAM_LT_VERSION) -no-undefined \
+	-pthread
 
 bin_PROGRAMS += am-run
 am_run_SOURCES = runtime/am_run.c

@@ -43,6 +43,14 @@
  *                          ZeroMQ sockets; PE 1 must reject and count each
  *   am_mp stranger         like malformed, but only checks whether frames
  *                          from a socket without the job's CURVE key got in
+ *   am_mp zap DIR N [S]    a target for strangers (tests/am-zap.sh): rank 0
+ *                          writes DIR/info (PE 1's endpoint and CURVE key,
+ *                          the rendezvous' endpoint and key, the job id,
+ *                          PE 0's endpoint and key),
+ *                          PE 1 computes S seconds without polling (default
+ *                          0), every PE waits for DIR/go, then each PE sends
+ *                          its peer N messages; each must arrive exactly
+ *                          once and no frame may have been rejected
  *   am_mp sleep S          (no libam) sleeps S seconds: a PE to stop
  *   am_mp fake-peer EP V   (no libam) says hello to rank 0 at endpoint EP as
  *                          PE 1 speaking wire protocol version V
@@ -1255,6 +1263,81 @@ static int run_busy(am_ctx_t *ctx, const char *dir, int seconds)
     return 0;
 }
 
+/* ------------------------------------------------------------------ zap */
+
+enum { H_ZAP = 12 };
+
+static int zap_got, zap_bad;
+
+static void zap_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)arg;
+    uint32_t i;
+    if (m->len != sizeof i || m->src != 1 - g_rank) {
+        zap_bad++;
+        return;
+    }
+    memcpy(&i, m->data, sizeof i);
+    zap_bad += i != (uint32_t)zap_got;
+    zap_got++;
+}
+
+static int run_zap(am_ctx_t *ctx, const char *dir, int n, double spin)
+{
+    int r = am_rank(ctx);
+    CHECK(am_size(ctx) == 2, "zap wants 2 PEs");
+    am_register(ctx, H_ZAP, "zap", zap_handler, NULL);
+    am_barrier(ctx);
+    char path[4200], tmp[4300];
+    if (r == 0) {
+        const char *rdv = getenv("AM_RENDEZVOUS"), *job = getenv("AM_JOB");
+        const char *k1 = am_curve_key(ctx, 1);
+        const char *kr = am_curve_key(ctx, AM_CURVE_RENDEZVOUS);
+        snprintf(path, sizeof path, "%s/info", dir);
+        snprintf(tmp, sizeof tmp, "%s.tmp", path);
+        FILE *f = fopen(tmp, "w");
+        CHECK(f != NULL, "cannot write %s", tmp);
+        if (f) {
+            const char *k0 = am_curve_key(ctx, 0);
+            fprintf(f, "%s %s %s %s %s %s %s\n", am_endpoint(ctx, 1),
+                    k1 ? k1 : "-", rdv ? rdv : "-", kr ? kr : "-",
+                    job ? job : "-", am_endpoint(ctx, 0), k0 ? k0 : "-");
+            fclose(f);
+            rename(tmp, path);
+        }
+    }
+    /* A PE busy computing does not poll: strangers may come meanwhile. */
+    if (r == 1 && spin > 0) {
+        double end = now_s() + spin;
+        while (now_s() < end)
+            ;
+    }
+    /* The strangers come now; the PEs keep polling. */
+    snprintf(path, sizeof path, "%s/go", dir);
+    double limit = now_s() + 60;
+    while (access(path, F_OK) != 0 && now_s() < limit)
+        am_sleep(ctx, 0.02);
+    CHECK(access(path, F_OK) == 0, "no %s within 60 s", path);
+    for (uint32_t i = 0; i < (uint32_t)n; i++)
+        CHECK(am_send(ctx, 1 - r, H_ZAP, &i, sizeof i) == 0, "send %u", i);
+    limit = now_s() + 30;
+    while (zap_got < n && now_s() < limit)
+        am_sleep(ctx, 0.01);
+    am_barrier(ctx);
+    am_stats_t st;
+    am_stats_get(ctx, &st);
+    CHECK(zap_got == n && zap_bad == 0, "PE %d got %d of %d messages (%d bad)",
+          r, zap_got, n, zap_bad);
+    CHECK(st.rejected == 0, "PE %d rejected %llu frames", r,
+          (unsigned long long)st.rejected);
+    printf("zap: PE %d got its peer's %d messages in order, rejected %llu "
+           "frames (curve %s)\n",
+           r, zap_got, (unsigned long long)st.rejected,
+           am_curve_key(ctx, 0) ? "on" : "off");
+    return 0;
+}
+
 /* ------------------------------------------------------------ malformed */
 
 /* Sends one message from a fresh DEALER socket. The ROUTER refuses a
@@ -1337,7 +1420,7 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
             printf("stranger: PE 1 counted %llu frames from sockets outside "
                    "the job (curve %s)\n",
                    (unsigned long long)st.rejected,
-                   getenv("AM_CURVE_SERVER_PUBLIC") ? "on" : "off");
+                   am_curve_key(ctx, 0) ? "on" : "off");
         } else {
             CHECK(st.rejected == (uint64_t)expected,
                   "PE 1 rejected %llu frames, expected %d",
@@ -1422,9 +1505,11 @@ int main(int argc, char **argv)
         rc = run_malformed(ctx, 0);
     else if (!strcmp(mode, "stranger"))
         rc = run_malformed(ctx, 1);
+    else if (!strcmp(mode, "zap") && argc > 3)
+        rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
         fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
-                        "busy|flood|flood-pair|malformed|stranger [ARGS]\n");
+                        "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }
     int frc = am_finalize(&ctx);

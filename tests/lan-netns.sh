@@ -3,15 +3,18 @@
 # namespaces joined by one veth pair, each end with a link-local address
 # (169.254.77.1/30 and .2/30) and nothing else; the namespaces reach
 # nothing but each other. 4 PEs, 2 per namespace, run pdr mesh --parallel
-# over tcp with CURVE (a key pair made for the job by tests/curve_keypair):
+# over tcp with CURVE (a key pair per PE, made for the job by
+# tests/curve_keypair -n 4, in a key file of mode 0600: AM_CURVE_KEYS):
 # rank 0 binds AM_ROOT, every PE binds and advertises its namespace's
 # address (AM_BIND). Checked:
 #  - the merged mesh rank 0 writes passes pdr check, and the veth carried
 #    the job's traffic (its byte counters);
-#  - CURVE is on: the same job with one PE given another key pair cannot
-#    start (its handshakes fail); every PE exits non-zero within the boot
-#    timeout (AM_BOOT_TIMEOUT=5 s), rank 0 names PE 3 as the one whose
-#    hello never came, and no mesh is written.
+#  - CURVE and ZAP are on: the same job with PE 3 holding a key pair that
+#    is not the job's (though it knows every PE's public key) cannot
+#    start: rank 0's ZAP handler refuses it, and says so once for its
+#    address 169.254.77.2 however often PE 3 retries; every PE exits
+#    non-zero within the boot timeout (AM_BOOT_TIMEOUT=5 s), rank 0 names
+#    PE 3 as the one whose hello never came, and no mesh is written.
 # The namespaces and the veth pair are removed at the end, also when the
 # test fails or is killed. Skipped unless root and 'ip netns add' and
 # 'ip link add ... type veth' work, and where libzmq has no CURVE.
@@ -19,13 +22,21 @@
 
 [ "$(id -u)" -eq 0 ] || skip "not root: network namespaces need root"
 command -v ip >/dev/null 2>&1 || skip "ip not found (Debian package iproute2)"
-keys=$("$top_builddir/tests/curve_keypair")
+keys=$work/keys
+(umask 077 && "$top_builddir/tests/curve_keypair" -n 4 >"$keys")
 case $? in
 0) ;;
 77) skip "this libzmq has no CURVE" ;;
 *) exit 99 ;;
 esac
-bad_keys=$("$top_builddir/tests/curve_keypair") || exit 99
+# The job's keys with PE 3's pair swapped for a foreign one.
+other=$("$top_builddir/tests/curve_keypair") || exit 99
+bad_keys=$work/bad_keys
+# (awk, not sed: Z85 keys may hold '&'.)
+(umask 077 && awk -v pub="${other% *}" -v sec="${other#* }" '
+    $1 == "public" && $2 == 3 { print "public 3 " pub; next }
+    $1 == "secret" && $2 == 3 { print "secret 3 " sec; next }
+    { print }' "$keys" >"$bad_keys") || exit 99
 
 # Names unique to this run; interface names stay within 15 characters.
 nsa=pdr-lan-$$-a
@@ -56,16 +67,13 @@ done
 
 pes=
 # pe NAME RANK NAMESPACE ADDRESS KEYS: starts one PE of the 4-PE job in
-# NAMESPACE, bound to ADDRESS, with CURVE key pair KEYS; output in
+# NAMESPACE, bound to ADDRESS, with the CURVE key file KEYS; output in
 # $work/NAME.out.RANK.
 pe() {
-    pub=${5% *}
-    sec=${5#* }
     # shellcheck disable=SC2086
     timeout --kill-after=5 60 ip netns exec "$3" env AM_RANK="$2" AM_SIZE=4 \
         AM_JOB=$$ AM_TRANSPORT=tcp AM_ROOT=tcp://169.254.77.1:7000 AM_BIND="$4" \
-        AM_CURVE_SERVER_PUBLIC="$pub" AM_CURVE_SERVER_SECRET="$sec" \
-        AM_BOOT_TIMEOUT="${boot:-30}" \
+        AM_CURVE_KEYS="$5" AM_BOOT_TIMEOUT="${boot:-30}" \
         "$PDR" mesh --parallel $MESH_OPTS -o "$work/$1" "$work/cic.poly" \
         >"$work/$1.out.$2" 2>&1 &
     pes="$pes $!"
@@ -119,7 +127,7 @@ pe bad 2 "$nsb" 169.254.77.2 "$keys"
 pe bad 3 "$nsb" 169.254.77.2 "$bad_keys"
 wait_job bad
 took=$(elapsed_since "$start")
-echo "PE 3 with another key pair: exit statuses$codes after $took s"
+echo "PE 3 with a key pair not of the job: exit statuses$codes after $took s"
 sed 's/^/  | /' "$work/bad.out.0"
 for c in $codes; do
     [ "$c" -ne 0 ] || fail "a PE of the job with a wrong key exited 0 ($codes)"
@@ -128,6 +136,10 @@ done
 [ "$(echo "$took < 30" | bc)" -eq 1 ] || fail "the job with a wrong key took $took s to fail"
 grep -q 'timed out after 5 s waiting for hellos: PEs 3$' "$work/bad.out.0" ||
     fail "rank 0 did not name PE 3 as the one it waited for"
+n=$(grep -c "refused a connection to this PE from 169.254.77.2: its CURVE key is not one of the job's" "$work/bad.out.0")
+[ "$n" -eq 1 ] || fail "rank 0 logged PE 3's refused key $n times, not once"
+grep -q "the CURVE handshake with PE 0 at tcp://169.254.77.1:7000 failed: the other side refused the key" "$work/bad.out.3" ||
+    { sed 's/^/  3| /' "$work/bad.out.3"; fail "PE 3 did not say that rank 0 refused its key"; }
 for f in "$work"/bad.*; do
     case $f in *.out.*) ;; *) fail "the failed job wrote $f" ;; esac
 done

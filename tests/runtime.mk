@@ -8,6 +8,11 @@ tests_test_am_error_LDFLAGS = $(AM_LDFLAGS) -static
 
 # Multi-process driver run by the tests/am-*.sh scripts under am-run.
 check_PROGRAMS += tests/am_mp
+# A socket outside the job trying to get in (tests/am-zap.sh).
+check_PROGRAMS += tests/zap_stranger
+tests_zap_stranger_SOURCES = tests/zap_stranger.c
+tests_zap_stranger_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
+tests_zap_stranger_LDADD = $(ZMQ_LIBS)
 tests_am_mp_SOURCES = tests/am_mp.c
 tests_am_mp_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
 tests_am_mp_LDADD = libam.la $(ZMQ_LIBS)
@@ -37,6 +42,13 @@ tests_test_am_latency_SOURCES = tests/test_am_latency.c
 tests_test_am_latency_CFLAGS = $(AM_UNIT_CFLAGS)
 tests_test_am_latency_LDADD = $(AM_UNIT_LIBS)
 tests_test_am_latency_LDFLAGS = $(AM_LDFLAGS) -static
+
+check_PROGRAMS += tests/test_am_keys
+TESTS += tests/test_am_keys
+tests_test_am_keys_SOURCES = tests/test_am_keys.c
+tests_test_am_keys_CFLAGS = $(AM_UNIT_CFLAGS)
+tests_test_am_keys_LDADD = $(AM_UNIT_LIBS)
+tests_test_am_keys_LDFLAGS = $(AM_LDFLAGS) -static
 
 check_PROGRAMS += tests/test_am_stats
 TESTS += tests/test_am_stats
@@ -73,6 +85,7 @@ AM_MP_TESTS = \
 	tests/am-launch.sh \
 	tests/am-fault.sh \
 	tests/am-signals.sh \
-	tests/am-flood.sh
+	tests/am-flood.sh \
+	tests/am-zap.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)
