@@ -211,6 +211,9 @@ typedef struct ref_stats {
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
     size_t shrunk;       /* constrained: cavities shrunk to a star */
+    size_t moved_splits; /* constrained: subsegment splits a face no flip
+                            mends asked for, made elsewhere than at the
+                            split point, which was refused */
     size_t cdt_refused;  /* constrained: boundary splits refused because
                             their 3D cavity kept a subfacet of their 2D one */
     size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's

@@ -482,21 +482,30 @@ static int hidden_piece(ref_mesher *r, const double *p, int missing, uint16_t *f
     return rc;
 }
 
-/* Splits subsegment id. A split of a present subsegment is refused
- * (SPLIT_REFUSED, the subsegment flagged TOLERATED) when the new vertex
- * would be nearer than rmin to an existing one: rmin is how the
- * refinement keeps splits caused by nearby features or bad tetrahedra
- * from cascading (see ref_opts.rho and split_tet). A missing subsegment is
- * always split: the mesh must conform. queued: the split comes from the
- * subsegment queue (constrained mode: a face no flip mends asked for it). */
-static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int *result)
+/* Splits subsegment id at its split point (ref__split_point), or with
+ * 0 < at < 1 at that fraction of it from its first vertex. A split of a
+ * present subsegment is refused (SPLIT_REFUSED, the subsegment flagged
+ * TOLERATED) when the new vertex would be nearer than rmin to an existing
+ * one: rmin is how the refinement keeps splits caused by nearby features
+ * or bad tetrahedra from cascading (see ref_opts.rho and split_tet). A
+ * missing subsegment is always split: the mesh must conform. queued: the
+ * split comes from the subsegment queue (constrained mode: a face no flip
+ * mends asked for it). */
+static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, double at,
+                           int *result)
 {
     tm_mesh *m = &r->m;
     bd_subseg S = r->bd.segs[id];
     *result = SPLIT_REFUSED;
     int missing = (S.flags & BD_F_MISSING) != 0;
     double p[3];
-    ref__split_point(r, S.v[0], S.v[1], p);
+    if (at > 0.0 && at < 1.0) {
+        const double *pa = X(m, S.v[0]), *pb = X(m, S.v[1]);
+        for (int k = 0; k < 3; k++)
+            p[k] = pa[k] + at * (pb[k] - pa[k]);
+    } else {
+        ref__split_point(r, S.v[0], S.v[1], p);
+    }
     int setback = 0, rc = 0;
     struct root_arg ra = {r, 0};
     if (r->o.constrained) {
@@ -597,6 +606,30 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int
     if (missing)
         r->st.missing_recovered++;
     *result = SPLIT_DONE;
+    return rc;
+}
+
+/* split_subseg_at at the split point. In the constrained mode a split
+ * that a face no flip mends asked for (queued; ref__cdt_flip) and that is
+ * refused there (the floor rmin, or a cavity that cannot be made) is
+ * tried at other points of the subsegment: any point inside it removes
+ * the face, since every tetrahedron around the subsegment is in conflict
+ * with it, and a face left so would leave the mesh no CDT (one run in
+ * eight of the tee-like boxcylsph-0.2 on 3 PEs, where rank 0 finishes the
+ * merged mesh). Not on a PE, whose subsegment may be another's by then. */
+static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int *result)
+{
+    static const double other_at[] = {0.375, 0.625, 0.25, 0.75};
+    uint16_t flags = r->bd.segs[id].flags;
+    size_t tolerated = r->st.tolerated;
+    int rc = split_subseg_at(r, id, rmin, queued, -1.0, result);
+    int retry = queued && r->o.constrained && !r->hooks && !(flags & BD_F_MISSING);
+    for (size_t k = 0; retry && !rc && *result == SPLIT_REFUSED && k < 4; k++) {
+        r->bd.segs[id].flags = flags;
+        r->st.tolerated = tolerated;
+        rc = split_subseg_at(r, id, rmin, queued, other_at[k], result);
+        r->st.moved_splits += !rc && *result == SPLIT_DONE;
+    }
     return rc;
 }
 
