@@ -50,6 +50,7 @@ dist_check_SCRIPTS += $(MESHIO_TESTS)
 EXTRA_DIST += \
 	tests/data/plc/bad-number.poly \
 	tests/data/plc/colour.off \
+	tests/data/plc/four-d.off \
 	tests/data/plc/crossing-segments.poly \
 	tests/data/plc/cube.smesh \
 	tests/data/plc/duplicate-vertex.poly \

@@ -27,8 +27,9 @@
  *  - .off: "OFF" (counts may follow on the same line), "<nv> <nf> [ne]",
  *    vertices "x y z", faces "<n> i1 .. in [colour ...]" with 0-based
  *    indices; every face is a facet with marker 0, mended as the surface
- *    faces below say. The COFF/NOFF/4OFF/STOFF variants and binary OFF
- *    are not supported.
+ *    faces below say. The STOFF, COFF, NOFF (and combined, e.g. CNOFF)
+ *    variants are read with what follows x y z on a vertex line ignored;
+ *    4OFF, nOFF and binary OFF are not supported.
  *  - .stl: binary when the size is exactly 84 + 50 * (triangle count in
  *    the header), ASCII otherwise (which must start with "solid"). Several
  *    solids in one ASCII file are read as one surface. Every triangle is a
@@ -560,10 +561,22 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     if ((rc = need_line(&t, "the OFF header")))
         goto out;
     char *w = textin_word(&t);
-    if (strcmp(w, "OFF") != 0) {
+    /* The variants whose vertices carry more than x y z: texture
+     * coordinates (ST), a colour (C), a normal (N), in that order; what
+     * follows x y z on a vertex line is then ignored. */
+    const char *k = w;
+    int extra = 0;
+    if (!strncmp(k, "ST", 2))
+        k += 2, extra = 1;
+    if (*k == 'C')
+        k++, extra = 1;
+    if (*k == 'N')
+        k++, extra = 1;
+    if (strcmp(k, "OFF") != 0) {
         if (strstr(w, "OFF"))
-            rc = textin_error(&t, "the %s variant of OFF is not supported "
-                                  "(only plain OFF)", w);
+            rc = textin_error(&t, "the %s variant of OFF is not supported (plain OFF, "
+                                  "and COFF, NOFF, CNOFF, STOFF with their extra vertex "
+                                  "data ignored)", w);
         else
             rc = textin_error(&t, "not an OFF file: it must start with 'OFF'");
         goto out;
@@ -581,7 +594,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
             (rc = textin_double(&t, "x coordinate", &x[0])) ||
             (rc = textin_double(&t, "y coordinate", &x[1])) ||
             (rc = textin_double(&t, "z coordinate", &x[2])) ||
-            (rc = expect_eol(&t, "the vertex")))
+            (!extra && (rc = expect_eol(&t, "the vertex"))))
             goto out;
         if (plc_add_vertex(p, x, t.line, NULL)) {
             rc = oom(&t);
