@@ -7,12 +7,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "base/outfile.h"
 
 static void outfile_release(outfile *of)
 {
-    free(of->path);
-    free(of->tmp);
+    pr_free(of->path);
+    pr_free(of->tmp);
     of->f = NULL;
     of->path = of->tmp = NULL;
 }
@@ -21,8 +22,8 @@ int outfile_open(outfile *of, const char *path, pdr_diag *diag)
 {
     memset(of, 0, sizeof *of);
     size_t n = strlen(path);
-    of->path = malloc(n + 1);
-    of->tmp = malloc(n + 16);
+    of->path = pr_malloc(n + 1);
+    of->tmp = pr_malloc(n + 16);
     if (!of->path || !of->tmp) {
         outfile_release(of);
         pdr_diag_add(diag, path, 0, "out of memory");

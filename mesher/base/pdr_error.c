@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_error.h"
 
 const char *pdr_strerror(int code)
@@ -44,10 +45,10 @@ int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
     size_t plen = 0;
     while (prefix[plen])
         plen++;
-    char *msg = malloc(plen + (size_t)n + 1);
-    char **msgs = msg ? realloc(d->msgs, (d->nkept + 1) * sizeof *msgs) : NULL;
+    char *msg = pr_malloc(plen + (size_t)n + 1);
+    char **msgs = msg ? pr_realloc(d->msgs, (d->nkept + 1) * sizeof *msgs) : NULL;
     if (!msgs) {
-        free(msg);
+        pr_free(msg);
         va_end(ap2);
         return PDR_ENOMEM;
     }
@@ -72,8 +73,8 @@ void pdr_diag_print(const pdr_diag *d, void *f)
 void pdr_diag_free(pdr_diag *d)
 {
     for (size_t i = 0; i < d->nkept; i++)
-        free(d->msgs[i]);
-    free(d->msgs);
+        pr_free(d->msgs[i]);
+    pr_free(d->msgs);
     d->msgs = NULL;
     d->nkept = d->ntotal = 0;
 }

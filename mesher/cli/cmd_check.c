@@ -11,6 +11,7 @@
 
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "io/face.h"
 #include "io/tg.h"
 #include "check/mc.h"
@@ -145,7 +146,7 @@ int pdr_cmd_check(int argc, char **argv)
     else if (n > 4 && !strcmp(arg + n - 4, ".ele"))
         n -= 4;
     char *pnode = pdr_path_ext(arg, n, ".node"), *pele = pdr_path_ext(arg, n, ".ele");
-    char *pface = face_path ? strdup(face_path) : pdr_path_ext(arg, n, ".face");
+    char *pface = face_path ? pr_strdup(face_path) : pdr_path_ext(arg, n, ".face");
     int status = PDR_EXIT_FAIL;
     pdr_diag diag = {0};
     tg_nodes nodes = {0};
@@ -218,7 +219,7 @@ int pdr_cmd_check(int argc, char **argv)
                             (const uint32_t(*)[3])ftri, fmark};
         rc = ql_mesh_stats(&view, max_ratio > 0 ? max_ratio : 2.0, &qs);
     }
-    free(tv);
+    pr_free(tv);
     tv = NULL;
     if (!rc && hull)
         rc = tm_add_ghosts(&m, NULL);
@@ -260,13 +261,13 @@ done:
         tm_free(&m);
     if (have_plc)
         plc_free(&p);
-    free(tv);
-    free(ftri);
-    free(fmark);
-    free(pface);
+    pr_free(tv);
+    pr_free(ftri);
+    pr_free(fmark);
+    pr_free(pface);
     tg_nodes_free(&nodes);
     pdr_diag_free(&diag);
-    free(pnode);
-    free(pele);
+    pr_free(pnode);
+    pr_free(pele);
     return status;
 }

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "mesh/dt.h"
 #include "io/tg.h"
 #include "cli/pdr_cli.h"
@@ -152,7 +153,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
     } else {
         nodes.n = nrandom > 0 && nrandom < (1LL << 34) ? (size_t)nrandom : 0;
         nodes.first = 1;
-        nodes.xyz = calloc(nodes.n * 3 + 1, sizeof(double));
+        nodes.xyz = pr_calloc(nodes.n * 3 + 1, sizeof(double));
         if (!nodes.xyz) {
             pdr_cli_error("delaunay", "out of memory for %zu points", nodes.n);
             goto done;
@@ -198,7 +199,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
         goto done;
     }
     if (!out) { /* the mesh has its own copy: keep the peak memory down */
-        free(nodes.xyz);
+        pr_free(nodes.xyz);
         nodes.xyz = NULL;
     }
     pdr_progress prog;
@@ -283,8 +284,8 @@ done:
         tm_free(&m);
     tg_nodes_free(&nodes);
     pdr_diag_free(&diag);
-    free(pnode);
-    free(pele);
-    free(pface);
+    pr_free(pnode);
+    pr_free(pele);
+    pr_free(pface);
     return status;
 }

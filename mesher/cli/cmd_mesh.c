@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "cli/mesh_par.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
@@ -124,7 +125,7 @@ static void usage(FILE *f)
 static int parse_formats(const char *s, unsigned *out)
 {
     unsigned f = 0;
-    char *copy = strdup(s);
+    char *copy = pr_strdup(s);
     if (!copy)
         return -1;
     int ok = 1;
@@ -140,7 +141,7 @@ static int parse_formats(const char *s, unsigned *out)
         else
             ok = 0;
     }
-    free(copy);
+    pr_free(copy);
     *out = f;
     return ok ? 0 : -1;
 }

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
@@ -59,7 +60,7 @@ void mp_free(mp_ctx *c)
         plc_free(&c->p);
     c->have_out = c->have_r = c->have_plc = 0;
     pdr_diag_free(&c->diag);
-    free(c->base);
+    pr_free(c->base);
     c->base = NULL;
 }
 
@@ -104,7 +105,7 @@ static int load_plc(mp_ctx *c)
 static char *output_base(const mp_ctx *c)
 {
     if (c->o.out)
-        return strdup(c->o.out);
+        return pr_strdup(c->o.out);
     const char *in = input_name(c);
     return pdr_path_ext(in, pdr_path_stem(in), ".1");
 }
@@ -350,7 +351,7 @@ static int guard_output(mp_ctx *c)
                       "refinement (nothing written)");
         return PDR_ETOPOLOGY;
     }
-    double *got = calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
+    double *got = pr_calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
     if (!got)
         return fail(c, PDR_ENOMEM);
     for (size_t i = 0; i < o->view.nf; i++)
@@ -370,7 +371,7 @@ static int guard_output(mp_ctx *c)
                 worst = err;
         }
     }
-    free(got);
+    pr_free(got);
     if (!bad)
         return 0;
     pdr_cli_error(MP_CMD,
@@ -419,9 +420,9 @@ static int write_tetgen(mp_ctx *c)
         rc = face_write(&o->view, pf, 1, &c->diag);
     if (!rc && !c->o.quiet)
         printf("wrote %s, %s, %s\n", pn, pe, pf);
-    free(pn);
-    free(pe);
-    free(pf);
+    pr_free(pn);
+    pr_free(pe);
+    pr_free(pf);
     return rc;
 }
 
@@ -433,7 +434,7 @@ static int write_vtu(mp_ctx *c)
     int rc = p ? vtu_write(&c->out.view, p, &vo, &c->diag) : PDR_ENOMEM;
     if (!rc && !c->o.quiet)
         printf("wrote %s\n", p);
-    free(p);
+    pr_free(p);
     return rc;
 }
 
@@ -444,7 +445,7 @@ static int write_msh(mp_ctx *c)
     int rc = p ? msh_write(&c->out.view, p, &c->diag) : PDR_ENOMEM;
     if (!rc && !c->o.quiet)
         printf("wrote %s\n", p);
-    free(p);
+    pr_free(p);
     return rc;
 }
 

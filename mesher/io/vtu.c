@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "io/vtu.h"
 #include "base/outfile.h"
 #include "check/ql.h"
