@@ -94,6 +94,11 @@ tests_test_delaunay_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 TESTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
 dist_check_SCRIPTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
 
+# Memory failure: pdr mesh, pdr delaunay and pdr check with their N-th
+# allocation failing, for every N (PDR_ALLOC_FAIL, proto/pr_alloc.h).
+TESTS += tests/alloc-fail.sh
+dist_check_SCRIPTS += tests/alloc-fail.sh
+
 # The quality mesher (refine branch).
 check_PROGRAMS += tests/test_refine
 TESTS += tests/test_refine

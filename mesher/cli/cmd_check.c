@@ -172,17 +172,24 @@ int pdr_cmd_check(int argc, char **argv)
         }
         have_plc = 1;
         fm_stats fs;
-        if (plc_read(&p, plc_path, &diag) || plc_validate(&p, &diag) ||
-            fm_prepare(&p, merge_angle, &fs, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int rc = plc_read(&p, plc_path, &diag);
+        if (!rc)
+            rc = plc_validate(&p, &diag);
+        if (!rc)
+            rc = fm_prepare(&p, merge_angle, &fs, &diag);
+        if (rc) {
+            pdr_cli_fail("check", &diag, rc);
             goto done;
         }
     }
     double t0 = pdr_now();
-    if (tg_read_node(pnode, &nodes, &diag) ||
-        tg_read_ele(pele, nodes.n, nodes.first, &tv, &ntets, &diag) ||
-        (with_face && face_read(pface, nodes.n, nodes.first, &ftri, &fmark, &nface, &diag))) {
-        pdr_diag_print(&diag, stderr);
+    int rrc = tg_read_node(pnode, &nodes, &diag);
+    if (!rrc)
+        rrc = tg_read_ele(pele, nodes.n, nodes.first, &tv, &ntets, &diag);
+    if (!rrc && with_face)
+        rrc = face_read(pface, nodes.n, nodes.first, &ftri, &fmark, &nface, &diag);
+    if (rrc) {
+        pdr_cli_fail("check", &diag, rrc);
         goto done;
     }
     if (tm_init(&m, 0)) {
@@ -247,8 +254,9 @@ int pdr_cmd_check(int argc, char **argv)
     }
     if (plot) {
         const char *slash = strrchr(arg, '/');
-        if (ql_plot_png(&qs, plot, slash ? slash + 1 : arg, 5, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int prc = ql_plot_png(&qs, plot, slash ? slash + 1 : arg, 5, &diag);
+        if (prc) {
+            pdr_cli_fail("check", &diag, prc);
             goto done;
         }
         if (!quiet)

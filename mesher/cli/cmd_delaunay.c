@@ -146,8 +146,9 @@ int pdr_cmd_delaunay(int argc, char **argv)
 
     /* 1. Points. */
     if (in) {
-        if (tg_read_node(in, &nodes, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int rrc = tg_read_node(in, &nodes, &diag);
+        if (rrc) {
+            pdr_cli_fail("delaunay", &diag, rrc);
             goto done;
         }
     } else {
@@ -165,8 +166,9 @@ int pdr_cmd_delaunay(int argc, char **argv)
     double t_read = pdr_now();
     if (points_only) {
         pnode = pdr_path_join(out, ".node");
-        if (!pnode || tg_write_node(pnode, &nodes, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int wrc = pnode ? tg_write_node(pnode, &nodes, NULL, &diag) : PDR_ENOMEM;
+        if (wrc) {
+            pdr_cli_fail("delaunay", &diag, wrc);
             goto done;
         }
         if (!quiet)
@@ -248,9 +250,20 @@ int pdr_cmd_delaunay(int argc, char **argv)
             pdr_cli_error("delaunay", "out of memory");
             goto done;
         }
-        if (tg_write_node(pnode, &nodes, &diag) || tg_write_ele(pele, &m, nodes.first, &diag) ||
-            (faces && tg_write_face(pface, &m, nodes.first, &diag))) {
-            pdr_diag_print(&diag, stderr);
+        /* All files or none: they wait in the set until the last is
+         * written. */
+        outset set = OUTSET_INIT;
+        int wrc = tg_write_node(pnode, &nodes, &set, &diag);
+        if (!wrc)
+            wrc = tg_write_ele(pele, &m, nodes.first, &set, &diag);
+        if (!wrc && faces)
+            wrc = tg_write_face(pface, &m, nodes.first, &set, &diag);
+        if (wrc)
+            outset_abort(&set);
+        else
+            wrc = outset_commit(&set, &diag);
+        if (wrc) {
+            pdr_cli_fail("delaunay", &diag, wrc);
             goto done;
         }
     }

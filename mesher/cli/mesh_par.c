@@ -310,12 +310,17 @@ static int write_submesh(const par_sub *s, const char *base)
     pdr_diag diag = {0};
     rc = pn && pe && pf ? 0 : PDR_ENOMEM;
     tg_nodes nodes = {.n = out.view.nv, .first = 1, .xyz = (double *)out.xyz};
+    outset set = OUTSET_INIT;
     if (!rc)
-        rc = tg_write_node(pn, &nodes, &diag);
+        rc = tg_write_node(pn, &nodes, &set, &diag);
     if (!rc)
-        rc = tg_write_ele_view(pe, &out.view, out.tet_attr, 1, &diag);
+        rc = tg_write_ele_view(pe, &out.view, out.tet_attr, 1, &set, &diag);
     if (!rc)
-        rc = face_write(&out.view, pf, 1, &diag);
+        rc = face_write(&out.view, pf, 1, &set, &diag);
+    if (rc)
+        outset_abort(&set);
+    else
+        rc = outset_commit(&set, &diag);
     pdr_diag_print(&diag, stderr);
     pdr_diag_free(&diag);
     pr_free(pn);

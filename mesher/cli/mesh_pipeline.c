@@ -68,8 +68,12 @@ void mp_free(mp_ctx *c)
  * the reason. Returns rc. */
 static int fail(mp_ctx *c, int rc)
 {
-    pdr_diag_print(&c->diag, stderr);
-    pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+    if (rc == PDR_ENOMEM) {
+        pdr_cli_fail(MP_CMD, &c->diag, rc);
+    } else {
+        pdr_diag_print(&c->diag, stderr);
+        pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+    }
     return rc;
 }
 
@@ -120,9 +124,10 @@ int mp_read(mp_ctx *c)
     if ((rc = load_plc(c))) {
         /* The reader's file:line messages say it all for a bad input;
          * anything else (memory, no input) gets its reason too. */
-        pdr_diag_print(&c->diag, stderr);
-        if (rc != PDR_EPARSE && rc != PDR_EGEOMETRY && rc != PDR_EIO)
-            pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+        if (rc == PDR_EPARSE || rc == PDR_EGEOMETRY || rc == PDR_EIO)
+            pdr_diag_print(&c->diag, stderr);
+        else
+            fail(c, rc);
         return rc;
     }
     if (!(c->base = output_base(c)))
@@ -257,7 +262,10 @@ int mp_initial_mesh(mp_ctx *c)
     /* Warnings (a region point outside the domain) are shown even when
      * Mo was built. */
     if (c->diag.ntotal) {
-        pdr_diag_print(&c->diag, stderr);
+        if (rc == PDR_ENOMEM)
+            pdr_diag_print_kept(&c->diag, stderr); /* fail() says why */
+        else
+            pdr_diag_print(&c->diag, stderr);
         pdr_diag_free(&c->diag);
     }
     if (rc == PDR_ELIMIT)
@@ -405,7 +413,7 @@ int mp_export(mp_ctx *c)
 /* ------------------------------------------------------------ write */
 
 /* BASE.node, BASE.ele, BASE.face (1-based, region attributes). */
-static int write_tetgen(mp_ctx *c)
+static int write_tetgen(mp_ctx *c, outset *set)
 {
     const ref_output *o = &c->out;
     tg_nodes nodes = {.n = o->view.nv, .first = 1, .xyz = (double *)o->xyz};
@@ -413,13 +421,11 @@ static int write_tetgen(mp_ctx *c)
          *pf = pdr_path_join(c->base, ".face");
     int rc = pn && pe && pf ? 0 : PDR_ENOMEM;
     if (!rc)
-        rc = tg_write_node(pn, &nodes, &c->diag);
+        rc = tg_write_node(pn, &nodes, set, &c->diag);
     if (!rc)
-        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, &c->diag);
+        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, set, &c->diag);
     if (!rc)
-        rc = face_write(&o->view, pf, 1, &c->diag);
-    if (!rc && !c->o.quiet)
-        printf("wrote %s, %s, %s\n", pn, pe, pf);
+        rc = face_write(&o->view, pf, 1, set, &c->diag);
     pr_free(pn);
     pr_free(pe);
     pr_free(pf);
@@ -427,45 +433,65 @@ static int write_tetgen(mp_ctx *c)
 }
 
 /* BASE.vtu, binary, without the quality fields. */
-static int write_vtu(mp_ctx *c)
+static int write_vtu(mp_ctx *c, outset *set)
 {
     char *p = pdr_path_join(c->base, ".vtu");
     vtu_opts vo = {0, 0};
-    int rc = p ? vtu_write(&c->out.view, p, &vo, &c->diag) : PDR_ENOMEM;
-    if (!rc && !c->o.quiet)
-        printf("wrote %s\n", p);
+    int rc = p ? vtu_write(&c->out.view, p, &vo, set, &c->diag) : PDR_ENOMEM;
     pr_free(p);
     return rc;
 }
 
 /* BASE.msh, Gmsh 4.1. */
-static int write_msh(mp_ctx *c)
+static int write_msh(mp_ctx *c, outset *set)
 {
     char *p = pdr_path_join(c->base, ".msh");
-    int rc = p ? msh_write(&c->out.view, p, &c->diag) : PDR_ENOMEM;
-    if (!rc && !c->o.quiet)
-        printf("wrote %s\n", p);
+    int rc = p ? msh_write(&c->out.view, p, set, &c->diag) : PDR_ENOMEM;
     pr_free(p);
     return rc;
+}
+
+/* The "wrote ..." lines, once every file is in place (a file name is the
+ * base followed by its extension, as pdr_path_join makes it). */
+static void print_written(const mp_ctx *c)
+{
+    unsigned f = c->o.formats;
+    const char *b = c->base;
+    if (f & MP_FMT_NODE)
+        printf("wrote %s.node, %s.ele, %s.face\n", b, b, b);
+    if (f & MP_FMT_VTU)
+        printf("wrote %s.vtu\n", b);
+    if (f & MP_FMT_MSH)
+        printf("wrote %s.msh\n", b);
 }
 
 int mp_write(mp_ctx *c)
 {
     double t = pdr_now();
     unsigned f = c->o.formats;
+    /* Every format or none: the files wait in the set until the last one
+     * is written. */
+    outset set = OUTSET_INIT;
     int rc = 0;
     if (f & MP_FMT_NODE)
-        rc = write_tetgen(c);
+        rc = write_tetgen(c, &set);
     if (!rc && (f & MP_FMT_VTU))
-        rc = write_vtu(c);
+        rc = write_vtu(c, &set);
     if (!rc && (f & MP_FMT_MSH))
-        rc = write_msh(c);
+        rc = write_msh(c, &set);
+    if (rc)
+        outset_abort(&set);
+    else
+        rc = outset_commit(&set, &c->diag);
     if (rc) {
-        /* The writers name the file and the reason in diag; there is no
-         * further "pdr mesh:" line. */
-        pdr_diag_print(&c->diag, stderr);
+        /* The writers name the file and the reason in diag; only a lack
+         * of memory gets a further "pdr mesh:" line, since its message
+         * may have been lost. */
+        pdr_cli_fail(MP_CMD, &c->diag, rc);
         return rc;
     }
+    if (!c->o.quiet)
+        print_written(c);
     c->t_written = pdr_now();
     c->sec[MP_WRITE] = c->t_written - t;
     return 0;

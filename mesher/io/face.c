@@ -9,10 +9,11 @@
 #include "base/outfile.h"
 #include "base/textin.h"
 
-int face_write(const mesh_export *m, const char *path, int base, pdr_diag *diag)
+int face_write(const mesh_export *m, const char *path, int base, outset *set,
+               pdr_diag *diag)
 {
     outfile of;
-    int rc = outfile_open(&of, path, diag);
+    int rc = outfile_open_in(&of, set, path, diag);
     if (rc)
         return rc;
     FILE *f = of.f;

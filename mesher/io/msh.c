@@ -100,7 +100,7 @@ static void put_box(FILE *f, const double *b)
         fprintf(f, "%.17g ", isfinite(b[j]) ? b[j] : 0.0);
 }
 
-int msh_write(const mesh_export *m, const char *path, pdr_diag *diag)
+int msh_write(const mesh_export *m, const char *path, outset *set, pdr_diag *diag)
 {
     size_t ns = 0, nvol = 0;
     int *smark = distinct(m->tri_marker, m->nf, &ns);
@@ -118,7 +118,7 @@ int msh_write(const mesh_export *m, const char *path, pdr_diag *diag)
         goto fail;
 
     outfile of;
-    if ((rc = outfile_open(&of, path, diag)))
+    if ((rc = outfile_open_in(&of, set, path, diag)))
         goto out;
     FILE *f = of.f;
     fprintf(f, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");

@@ -314,14 +314,14 @@ static void wnl(wbuf *w)
     w->b[w->pos++] = '\n';
 }
 
-static int open_w(const char *path, outfile *of, wbuf **w, pdr_diag *diag)
+static int open_w(const char *path, outset *set, outfile *of, wbuf **w, pdr_diag *diag)
 {
     *w = pr_malloc(sizeof **w);
     if (!*w) {
         pdr_diag_add(diag, path, 0, "out of memory");
         return PDR_ENOMEM;
     }
-    int rc = outfile_open(of, path, diag);
+    int rc = outfile_open_in(of, set, path, diag);
     if (rc) {
         pr_free(*w);
         *w = NULL;
@@ -339,11 +339,11 @@ static int close_w(outfile *of, wbuf *w, pdr_diag *diag)
     return outfile_commit(of, diag);
 }
 
-int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag)
+int tg_write_node(const char *path, const tg_nodes *nodes, outset *set, pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     wstr(w, "# written by pdr\n");
@@ -371,11 +371,12 @@ static uint64_t orig(const tm_mesh *m, uint32_t v)
     return m->gid ? m->gid[v] : v;
 }
 
-int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
+int tg_write_ele(const char *path, const tm_mesh *m, long first, outset *set,
+                 pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     size_t n = 0;
@@ -399,11 +400,11 @@ int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
 }
 
 int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr, long first,
-                      pdr_diag *diag)
+                      outset *set, pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     wstr(w, "# written by pdr\n");
@@ -422,11 +423,12 @@ int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr
     return close_w(&of, w, diag);
 }
 
-int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
+int tg_write_face(const char *path, const tm_mesh *m, long first, outset *set,
+                  pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     size_t n = 0;
