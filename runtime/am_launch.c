@@ -171,6 +171,7 @@ static int read_hostfile(launch *L)
     }
     L->hosts = pr_calloc((size_t)L->np, sizeof *L->hosts);
     if (!L->hosts) {
+        lerr(L, "out of memory");
         fclose(f);
         return -1;
     }
@@ -195,8 +196,10 @@ static int read_hostfile(launch *L)
             }
         }
         for (long i = 0; i < slots && rank < L->np && !bad; i++)
-            if (!(L->hosts[rank++] = pr_strdup(host)))
+            if (!(L->hosts[rank++] = pr_strdup(host))) {
+                lerr(L, "out of memory");
                 bad = 1;
+            }
     }
     fclose(f);
     if (!bad && rank < L->np) {
@@ -1204,8 +1207,10 @@ int am_launch_main(int argc, char **argv, const char *prog)
     L.printed = pr_calloc(np, sizeof *L.printed);
     if (!L.pids || !L.status || !L.stopped_at || !L.stop_status || !L.forced ||
         !L.forced_after ||
-        !L.reported || !L.printed)
+        !L.reported || !L.printed) {
+        lerr(&L, "out of memory");
         goto out;
+    }
     for (int r = 0; r < L.np; r++)
         L.status[r] = -1;
     if (stats) {

@@ -91,7 +91,7 @@ sweep() {
         seq "$all" $(((t - all + steps - 1) / steps)) "$t" | sed 1d
     fi >"$tmp/cases"
     ncases=$(wc -l <"$tmp/cases")
-    xargs -P "$jobs" -I{} "$SHELL" "$self" --case "$d" {} "$@" <"$tmp/cases"
+    xargs -P "$jobs" -I{} "${SHELL:-/bin/sh}" "$self" --case "$d" {} "$@" <"$tmp/cases"
     nfail=$(find "$d" -name 'fail.*' | wc -l)
     if [ "$nfail" -gt 0 ]; then
         echo "FAIL: $name: $nfail of $ncases cases failed; the first ones:"

@@ -742,8 +742,10 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
      * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
      * options). */
     char **av = pr_calloc((size_t)argc + 16, sizeof *av);
-    if (!av)
+    if (!av) {
+        pdr_cli_error("mesh", "out of memory");
         return PDR_EXIT_FAIL;
+    }
     char np[32];
     snprintf(np, sizeof np, "%d", po->nprocs);
     int n = 0;
