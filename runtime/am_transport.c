@@ -237,7 +237,7 @@ int am__transport_open(am_ctx_t *ctx)
     if (tcp && ctx->keys) {
         char prefix[32];
         snprintf(prefix, sizeof prefix, "am: PE %d: ", ctx->rank);
-        if (!(ctx->hs_peer_warned = calloc((size_t)ctx->size, 1)))
+        if (!(ctx->hs_peer_warned = pr_calloc((size_t)ctx->size, 1)))
             return AM_ENOMEM;
         rc = am__zap_start(ctx->zctx, (const char (*)[41])ctx->keys->pub,
                            ctx->keys->n, prefix, "this PE", &ctx->zap);

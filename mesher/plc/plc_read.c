@@ -431,9 +431,9 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
         u = v;
         v = s;
     }
-    double (*q)[2] = malloc(n * sizeof *q);
-    uint32_t *idx = malloc(n * sizeof *idx);
-    uint32_t(*tri)[3] = malloc((n - 2) * sizeof *tri);
+    double (*q)[2] = pr_malloc(n * sizeof *q);
+    uint32_t *idx = pr_malloc(n * sizeof *idx);
+    uint32_t(*tri)[3] = pr_malloc((n - 2) * sizeof *tri);
     int rc = q && idx && tri ? 0 : PDR_ENOMEM;
     uint32_t left = n, ntri = 0;
     for (uint32_t i = 0; i < n && !rc; i++) {
@@ -480,9 +480,9 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
     for (uint32_t i = 0; i < ntri && !rc; i++)
         if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, tri[i], 3, line))
             rc = PDR_ENOMEM;
-    free(q);
-    free(idx);
-    free(tri);
+    pr_free(q);
+    pr_free(idx);
+    pr_free(tri);
     return rc;
 }
 
