@@ -52,7 +52,7 @@ static int alloc_fail_from_env(void)
     char *end;
     errno = 0;
     unsigned long long n = strtoull(s, &end, 10);
-    if (end == s || *end != '\0' || *s == '-' || errno == ERANGE) {
+    if (*s < '0' || *s > '9' || *end != '\0' || errno == ERANGE) {
         fprintf(stderr, "pdr: PDR_ALLOC_FAIL='%s' is not a count of "
                         "allocations\n", s);
         return -1;
