@@ -10,7 +10,8 @@
  * specified in proto/PROTOCOL.md.
  *
  * Errors: functions return 0 or a negative PR_E* code; pr_strerror() names
- * them. Both pr_buf and pr_reader keep the first error (sticky), so a
+ * them. Memory comes from the allocation hook (pr_alloc.h): PR_ENOMEM when
+ * it fails, and what proto hands over is released with pr_free(). Both pr_buf and pr_reader keep the first error (sticky), so a
  * sequence of puts or gets can be checked once at the end.
  */
 #ifndef PR_H
@@ -69,7 +70,7 @@ void pr_buf_free(pr_buf *b);
 void pr_buf_reset(pr_buf *b);
 /* Makes room for n more bytes; returns 0 or PR_ENOMEM (also stored). */
 int pr_buf_reserve(pr_buf *b, size_t n);
-/* Transfers ownership of the bytes to the caller (free() them) and leaves
+/* Transfers ownership of the bytes to the caller (pr_free() them) and leaves
  * b empty. Returns NULL if b is empty or in error. */
 uint8_t *pr_buf_take(pr_buf *b, size_t *len);
 
@@ -361,7 +362,7 @@ int pr_face_key_put(pr_buf *b, const pr_face_key *k);
 int pr_face_key_get(pr_reader *r, pr_face_key *k);
 
 /* A face key list: count, then the keys (at most PR_MAX_FACE_KEYS). The
- * decoder allocates *keys (caller frees with free(); NULL when n is 0). */
+ * decoder allocates *keys (caller frees with pr_free(); NULL when n is 0). */
 #define PR_MAX_FACE_KEYS (UINT32_C(1) << 25)
 int pr_face_keys_put(pr_buf *b, const pr_face_key *keys, uint32_t n);
 int pr_face_keys_get(pr_reader *r, pr_face_key **keys, uint32_t *n);

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "pr.h"
+#include "pr_alloc.h"
 #include "pr_int.h"
 
 const char *pr_strerror(int code)
@@ -62,7 +63,7 @@ uint64_t pr_load_u64(const uint8_t *p)
 
 void pr_buf_free(pr_buf *b)
 {
-    free(b->data);
+    pr_free(b->data);
     b->data = NULL;
     b->len = b->cap = 0;
     b->err = 0;
@@ -88,7 +89,7 @@ int pr_buf_reserve(pr_buf *b, size_t n)
     size_t cap = b->cap ? b->cap : 64;
     while (cap - b->len < n)
         cap *= 2;
-    uint8_t *p = realloc(b->data, cap);
+    uint8_t *p = pr_realloc(b->data, cap);
     if (!p) {
         b->err = PR_ENOMEM;
         return b->err;

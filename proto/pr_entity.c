@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "pr.h"
+#include "pr_alloc.h"
 #include "pr_int.h"
 
 /* -------------------------------------------------------------- entities */
@@ -162,7 +163,7 @@ int pr_face_keys_get(pr_reader *r, pr_face_key **keys, uint32_t *n)
         return r->err;
     if (count == 0)
         return 0;
-    pr_face_key *k = malloc((size_t)count * sizeof *k);
+    pr_face_key *k = pr_malloc((size_t)count * sizeof *k);
     if (!k)
         return pr_reader_fail(r, PR_ENOMEM);
     pr_get_view(r, &p, (size_t)count * PR_FACE_KEY_SIZE); /* fits: checked */
@@ -171,7 +172,7 @@ int pr_face_keys_get(pr_reader *r, pr_face_key **keys, uint32_t *n)
             k[i].gid[j] = pr__ld64(p + PR_FACE_KEY_SIZE * (size_t)i + 8 * j);
         int rc = face_key_error(&k[i]);
         if (rc) {
-            free(k);
+            pr_free(k);
             return pr_reader_fail(r, rc);
         }
     }
@@ -226,7 +227,7 @@ int pr_vtable_put(pr_buf *b, const pr_vtable *t)
 void pr_vtable_clear(pr_vtable *t)
 {
     /* One allocation holds all three arrays; gid is its start. */
-    free(t->gid);
+    pr_free(t->gid);
     *t = (pr_vtable){0};
 }
 
@@ -241,7 +242,7 @@ int pr_vtable_get(pr_reader *r, pr_vtable *t)
     /* The count fits in the message, so this allocation is at most the
      * size of the message. Arrays are laid out gid, xyz, flags so that
      * each starts suitably aligned. */
-    uint8_t *mem = malloc((size_t)n * VTABLE_ELEM);
+    uint8_t *mem = pr_malloc((size_t)n * VTABLE_ELEM);
     if (!mem)
         return pr_reader_fail(r, PR_ENOMEM);
     t->n = n;
@@ -408,7 +409,7 @@ int pr_ttable_put(pr_buf *b, const pr_ttable *t, uint32_t n_vertices,
 
 void pr_ttable_clear(pr_ttable *t)
 {
-    free(t->v); /* one allocation, v is its start */
+    pr_free(t->v); /* one allocation, v is its start */
     *t = (pr_ttable){0};
 }
 
@@ -421,7 +422,7 @@ int pr_ttable_get(pr_reader *r, pr_ttable *t, uint32_t n_vertices,
         return r->err;
     if (n == 0)
         return 0;
-    uint8_t *mem = malloc((size_t)n * TTABLE_ELEM);
+    uint8_t *mem = pr_malloc((size_t)n * TTABLE_ELEM);
     if (!mem)
         return pr_reader_fail(r, PR_ENOMEM);
     t->n = n;

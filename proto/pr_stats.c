@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "pr.h"
+#include "pr_alloc.h"
 #include "pr_int.h"
 
 /* Smallest encoded entry: a 1-byte name (2 + 1), type, value. */
@@ -23,7 +24,7 @@ static int name_ok(const char *name, size_t len)
 
 void pr_stats_clear(pr_stats *s)
 {
-    free(s->item);
+    pr_free(s->item);
     s->item = NULL;
     s->n = s->cap = 0;
 }
@@ -56,7 +57,7 @@ static int grow(pr_stats *s, uint32_t need)
     uint32_t cap = s->cap ? s->cap : 16;
     while (cap < need)
         cap *= 2;
-    pr_stat *p = realloc(s->item, (size_t)cap * sizeof *p);
+    pr_stat *p = pr_realloc(s->item, (size_t)cap * sizeof *p);
     if (!p)
         return PR_ENOMEM;
     s->item = p;
@@ -238,7 +239,7 @@ int pr_stats_merge(pr_stats *acc, const pr_stats *in)
     /* Merge the two sorted lists into a new array and swap it in at the
      * end, so acc is untouched when anything fails. */
     size_t cap = (size_t)acc->n + in->n;
-    pr_stat *m = cap ? malloc(cap * sizeof *m) : NULL;
+    pr_stat *m = cap ? pr_malloc(cap * sizeof *m) : NULL;
     if (cap && !m)
         return PR_ENOMEM;
     uint32_t i = 0, j = 0, k = 0;
@@ -270,10 +271,10 @@ int pr_stats_merge(pr_stats *acc, const pr_stats *in)
     if (!rc && k > PR_MAX_STATS)
         rc = PR_ERANGE;
     if (rc) {
-        free(m);
+        pr_free(m);
         return rc;
     }
-    free(acc->item);
+    pr_free(acc->item);
     acc->item = m;
     acc->n = k;
     acc->cap = k; /* at least k items are allocated */

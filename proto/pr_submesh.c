@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "pr.h"
+#include "pr_alloc.h"
 #include "pr_int.h"
 
 /* Bytes per interface face on the wire: face name and remote rank. */
@@ -70,7 +71,7 @@ static int iftable_get(pr_reader *r, pr_iftable *f)
         return r->err;
     if (n == 0)
         return 0;
-    uint32_t *mem = malloc((size_t)n * IFTABLE_ELEM);
+    uint32_t *mem = pr_malloc((size_t)n * IFTABLE_ELEM);
     if (!mem)
         return pr_reader_fail(r, PR_ENOMEM);
     f->n = n;
@@ -86,15 +87,15 @@ void pr_submesh_free(pr_submesh **sm)
         return;
     pr_vtable_clear(&(*sm)->vert);
     pr_ttable_clear(&(*sm)->tet);
-    free((*sm)->iface.face); /* one allocation with remote */
-    free(*sm);
+    pr_free((*sm)->iface.face); /* one allocation with remote */
+    pr_free(*sm);
     *sm = NULL;
 }
 
 int pr_submesh_decode(const void *payload, size_t len, pr_submesh **out)
 {
     *out = NULL;
-    pr_submesh *sm = calloc(1, sizeof *sm);
+    pr_submesh *sm = pr_calloc(1, sizeof *sm);
     if (!sm)
         return PR_ENOMEM;
     pr_reader r;

@@ -17,6 +17,9 @@
  *    There are no hidden globals, so a test can run several one-PE contexts
  *    in one process.
  *  - If a call that takes a callback fails, the callback is never called.
+ *  - Every allocation goes through proto's hook (proto/pr_alloc.h), which
+ *    in the installed library is the C library's malloc; a failed one is
+ *    AM_ENOMEM.
  *  - The runtime is single-threaded: call it from the thread that called
  *    am_init(). ("Threads" below are the runtime's cooperative coroutines,
  *    which all run on that OS thread, one at a time.)
@@ -425,7 +428,9 @@ AM_EXPORT int am_cond_broadcast(am_cond_t *c);
 /* Sends req to handler id on PE pe as a call and suspends the calling
  * thread (only; other threads and the PE go on) until the reply arrives.
  * On success *reply is a malloc'd copy of the reply payload (caller frees
- * it with free(); NULL if the reply is empty) and *reply_len its length.
+ * it with free(), or pr_free() in a program that links proto's allocation
+ * hook itself, as pdr does; NULL if the reply is empty) and *reply_len its
+ * length.
  * Only from a thread (AM_ESTATE otherwise). */
 AM_EXPORT int am_call(am_ctx_t *ctx, int pe, unsigned id, const void *req,
                       size_t len, void **reply, size_t *reply_len);
@@ -479,7 +484,8 @@ AM_EXPORT int am_allreduce_i64(am_ctx_t *ctx, const int64_t *in, int64_t *out,
 
 /* Gathers a blob of len bytes from every PE to rank 0. On rank 0, *all is
  * a malloc'd concatenation in rank order and *lens a malloc'd array of P
- * lengths (caller frees both); on other ranks both are set to NULL. */
+ * lengths (caller frees both, as am_call's reply); on other ranks both are
+ * set to NULL. */
 AM_EXPORT int am_gather(am_ctx_t *ctx, const void *data, size_t len,
                         void **all, size_t **lens);
 

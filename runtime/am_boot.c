@@ -26,6 +26,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 static void nap(double seconds)
@@ -40,7 +41,7 @@ static void nap(double seconds)
 static int file_publish(am_ctx_t *ctx, const char *path, const char *ep)
 {
     size_t n = strlen(path) + 32;
-    char *tmp = malloc(n);
+    char *tmp = pr_malloc(n);
     if (!tmp)
         return AM_ENOMEM;
     snprintf(tmp, n, "%s.tmp.%ld", path, (long)getpid());
@@ -51,11 +52,11 @@ static int file_publish(am_ctx_t *ctx, const char *path, const char *ep)
         am__warn(ctx, "cannot write the rendezvous file %s: %s", path,
                  strerror(errno));
         unlink(tmp);
-        free(tmp);
+        pr_free(tmp);
         return AM_ELAUNCH;
     }
-    free(tmp);
-    ctx->rdv_file = strdup(path);
+    pr_free(tmp);
+    ctx->rdv_file = pr_strdup(path);
     return 0;
 }
 
@@ -255,7 +256,7 @@ static int send_hello(am_ctx_t *ctx, int to, unsigned type)
         pr_hello_init(&h.id, ctx->job, (uint32_t)ctx->rank, (uint32_t)ctx->size);
         am__peer_hello_put(&b, &h);
     } else {
-        char **eps = malloc(sizeof *eps * (size_t)ctx->size);
+        char **eps = pr_malloc(sizeof *eps * (size_t)ctx->size);
         if (!eps) {
             pr_buf_free(&b);
             return AM_ENOMEM;
@@ -263,7 +264,7 @@ static int send_hello(am_ctx_t *ctx, int to, unsigned type)
         for (int pe = 0; pe < ctx->size; pe++)
             eps[pe] = ctx->peers[pe].endpoint;
         am__table_put(&b, ctx->job, (uint32_t)ctx->size, eps);
-        free(eps);
+        pr_free(eps);
     }
     int rc = am__send_ctl(ctx, to, type, &b);
     pr_buf_free(&b);
@@ -284,7 +285,7 @@ int am__boot(am_ctx_t *ctx)
             rc = send_hello(ctx, pe, AM__CTL_TABLE);
         return rc;
     }
-    if (!(ctx->peers[0].endpoint = strdup(root)))
+    if (!(ctx->peers[0].endpoint = pr_strdup(root)))
         return AM_ENOMEM;
     if ((rc = am__connect_peer(ctx, 0)) || (rc = send_hello(ctx, 0, AM__CTL_HELLO)))
         return rc;
@@ -363,8 +364,8 @@ static void on_hello(am_ctx_t *ctx, int src, pr_reader *body)
     }
     if (check_hello(ctx, src, &h.id))
         return;
-    free(p->endpoint);
-    p->endpoint = strndup((const char *)h.endpoint.p, h.endpoint.len);
+    pr_free(p->endpoint);
+    p->endpoint = pr_strndup((const char *)h.endpoint.p, h.endpoint.len);
     if (!p->endpoint) {
         am__fail(ctx, AM_ENOMEM, "out of memory at boot");
         return;
@@ -389,7 +390,7 @@ static void on_table(am_ctx_t *ctx, int src, pr_reader *body)
 {
     if (!booting(ctx, src))
         return;
-    am__str *eps = calloc((size_t)ctx->size, sizeof *eps);
+    am__str *eps = pr_calloc((size_t)ctx->size, sizeof *eps);
     uint64_t job;
     uint32_t n;
     if (!eps) {
@@ -399,26 +400,26 @@ static void on_table(am_ctx_t *ctx, int src, pr_reader *body)
     if (src != 0 || ctx->rank == 0 || ctx->boot_table ||
         am__table_get(body, &job, (uint32_t)ctx->size, &n, eps) ||
         n != (uint32_t)ctx->size) {
-        free(eps);
+        pr_free(eps);
         am__reject(ctx, AM__REJ_BODY, src, "bad endpoint table");
         return;
     }
     if (check_job(ctx, src, job, n)) {
-        free(eps);
+        pr_free(eps);
         return;
     }
     for (int pe = 1; pe < ctx->size; pe++) {
         if (pe == ctx->rank)
             continue;
-        free(ctx->peers[pe].endpoint);
-        ctx->peers[pe].endpoint = strndup((const char *)eps[pe].p, eps[pe].len);
+        pr_free(ctx->peers[pe].endpoint);
+        ctx->peers[pe].endpoint = pr_strndup((const char *)eps[pe].p, eps[pe].len);
         if (!ctx->peers[pe].endpoint) {
-            free(eps);
+            pr_free(eps);
             am__fail(ctx, AM_ENOMEM, "out of memory at boot");
             return;
         }
     }
-    free(eps);
+    pr_free(eps);
     ctx->boot_table = 1;
 }
 

@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 static am__coll *coll_find(am_ctx_t *ctx, uint64_t seq, int create)
@@ -28,7 +29,7 @@ static am__coll *coll_find(am_ctx_t *ctx, uint64_t seq, int create)
             return c;
     if (!create)
         return NULL;
-    am__coll *c = calloc(1, sizeof *c);
+    am__coll *c = pr_calloc(1, sizeof *c);
     if (!c)
         return NULL;
     c->seq = seq;
@@ -45,16 +46,16 @@ static void coll_free(am_ctx_t *ctx, am__coll *c)
             *pp = c->next;
             break;
         }
-    free(c->child[0]);
-    free(c->child[1]);
-    free(c->result);
+    pr_free(c->child[0]);
+    pr_free(c->child[1]);
+    pr_free(c->result);
     if (c->blobs) {
         for (int i = 0; i < ctx->size; i++)
-            free(c->blobs[i]);
-        free(c->blobs);
+            pr_free(c->blobs[i]);
+        pr_free(c->blobs);
     }
-    free(c->blens);
-    free(c);
+    pr_free(c->blens);
+    pr_free(c);
 }
 
 void am__coll_free_all(am_ctx_t *ctx)
@@ -229,7 +230,7 @@ static int allreduce(am_ctx_t *ctx, int kind, const void *in, void *out,
     if (!ctx || (n && (!in || !out)) || n > AM__COLL_MAX_N ||
         (op != AM_SUM && op != AM_MIN && op != AM_MAX))
         return AM_EINVAL;
-    uint8_t *acc = malloc(n ? n * 8 : 1);
+    uint8_t *acc = pr_malloc(n ? n * 8 : 1);
     if (!acc)
         return AM_ENOMEM;
     for (size_t i = 0; i < n; i++) {
@@ -243,7 +244,7 @@ static int allreduce(am_ctx_t *ctx, int kind, const void *in, void *out,
             uint64_t v = pr_load_u64(acc + 8 * i);
             memcpy((uint8_t *)out + 8 * i, &v, 8);
         }
-    free(acc);
+    pr_free(acc);
     return rc;
 }
 
@@ -306,9 +307,9 @@ int am_gather(am_ctx_t *ctx, const void *data, size_t len, void **all,
             buf = c->blobs[only];
             c->blobs[only] = NULL;
         } else {
-            buf = malloc(total ? total : 1);
+            buf = pr_malloc(total ? total : 1);
         }
-        l = malloc(sizeof *l * (size_t)ctx->size);
+        l = pr_malloc(sizeof *l * (size_t)ctx->size);
         if (!buf || !l)
             rc = AM_ENOMEM;
     }
@@ -324,8 +325,8 @@ int am_gather(am_ctx_t *ctx, const void *data, size_t len, void **all,
         *all = buf;
         *lens = l;
     } else {
-        free(buf);
-        free(l);
+        pr_free(buf);
+        pr_free(l);
     }
     coll_free(ctx, c);
     ctx->coll_busy = 0;
@@ -349,8 +350,8 @@ static void on_gather(am_ctx_t *ctx, int src, pr_reader *body)
         return;
     }
     if (!(c = coll_find(ctx, m.seq, 1)) ||
-        (!c->blobs && (!(c->blobs = calloc((size_t)ctx->size, sizeof *c->blobs)) ||
-                       !(c->blens = calloc((size_t)ctx->size, sizeof *c->blens))))) {
+        (!c->blobs && (!(c->blobs = pr_calloc((size_t)ctx->size, sizeof *c->blobs)) ||
+                       !(c->blens = pr_calloc((size_t)ctx->size, sizeof *c->blens))))) {
         am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
         return;
     }
@@ -360,7 +361,7 @@ static void on_gather(am_ctx_t *ctx, int src, pr_reader *body)
         am__reject(ctx, AM__REJ_BODY, src, "duplicate gather contribution");
         return;
     }
-    c->blobs[src] = malloc(m.blob.len ? m.blob.len : 1);
+    c->blobs[src] = pr_malloc(m.blob.len ? m.blob.len : 1);
     if (!c->blobs[src]) {
         am__fail(ctx, AM_ENOMEM, "out of memory in a gather");
         return;
@@ -398,7 +399,7 @@ static void on_vector(am_ctx_t *ctx, int src, pr_reader *body, int up)
         am__reject(ctx, AM__REJ_BODY, src, "unexpected collective message");
         return;
     }
-    uint8_t *copy = malloc(m.n ? (size_t)m.n * 8 : 1);
+    uint8_t *copy = pr_malloc(m.n ? (size_t)m.n * 8 : 1);
     if (!copy) {
         am__fail(ctx, AM_ENOMEM, "out of memory in a collective");
         return;

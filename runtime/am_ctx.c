@@ -12,6 +12,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 #define DEFAULT_STACK (64 * 1024)
@@ -200,12 +201,12 @@ static int take_args(am_ctx_t *ctx, int *argc, char ***argv)
             av[out++] = av[i];
             continue;
         }
-        char **grown = realloc(ctx->overrides,
+        char **grown = pr_realloc(ctx->overrides,
                                sizeof *grown * (size_t)(ctx->noverrides + 1));
         if (!grown)
             return AM_ENOMEM;
         ctx->overrides = grown;
-        char *kv = malloc(strlen(a) + 1);
+        char *kv = pr_malloc(strlen(a) + 1);
         if (!kv)
             return AM_ENOMEM;
         size_t k = 0;
@@ -303,7 +304,7 @@ static int detect_rank(am_ctx_t *ctx)
 
 static char *dup_or_null(const char *s)
 {
-    return s ? strdup(s) : NULL;
+    return s ? pr_strdup(s) : NULL;
 }
 
 static int bad_option(const am_ctx_t *ctx, const char *name, const char *value,
@@ -394,7 +395,7 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         return bad_option(ctx, "AM_SEND_QUEUE", v, "bytes, e.g. 64M, or 0");
 
     v = o->stats_dir ? o->stats_dir : am__env(ctx, "AM_STATS_DIR");
-    if (v && !(ctx->stats_dir = strdup(v)))
+    if (v && !(ctx->stats_dir = pr_strdup(v)))
         return AM_ENOMEM;
 
     ctx->ipc_dir = dup_or_null(am__env(ctx, "AM_IPC_DIR"));
@@ -403,13 +404,13 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         v = ctx->ipc_dir ? "ipc" : "tcp";
     if (strcmp(v, "ipc") && strcmp(v, "tcp"))
         return bad_option(ctx, "AM_TRANSPORT", v, "ipc or tcp");
-    ctx->transport = strdup(v);
+    ctx->transport = pr_strdup(v);
     if (!strcmp(v, "ipc") && !ctx->ipc_dir && ctx->size > 1) {
         am__warn(ctx, "AM_TRANSPORT=ipc needs AM_IPC_DIR, a directory for the "
                       "sockets");
         return AM_EINVAL;
     }
-    ctx->bind_addr = strdup((v = am__env(ctx, "AM_BIND")) ? v : "127.0.0.1");
+    ctx->bind_addr = pr_strdup((v = am__env(ctx, "AM_BIND")) ? v : "127.0.0.1");
     ctx->root_ep = dup_or_null(am__env(ctx, "AM_ROOT"));
     ctx->rendezvous = dup_or_null(am__env(ctx, "AM_RENDEZVOUS"));
     if ((v = am__env(ctx, "AM_JOB"))) {
@@ -528,23 +529,23 @@ static void destroy(am_ctx_t *ctx)
     am__stats_free(ctx);
     if (ctx->peers)
         for (int pe = 0; pe < ctx->size; pe++)
-            free(ctx->peers[pe].endpoint);
-    free(ctx->peers);
+            pr_free(ctx->peers[pe].endpoint);
+    pr_free(ctx->peers);
     for (int i = 0; i < ctx->noverrides; i++)
-        free(ctx->overrides[i]);
-    free(ctx->overrides);
-    free(ctx->stats_dir);
-    free(ctx->transport);
-    free(ctx->ipc_dir);
-    free(ctx->bind_addr);
-    free(ctx->root_ep);
-    free(ctx->rendezvous);
-    free(ctx->rdv_file);
+        pr_free(ctx->overrides[i]);
+    pr_free(ctx->overrides);
+    pr_free(ctx->stats_dir);
+    pr_free(ctx->transport);
+    pr_free(ctx->ipc_dir);
+    pr_free(ctx->bind_addr);
+    pr_free(ctx->root_ep);
+    pr_free(ctx->rendezvous);
+    pr_free(ctx->rdv_file);
     am__keys_free(&ctx->keys);
-    free(ctx->hs_peer_warned);
+    pr_free(ctx->hs_peer_warned);
     if (ctx->report_fd >= 0)
         close(ctx->report_fd);
-    free(ctx);
+    pr_free(ctx);
 }
 
 int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
@@ -552,7 +553,7 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
     if (!out)
         return AM_EINVAL;
     *out = NULL;
-    am_ctx_t *ctx = calloc(1, sizeof *ctx);
+    am_ctx_t *ctx = pr_calloc(1, sizeof *ctx);
     if (!ctx)
         return AM_ENOMEM;
     ctx->t_init = am__now();
@@ -567,7 +568,7 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
         open_report(ctx);
     if (!rc)
         rc = resolve_options(ctx, opts);
-    if (!rc && !(ctx->peers = calloc((size_t)ctx->size, sizeof *ctx->peers)))
+    if (!rc && !(ctx->peers = pr_calloc((size_t)ctx->size, sizeof *ctx->peers)))
         rc = AM_ENOMEM;
     for (int pe = 0; !rc && pe < ctx->size; pe++)
         ctx->peers[pe].ctx = ctx;
@@ -690,13 +691,13 @@ int am_finalize(am_ctx_t **pctx)
     if (ctx->stats_dir) {
         am__read_monitor(ctx); /* failed handshakes, for the counts */
         size_t n = strlen(ctx->stats_dir) + 32;
-        char *path = malloc(n);
+        char *path = pr_malloc(n);
         if (path) {
             snprintf(path, n, "%s/stats-%d.json", ctx->stats_dir, ctx->rank);
             int src = am_stats_write_json(ctx, path);
             if (src && !rc)
                 rc = src;
-            free(path);
+            pr_free(path);
         }
     }
     if (ctx->rank == 0 && ctx->rdv_file)

@@ -9,6 +9,7 @@
 
 #include <stdlib.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 void am__waitq_push(am__waitq *q, am__waiter *w)
@@ -76,7 +77,7 @@ int am_future_new(am_ctx_t *ctx, am_future_t **out)
 {
     if (!ctx || !out)
         return AM_EINVAL;
-    am_future_t *f = calloc(1, sizeof *f);
+    am_future_t *f = pr_calloc(1, sizeof *f);
     if (!f)
         return AM_ENOMEM;
     f->ctx = ctx;
@@ -92,7 +93,7 @@ void am_future_free(am_future_t **f)
      * queue; that is a program bug the runtime cannot repair. */
     if ((*f)->waiters.head)
         abort();
-    free(*f);
+    pr_free(*f);
     *f = NULL;
 }
 
@@ -153,7 +154,7 @@ int am_cond_new(am_ctx_t *ctx, am_cond_t **out)
 {
     if (!ctx || !out)
         return AM_EINVAL;
-    am_cond_t *c = calloc(1, sizeof *c);
+    am_cond_t *c = pr_calloc(1, sizeof *c);
     if (!c)
         return AM_ENOMEM;
     c->ctx = ctx;
@@ -167,7 +168,7 @@ void am_cond_free(am_cond_t **c)
         return;
     if ((*c)->waiters.head)
         abort();
-    free(*c);
+    pr_free(*c);
     *c = NULL;
 }
 

@@ -28,6 +28,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 #define KEYS_MAGIC "am-curve-keys 1"
@@ -37,22 +38,22 @@ void am__keys_free(am__keys **pk)
     am__keys *k = *pk;
     if (!k)
         return;
-    free(k->pub);
+    pr_free(k->pub);
     /* The secret does not outlive its use in freed memory. */
     memset(k->secret, 0, sizeof k->secret);
-    free(k);
+    pr_free(k);
     *pk = NULL;
 }
 
 static am__keys *keys_new(int size)
 {
-    am__keys *k = calloc(1, sizeof *k);
+    am__keys *k = pr_calloc(1, sizeof *k);
     if (!k)
         return NULL;
     k->n = size;
-    k->pub = calloc((size_t)size, sizeof *k->pub);
+    k->pub = pr_calloc((size_t)size, sizeof *k->pub);
     if (!k->pub) {
-        free(k);
+        pr_free(k);
         return NULL;
     }
     return k;
@@ -86,7 +87,7 @@ int am__keys_shared(const char *pub, const char *sec, int size, am__keys **out)
 static char *slurp(int fd, size_t limit, double timeout, size_t *len)
 {
     size_t cap = 4096, n = 0;
-    char *buf = malloc(cap + 1);
+    char *buf = pr_malloc(cap + 1);
     double end = am__now() + timeout;
     while (buf) {
         buf[n] = '\0';
@@ -96,9 +97,9 @@ static char *slurp(int fd, size_t limit, double timeout, size_t *len)
         if (n == cap) {
             if (cap >= limit)
                 break;
-            char *nb = realloc(buf, (cap *= 2) + 1);
+            char *nb = pr_realloc(buf, (cap *= 2) + 1);
             if (!nb) {
-                free(buf);
+                pr_free(buf);
                 return NULL;
             }
             buf = nb;
@@ -216,12 +217,12 @@ int am__keys_read(const am_ctx_t *ctx, const char *spec, int rank, int size,
         close(fd);
     am__keys *k = text ? keys_new(size) : NULL;
     if (!k) {
-        free(text);
+        pr_free(text);
         return AM_ENOMEM;
     }
     const char *why = parse(text, rank, k);
     memset(text, 0, len);
-    free(text);
+    pr_free(text);
     if (why) {
         am__warn(ctx, "bad CURVE keys in %s: %s", spec, why);
         am__keys_free(&k);
@@ -236,7 +237,7 @@ int am__keys_format(char (*pub)[41], char (*sec)[41], int n, int rank,
 {
     /* A line is at most 7 + 10 + 1 + 40 + 1 bytes. */
     size_t cap = (size_t)n * (rank < 0 ? 128 : 64) + 256;
-    char *b = malloc(cap);
+    char *b = pr_malloc(cap);
     if (!b)
         return AM_ENOMEM;
     size_t k = (size_t)snprintf(b, cap, "%s\n", KEYS_MAGIC);

@@ -55,6 +55,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 #define EXIT_USAGE 2
@@ -168,8 +169,9 @@ static int read_hostfile(launch *L)
         lerr(L, "cannot open %s: %s", L->hostfile, strerror(errno));
         return -1;
     }
-    L->hosts = calloc((size_t)L->np, sizeof *L->hosts);
+    L->hosts = pr_calloc((size_t)L->np, sizeof *L->hosts);
     if (!L->hosts) {
+        lerr(L, "out of memory");
         fclose(f);
         return -1;
     }
@@ -194,8 +196,10 @@ static int read_hostfile(launch *L)
             }
         }
         for (long i = 0; i < slots && rank < L->np && !bad; i++)
-            if (!(L->hosts[rank++] = strdup(host)))
+            if (!(L->hosts[rank++] = pr_strdup(host))) {
+                lerr(L, "out of memory");
                 bad = 1;
+            }
     }
     fclose(f);
     if (!bad && rank < L->np) {
@@ -321,7 +325,7 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
             rdv_reply(L, id, (size_t)idn, "ERR only rank 0 publishes");
         } else if (!strncmp(req, "PUT ", 4) && !strncmp(req + 4, job, jl) &&
                    req[4 + jl] == ' ' && !L->root_ep) {
-            L->root_ep = strdup(req + 5 + jl);
+            L->root_ep = pr_strdup(req + 5 + jl);
             rdv_reply(L, id, (size_t)idn, L->root_ep ? "OK" : "ERR no memory");
             char ep[1200];
             snprintf(ep, sizeof ep, "EP %s", L->root_ep ? L->root_ep : "");
@@ -329,7 +333,7 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
                 pending *p = *waiting;
                 *waiting = p->next;
                 rdv_reply(L, p->id, p->idlen, ep);
-                free(p);
+                pr_free(p);
             }
         } else if (!strncmp(req, "GET ", 4) && !strcmp(req + 4, job)) {
             if (L->root_ep) {
@@ -337,7 +341,7 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
                 snprintf(ep, sizeof ep, "EP %s", L->root_ep);
                 rdv_reply(L, id, (size_t)idn, ep);
             } else {
-                pending *p = calloc(1, sizeof *p);
+                pending *p = pr_calloc(1, sizeof *p);
                 if (p) {
                     memcpy(p->id, id, (size_t)idn);
                     p->idlen = (size_t)idn;
@@ -359,7 +363,7 @@ static int shquote(char **buf, size_t *len, size_t *cap, const char *s)
     size_t need = *len + 4 * strlen(s) + 4;
     if (need > *cap) {
         size_t ncap = need * 2;
-        char *nb = realloc(*buf, ncap);
+        char *nb = pr_realloc(*buf, ncap);
         if (!nb)
             return -1;
         *buf = nb;
@@ -437,7 +441,7 @@ static int key_fd(const launch *L, int r)
         off += (size_t)w;
     }
     memset(block, 0, len);
-    free(block);
+    pr_free(block);
     if (fd >= 0 && lseek(fd, 0, SEEK_SET) != 0) {
         close(fd);
         fd = -1;
@@ -513,7 +517,7 @@ static pid_t start_remote(launch *L, int r)
     int use_keys = L->curve;
     int bad = 0;
     const char *pre = "cd ";
-    script = malloc(sc = strlen(pre) + 1);
+    script = pr_malloc(sc = strlen(pre) + 1);
     if (!script)
         return -1;
     strcpy(script, pre);
@@ -521,7 +525,7 @@ static pid_t start_remote(launch *L, int r)
     bad |= shquote(&script, &sl, &sc, cwd);
     const char *mid = "&& exec env ";
     if (sl + strlen(mid) + 1 > sc) {
-        char *nb = realloc(script, sc = sl + strlen(mid) + 64);
+        char *nb = pr_realloc(script, sc = sl + strlen(mid) + 64);
         if (!nb)
             bad = 1;
         else
@@ -535,19 +539,19 @@ static pid_t start_remote(launch *L, int r)
         bad |= shquote(&script, &sl, &sc, env[i]);
     for (char **a = L->cmd; *a && !bad; a++)
         bad |= shquote(&script, &sl, &sc, *a);
-    cmd = malloc(cc = 16);
+    cmd = pr_malloc(cc = 16);
     if (cmd)
         strcpy(cmd, "exec sh -c ");
     cl = cmd ? strlen(cmd) : 0;
     if (bad || !cmd || shquote(&cmd, &cl, &cc, script)) {
-        free(script);
-        free(cmd);
+        pr_free(script);
+        pr_free(cmd);
         return -1;
     }
-    free(script);
+    pr_free(script);
     int keys[2] = {-1, -1};
     if (use_keys && pipe(keys) != 0) {
-        free(cmd);
+        pr_free(cmd);
         return -1;
     }
     pid_t pid = fork();
@@ -566,7 +570,7 @@ static pid_t start_remote(launch *L, int r)
                 strerror(errno));
         _exit(127);
     }
-    free(cmd);
+    pr_free(cmd);
     if (use_keys) {
         close(keys[0]);
         char *block = NULL;
@@ -590,7 +594,7 @@ static pid_t start_remote(launch *L, int r)
             }
             sigaction(SIGPIPE, &old_pipe, NULL);
             memset(block, 0, len);
-            free(block);
+            pr_free(block);
         }
         close(keys[1]);
     }
@@ -874,7 +878,7 @@ static int wait_job(launch *L)
     while (waiting) {
         pending *p = waiting;
         waiting = p->next;
-        free(p);
+        pr_free(p);
     }
     if (result)
         return result;
@@ -898,7 +902,7 @@ static int keys_file(const launch *L, const char *path)
         return 1;
     }
     size_t np = (size_t)L->np;
-    char (*pub)[41] = calloc(np, sizeof *pub), (*sec)[41] = calloc(np, sizeof *sec);
+    char (*pub)[41] = pr_calloc(np, sizeof *pub), (*sec)[41] = pr_calloc(np, sizeof *sec);
     char *block = NULL;
     size_t len = 0;
     int ok = pub && sec;
@@ -926,9 +930,9 @@ static int keys_file(const launch *L, const char *path)
         memset(block, 0, len);
     if (sec)
         memset(sec, 0, sizeof *sec * np);
-    free(block);
-    free(pub);
-    free(sec);
+    pr_free(block);
+    pr_free(pub);
+    pr_free(sec);
     return done ? 0 : 1;
 }
 
@@ -1036,22 +1040,22 @@ static void cleanup(launch *L)
     if (L->sec)
         memset(L->sec, 0, sizeof *L->sec * (size_t)L->np);
     memset(L->rdv_sec, 0, sizeof L->rdv_sec);
-    free(L->pub);
-    free(L->sec);
+    pr_free(L->pub);
+    pr_free(L->sec);
     if (L->hosts)
         for (int r = 0; r < L->np; r++)
-            free(L->hosts[r]);
-    free(L->hosts);
-    free(L->stats_dir);
-    free(L->root_ep);
-    free(L->pids);
-    free(L->status);
-    free(L->stopped_at);
-    free(L->stop_status);
-    free(L->forced);
-    free(L->forced_after);
-    free(L->reported);
-    free(L->printed);
+            pr_free(L->hosts[r]);
+    pr_free(L->hosts);
+    pr_free(L->stats_dir);
+    pr_free(L->root_ep);
+    pr_free(L->pids);
+    pr_free(L->status);
+    pr_free(L->stopped_at);
+    pr_free(L->stop_status);
+    pr_free(L->forced);
+    pr_free(L->forced_after);
+    pr_free(L->reported);
+    pr_free(L->printed);
 }
 
 int am_launch_main(int argc, char **argv, const char *prog)
@@ -1193,18 +1197,20 @@ int am_launch_main(int argc, char **argv, const char *prog)
         L.heartbeat = 0.05;
     L.self = getpid();
     size_t np = (size_t)L.np;
-    L.pids = calloc(np, sizeof *L.pids);
-    L.status = malloc(sizeof *L.status * np);
-    L.stopped_at = calloc(np, sizeof *L.stopped_at);
-    L.stop_status = calloc(np, sizeof *L.stop_status);
-    L.forced = calloc(np, sizeof *L.forced);
-    L.forced_after = calloc(np, sizeof *L.forced_after);
-    L.reported = calloc(np, sizeof *L.reported);
-    L.printed = calloc(np, sizeof *L.printed);
+    L.pids = pr_calloc(np, sizeof *L.pids);
+    L.status = pr_malloc(sizeof *L.status * np);
+    L.stopped_at = pr_calloc(np, sizeof *L.stopped_at);
+    L.stop_status = pr_calloc(np, sizeof *L.stop_status);
+    L.forced = pr_calloc(np, sizeof *L.forced);
+    L.forced_after = pr_calloc(np, sizeof *L.forced_after);
+    L.reported = pr_calloc(np, sizeof *L.reported);
+    L.printed = pr_calloc(np, sizeof *L.printed);
     if (!L.pids || !L.status || !L.stopped_at || !L.stop_status || !L.forced ||
         !L.forced_after ||
-        !L.reported || !L.printed)
+        !L.reported || !L.printed) {
+        lerr(&L, "out of memory");
         goto out;
+    }
     for (int r = 0; r < L.np; r++)
         L.status[r] = -1;
     if (stats) {
@@ -1213,8 +1219,16 @@ int am_launch_main(int argc, char **argv, const char *prog)
                  strerror(errno));
             goto out;
         }
-        if (!(L.stats_dir = realpath(stats, NULL))) {
+        /* realpath's own result is the C library's, not the hook's. */
+        char *abs = realpath(stats, NULL);
+        if (!abs) {
             lerr(&L, "--stats %s: %s", stats, strerror(errno));
+            goto out;
+        }
+        L.stats_dir = pr_strdup(abs);
+        free(abs);
+        if (!L.stats_dir) {
+            lerr(&L, "--stats %s: out of memory", stats);
             goto out;
         }
     }
@@ -1245,8 +1259,8 @@ int am_launch_main(int argc, char **argv, const char *prog)
     } else {
         /* A key pair per PE and one for the rendezvous. */
         if (L.curve) {
-            L.pub = calloc(np, sizeof *L.pub);
-            L.sec = calloc(np, sizeof *L.sec);
+            L.pub = pr_calloc(np, sizeof *L.pub);
+            L.sec = pr_calloc(np, sizeof *L.sec);
             int ok = L.pub && L.sec &&
                      zmq_curve_keypair(L.rdv_pub, L.rdv_sec) == 0;
             for (int r = 0; ok && r < L.np; r++)

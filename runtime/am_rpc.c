@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 static am__call **bucket(am_ctx_t *ctx, uint64_t id)
@@ -124,7 +125,7 @@ static void on_reply(am_ctx_t *ctx, int src, pr_reader *body)
     ctx->rpc_reply_st.recv++;
     ctx->rpc_reply_st.recv_bytes += m.payload.len;
     if (m.payload.len) {
-        c->reply = malloc(m.payload.len);
+        c->reply = pr_malloc(m.payload.len);
         if (!c->reply) {
             am__fail(ctx, AM_ENOMEM, "out of memory receiving a reply");
             return;

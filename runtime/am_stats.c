@@ -14,6 +14,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 int am_category(am_ctx_t *ctx, const char *name)
@@ -25,7 +26,7 @@ int am_category(am_ctx_t *ctx, const char *name)
             return i;
     if (ctx->ncats == AM__CAT_MAX)
         return AM_EINVAL;
-    char *copy = strdup(name);
+    char *copy = pr_strdup(name);
     if (!copy)
         return AM_ENOMEM;
     am__category *c = &ctx->cats[ctx->ncats];
@@ -82,10 +83,10 @@ void am_stats_get(am_ctx_t *ctx, am_stats_t *out)
 void am__stats_free(am_ctx_t *ctx)
 {
     for (int i = 0; i < ctx->ncats; i++)
-        free(ctx->cats[i].name);
+        pr_free(ctx->cats[i].name);
     ctx->ncats = 0;
     for (int i = 0; i < AM_HANDLER_MAX; i++) {
-        free(ctx->handlers[i].name);
+        pr_free(ctx->handlers[i].name);
         ctx->handlers[i].name = NULL;
     }
 }
@@ -222,14 +223,14 @@ int am_stats_write_json(am_ctx_t *ctx, const char *path)
      * never sees half a file (the mesher's outfile module does the same,
      * but libam cannot depend on the mesher). */
     size_t n = strlen(path) + 32;
-    char *tmp = malloc(n);
+    char *tmp = pr_malloc(n);
     if (!tmp)
         return AM_ENOMEM;
     snprintf(tmp, n, "%s.tmp.%ld", path, (long)getpid());
     FILE *f = fopen(tmp, "w");
     if (!f) {
         am__warn(ctx, "cannot write %s: %s", tmp, strerror(errno));
-        free(tmp);
+        pr_free(tmp);
         return AM_ESYS;
     }
     write_json(ctx, f);
@@ -238,9 +239,9 @@ int am_stats_write_json(am_ctx_t *ctx, const char *path)
     if (bad || rename(tmp, path) != 0) {
         am__warn(ctx, "cannot write %s: %s", path, strerror(errno));
         unlink(tmp);
-        free(tmp);
+        pr_free(tmp);
         return AM_ESYS;
     }
-    free(tmp);
+    pr_free(tmp);
     return 0;
 }

@@ -26,6 +26,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 #ifdef AM_ASAN
@@ -57,21 +58,21 @@ static am__stack *stack_get(am__sched *s)
 #endif
         return st;
     }
-    st = calloc(1, sizeof *st);
+    st = pr_calloc(1, sizeof *st);
     if (!st)
         return NULL;
     st->map_size = s->stack_size + s->page;
     st->map = mmap(NULL, st->map_size, PROT_READ | PROT_WRITE,
                    MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK, -1, 0);
     if (st->map == MAP_FAILED) {
-        free(st);
+        pr_free(st);
         return NULL;
     }
     /* Stacks grow down: the guard page is the lowest page, so running off
      * the end faults instead of writing into whatever is mapped below. */
     if (mprotect(st->map, s->page, PROT_NONE) != 0) {
         munmap(st->map, st->map_size);
-        free(st);
+        pr_free(st);
         return NULL;
     }
     st->lo = (char *)st->map + s->page;
@@ -82,7 +83,7 @@ static am__stack *stack_get(am__sched *s)
 static void stack_unmap(am__stack *st)
 {
     munmap(st->map, st->map_size);
-    free(st);
+    pr_free(st);
 }
 
 static void stack_put(am__sched *s, am__stack *st)
@@ -215,7 +216,7 @@ void am__sched_free(am_ctx_t *ctx)
             stack_unmap(t->stack);
         if (t->sleep_ev)
             event_free(t->sleep_ev);
-        free(t);
+        pr_free(t);
     }
     s->all = NULL;
     for (am__stack *st = s->free_stacks, *n; st; st = n) {
@@ -238,14 +239,14 @@ int am_thread_spawn(am_ctx_t *ctx, am_thread_fn fn, void *arg,
     if (t) {
         s->free_threads = t->next;
     } else {
-        t = calloc(1, sizeof *t);
+        t = pr_calloc(1, sizeof *t);
         if (!t)
             return AM_ENOMEM;
         /* getcontext costs a system call (the signal mask); a recycled
          * thread struct keeps its initialised ucontext and only goes
          * through makecontext again. */
         if (init_context(&t->uc) != 0) {
-            free(t);
+            pr_free(t);
             return AM_ESYS;
         }
         t->ctx = ctx;

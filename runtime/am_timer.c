@@ -9,6 +9,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 void am__timer_armed(am_ctx_t *ctx, int user, int delta)
@@ -38,7 +39,7 @@ static void timer_free_now(am_timer_t *t)
     if (t->armed)
         am__timer_armed(t->ctx, 1, -1);
     event_free(t->ev);
-    free(t);
+    pr_free(t);
 }
 
 static void timer_cb(evutil_socket_t fd, short what, void *arg)
@@ -65,7 +66,7 @@ int am_timer_new(am_ctx_t *ctx, am_timer_fn fn, void *arg, am_timer_t **out)
 {
     if (!ctx || !fn || !out)
         return AM_EINVAL;
-    am_timer_t *t = calloc(1, sizeof *t);
+    am_timer_t *t = pr_calloc(1, sizeof *t);
     if (!t)
         return AM_ENOMEM;
     t->ctx = ctx;
@@ -73,7 +74,7 @@ int am_timer_new(am_ctx_t *ctx, am_timer_fn fn, void *arg, am_timer_t **out)
     t->arg = arg;
     t->ev = evtimer_new(ctx->base, timer_cb, t);
     if (!t->ev) {
-        free(t);
+        pr_free(t);
         return AM_ENOMEM;
     }
     *out = t;

@@ -50,6 +50,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 /* How long a suspected peer is probed before it is cleared, and how long a
@@ -67,7 +68,7 @@ static const char *const reject_msg[AM__REJ_COUNT] = {
 
 am__frame *am__frame_new(void)
 {
-    am__frame *f = calloc(1, sizeof *f);
+    am__frame *f = pr_calloc(1, sizeof *f);
     if (f)
         zmq_msg_init(&f->msg);
     return f;
@@ -78,7 +79,7 @@ void am__frame_free(am__frame *f)
     if (!f)
         return;
     zmq_msg_close(&f->msg);
-    free(f);
+    pr_free(f);
 }
 
 void am__fifo_push(am__fifo *q, am__frame *f)
@@ -236,7 +237,7 @@ int am__transport_open(am_ctx_t *ctx)
     if (tcp && ctx->keys) {
         char prefix[32];
         snprintf(prefix, sizeof prefix, "am: PE %d: ", ctx->rank);
-        if (!(ctx->hs_peer_warned = calloc((size_t)ctx->size, 1)))
+        if (!(ctx->hs_peer_warned = pr_calloc((size_t)ctx->size, 1)))
             return AM_ENOMEM;
         rc = am__zap_start(ctx->zctx, (const char (*)[41])ctx->keys->pub,
                            ctx->keys->n, prefix, "this PE", &ctx->zap);
@@ -278,7 +279,7 @@ int am__transport_open(am_ctx_t *ctx)
         long port = strtol(last + 14, NULL, 10);
         snprintf(last, sizeof last, "tcp://%s:%ld", adv, port);
     }
-    ctx->peers[ctx->rank].endpoint = strdup(last);
+    ctx->peers[ctx->rank].endpoint = pr_strdup(last);
     if (!ctx->peers[ctx->rank].endpoint)
         return AM_ENOMEM;
     size_t fdlen = sizeof ctx->zfd;
@@ -584,7 +585,7 @@ void am__ctl_begin(pr_buf *body)
 static void free_buf(void *data, void *hint)
 {
     (void)hint;
-    free(data);
+    pr_free(data);
 }
 
 static int send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
@@ -601,12 +602,12 @@ static int send_ctl(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
     size_t len;
     uint8_t *data = pr_buf_take(body, &len);
     if (!data || len < PR_HEADER_SIZE || len - PR_HEADER_SIZE > PR_MAX_PAYLOAD) {
-        free(data);
+        pr_free(data);
         return AM_EINVAL;
     }
     zmq_msg_t m;
     if (zmq_msg_init_data(&m, data, len, free_buf, NULL) != 0) {
-        free(data);
+        pr_free(data);
         return AM_ENOMEM;
     }
     int rc = send_frame(ctx, pe, PR_FLAG_CONTROL, type, &m, user, user_len);
@@ -670,7 +671,7 @@ static void zc_release(void *frame, void *hint)
     zc_owner *o = hint;
     if (o->armed && o->ffn)
         o->ffn(frame, o->hint);
-    free(o);
+    pr_free(o);
 }
 
 int am_send_zc(am_ctx_t *ctx, int pe, unsigned id, void *frame, size_t len,
@@ -681,13 +682,13 @@ int am_send_zc(am_ctx_t *ctx, int pe, unsigned id, void *frame, size_t len,
         return rc;
     if (!frame)
         return AM_EINVAL;
-    zc_owner *o = malloc(sizeof *o);
+    zc_owner *o = pr_malloc(sizeof *o);
     if (!o)
         return AM_ENOMEM;
     *o = (zc_owner){ffn, hint, 1};
     zmq_msg_t m;
     if (zmq_msg_init_data(&m, frame, PR_HEADER_SIZE + len, zc_release, o)) {
-        free(o);
+        pr_free(o);
         return AM_ENOMEM;
     }
     rc = send_frame(ctx, pe, 0, id, &m, id, len);
@@ -702,14 +703,14 @@ void *am_buf_alloc(size_t len)
 {
     if (len > AM_MAX_PAYLOAD)
         return NULL;
-    uint8_t *p = malloc(AM_HEADROOM + (len ? len : 1));
+    uint8_t *p = pr_malloc(AM_HEADROOM + (len ? len : 1));
     return p ? p + AM_HEADROOM : NULL;
 }
 
 void am_buf_free(void *payload)
 {
     if (payload)
-        free((uint8_t *)payload - AM_HEADROOM);
+        pr_free((uint8_t *)payload - AM_HEADROOM);
 }
 
 int am_send_buf(am_ctx_t *ctx, int pe, unsigned id, void *payload, size_t len)
@@ -727,9 +728,9 @@ int am_register(am_ctx_t *ctx, unsigned id, const char *name, am_handler_fn fn,
         return AM_EINVAL;
     am__handler *h = &ctx->handlers[id];
     char *copy = NULL;
-    if (name && !(copy = strdup(name)))
+    if (name && !(copy = pr_strdup(name)))
         return AM_ENOMEM;
-    free(h->name);
+    pr_free(h->name);
     h->name = copy;
     h->fn = fn;
     h->arg = arg;
@@ -1175,7 +1176,7 @@ static int unreachable(am_ctx_t *ctx, int pe)
                            ctx->peers[pe].send_seq++};
             pr_header_encode(&h, data);
             zmq_send(ctx->sock, data, len, ZMQ_DONTWAIT);
-            free(data);
+            pr_free(data);
             count_send(ctx, PR_FLAG_CONTROL, AM__CTL_PING, 0, USER_NONE, 0);
         }
     }

@@ -34,6 +34,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "am_int.h"
 
 /* Addresses remembered for the once-per-address log; beyond that many
@@ -93,7 +94,7 @@ static void refused(am__zap *z, const char *addr, const char *why)
         atomic_fetch_add(&z->strangers, 1);
         return;
     }
-    char *copy = strdup(addr);
+    char *copy = pr_strdup(addr);
     if (copy)
         z->logged[z->nlogged++] = copy;
     atomic_fetch_add(&z->strangers, 1);
@@ -210,11 +211,11 @@ int am__zap_start(void *zctx, const char (*keys)[41], int nkeys,
                   const char *prefix, const char *what, am__zap **out)
 {
     *out = NULL;
-    am__zap *z = calloc(1, sizeof *z);
+    am__zap *z = pr_calloc(1, sizeof *z);
     if (!z)
         return AM_ENOMEM;
-    z->keys = calloc((size_t)(nkeys > 0 ? nkeys : 1), sizeof *z->keys);
-    z->logged = calloc(ZAP_ADDR_MAX, sizeof *z->logged);
+    z->keys = pr_calloc((size_t)(nkeys > 0 ? nkeys : 1), sizeof *z->keys);
+    z->logged = pr_calloc(ZAP_ADDR_MAX, sizeof *z->logged);
     if (!z->keys || !z->logged) {
         am__zap_stop(&z);
         return AM_ENOMEM;
@@ -278,10 +279,10 @@ void am__zap_stop(am__zap **pz)
         zmq_close(z->stop_tx);
     if (z->logged)
         for (int i = 0; i < z->nlogged; i++)
-            free(z->logged[i]);
-    free(z->logged);
-    free(z->keys);
-    free(z);
+            pr_free(z->logged[i]);
+    pr_free(z->logged);
+    pr_free(z->keys);
+    pr_free(z);
     *pz = NULL;
 }
 

@@ -120,16 +120,16 @@ int main(int argc, char **argv)
         char path[4096];
         vtu_opts bin = {0, 1}, asc = {1, 0};
         snprintf(path, sizeof path, "%s.vtu", argv[2]);
-        rc = vtu_write(&m, path, &bin, &d);
+        rc = vtu_write(&m, path, &bin, NULL, &d);
         snprintf(path, sizeof path, "%s-ascii.vtu", argv[2]);
         if (!rc)
-            rc = vtu_write(&m, path, &asc, &d);
+            rc = vtu_write(&m, path, &asc, NULL, &d);
         snprintf(path, sizeof path, "%s.msh", argv[2]);
         if (!rc)
-            rc = msh_write(&m, path, &d);
+            rc = msh_write(&m, path, NULL, &d);
         snprintf(path, sizeof path, "%s.face", argv[2]);
         if (!rc)
-            rc = face_write(&m, path, 1, &d);
+            rc = face_write(&m, path, 1, NULL, &d);
         /* Checksums a reader can recompute: coordinates weighted by axis,
          * and each tetrahedron's sorted corners hashed into a sum, so the
          * corner order written does not matter. */

@@ -3,36 +3,36 @@ check_PROGRAMS += tests/test_pdr_error
 TESTS += tests/test_pdr_error
 tests_test_pdr_error_SOURCES = tests/test_pdr_error.c
 tests_test_pdr_error_CFLAGS = $(UNIT_CFLAGS)
-tests_test_pdr_error_LDADD = libpdrmesh.la $(UNIT_LIBS)
+tests_test_pdr_error_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS)
 
 check_PROGRAMS += tests/test_textin
 TESTS += tests/test_textin
 tests_test_textin_SOURCES = tests/test_textin.c
 tests_test_textin_CFLAGS = $(UNIT_CFLAGS)
-tests_test_textin_LDADD = libpdrmesh.la $(UNIT_LIBS)
+tests_test_textin_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS)
 
 check_PROGRAMS += tests/test_pred
 TESTS += tests/test_pred
 tests_test_pred_SOURCES = tests/test_pred.c
 tests_test_pred_CFLAGS = $(UNIT_CFLAGS)
-tests_test_pred_LDADD = libpdrmesh.la $(UNIT_LIBS) $(GMP_LIBS) -lm
+tests_test_pred_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) $(GMP_LIBS) -lm
 
 # PLC input, validation, domains, quality and output formats (meshio).
 check_PROGRAMS += tests/plc_tool
 tests_plc_tool_SOURCES = tests/plc_tool.c
-tests_plc_tool_LDADD = libpdrmesh.la -lm
+tests_plc_tool_LDADD = libpdrmesh.la libpdrproto.la -lm
 check_PROGRAMS += tests/mesh_out_tool
 tests_mesh_out_tool_SOURCES = tests/mesh_out_tool.c
-tests_mesh_out_tool_LDADD = libpdrmesh.la -lm
+tests_mesh_out_tool_LDADD = libpdrmesh.la libpdrproto.la -lm
 
 check_PROGRAMS += tests/test_plc tests/test_quality
 TESTS += tests/test_plc tests/test_quality
 tests_test_plc_SOURCES = tests/test_plc.c
 tests_test_plc_CFLAGS = $(UNIT_CFLAGS)
-tests_test_plc_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_plc_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 tests_test_quality_SOURCES = tests/test_quality.c
 tests_test_quality_CFLAGS = $(UNIT_CFLAGS)
-tests_test_quality_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_quality_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 
 # The stages of pdr mesh used one by one (cli/mesh_pipeline.c is part of
 # the pdr program, not of the library, so the test compiles it in).
@@ -41,7 +41,7 @@ TESTS += tests/test_mesh_pipeline
 tests_test_mesh_pipeline_SOURCES = tests/test_mesh_pipeline.c mesher/cli/mesh_pipeline.c \
 	mesher/cli/cli_util.c
 tests_test_mesh_pipeline_CFLAGS = $(UNIT_CFLAGS)
-tests_test_mesh_pipeline_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_mesh_pipeline_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 
 MESHIO_TESTS = tests/plc-errors.sh tests/plc-example.sh tests/domain-cli.sh \
 	tests/domain-tetgen.sh tests/output-meshio.sh tests/output-plot.sh
@@ -90,17 +90,22 @@ check_PROGRAMS += tests/test_delaunay
 TESTS += tests/test_delaunay
 tests_test_delaunay_SOURCES = tests/test_delaunay.c
 tests_test_delaunay_CFLAGS = $(UNIT_CFLAGS)
-tests_test_delaunay_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_delaunay_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 
 TESTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
 dist_check_SCRIPTS += tests/delaunay-cli.sh tests/delaunay-errors.sh
+
+# Memory failure: pdr mesh, pdr delaunay and pdr check with their N-th
+# allocation failing, for every N (PDR_ALLOC_FAIL, proto/pr_alloc.h).
+TESTS += tests/alloc-fail.sh
+dist_check_SCRIPTS += tests/alloc-fail.sh
 
 # The quality mesher (refine branch).
 check_PROGRAMS += tests/test_refine
 TESTS += tests/test_refine
 tests_test_refine_SOURCES = tests/test_refine.c
 tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
-tests_test_refine_LDADD = libpdrmesh.la $(UNIT_LIBS) -lm
+tests_test_refine_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
 	tests/mesh-tessellated.sh \

@@ -9,6 +9,14 @@ tests_test_pr_header_LDADD = libpdrproto.la $(UNIT_LIBS)
 noinst_HEADERS += tests/pr_sample.h
 PR_SAMPLE_SOURCES = tests/pr_sample.c tests/pr_sample.h
 
+# The allocation hook (proto/pr_alloc.h): counting, fail-after-N, another
+# allocator, and proto's decoders failing cleanly at every allocation.
+check_PROGRAMS += tests/test_pr_alloc
+TESTS += tests/test_pr_alloc
+tests_test_pr_alloc_SOURCES = tests/test_pr_alloc.c $(PR_SAMPLE_SOURCES)
+tests_test_pr_alloc_CFLAGS = $(UNIT_CFLAGS)
+tests_test_pr_alloc_LDADD = libpdrproto.la $(UNIT_LIBS)
+
 check_PROGRAMS += tests/test_pr_messages
 TESTS += tests/test_pr_messages
 tests_test_pr_messages_SOURCES = tests/test_pr_messages.c $(PR_SAMPLE_SOURCES)
@@ -86,7 +94,7 @@ tests_fuzz_replay_face_keys_LDADD = libpdrproto.la
 # and runs tools/bench_proto (results in bench/proto.md).
 noinst_PROGRAMS += tools/bench_proto
 tools_bench_proto_SOURCES = tools/bench_proto.c $(PR_SAMPLE_SOURCES)
-tools_bench_proto_LDADD = libpdrproto.la libpdrmesh.la $(METIS_LIBS) -lm
+tools_bench_proto_LDADD = libpdrmesh.la libpdrproto.la $(METIS_LIBS) -lm
 dist_noinst_SCRIPTS += tools/bench-proto
 
 # The refusal and property tests again, with proto built with PR_PORTABLE

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/hdup.h"
 #include "base/pdr_error.h"
 #include "base/pdr_util.h"
@@ -85,8 +86,8 @@ int hdup_find(const uint64_t *h, size_t n, hdup_buf *buf, uint64_t **rep, size_t
     while (bits < PART_BITS_MAX && (n >> bits) > PART_TARGET)
         bits++;
     size_t np = (size_t)1 << bits;
-    size_t *start = calloc(np + 2, sizeof *start);
-    size_t *at = malloc((np + 1) * sizeof *at);
+    size_t *start = pr_calloc(np + 2, sizeof *start);
+    size_t *at = pr_malloc((np + 1) * sizeof *at);
     found f = {NULL, 0, 0};
     uint64_t *tab = NULL;
     uint8_t *seen = NULL;
@@ -112,9 +113,9 @@ int hdup_find(const uint64_t *h, size_t n, hdup_buf *buf, uint64_t **rep, size_t
         size_t cap = 2;
         while (cap <= 2 * most)
             cap *= 2;
-        tab = calloc(cap, sizeof *tab);
-        seen = calloc(cap, 1);
-        used = malloc((most ? most : 1) * sizeof *used);
+        tab = pr_calloc(cap, sizeof *tab);
+        seen = pr_calloc(cap, 1);
+        used = pr_malloc((most ? most : 1) * sizeof *used);
         rc = tab && seen && used ? 0 : PDR_ENOMEM;
         if (!rc && start[np + 1] - start[np] > 1)
             rc = add_found(&f, 0);
@@ -123,13 +124,13 @@ int hdup_find(const uint64_t *h, size_t n, hdup_buf *buf, uint64_t **rep, size_t
                 rc = part_repeats(part + start[q], start[q + 1] - start[q], tab, seen, cap,
                                   used, &f);
     }
-    free(start);
-    free(at);
-    free(tab);
-    free(seen);
-    free(used);
+    pr_free(start);
+    pr_free(at);
+    pr_free(tab);
+    pr_free(seen);
+    pr_free(used);
     if (rc) {
-        free(f.v);
+        pr_free(f.v);
         return rc;
     }
     if (f.n)
@@ -141,7 +142,7 @@ int hdup_find(const uint64_t *h, size_t n, hdup_buf *buf, uint64_t **rep, size_t
 
 void hdup_buf_free(hdup_buf *buf)
 {
-    free(buf->part);
+    pr_free(buf->part);
     buf->part = NULL;
     buf->cap = 0;
 }

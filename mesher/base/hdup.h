@@ -30,7 +30,7 @@ typedef struct hdup_buf {
 
 /* Finds the values occurring at least twice in h[0..n), which it does not
  * modify, with scratch buf. *rep gets them, each once, in ascending order
- * (malloc'd, the caller frees it; NULL when there is none) and *nrep
+ * (pr_malloc'd, the caller pr_frees it; NULL when there is none) and *nrep
  * their number. Returns 0 or PDR_ENOMEM (then *rep is NULL and *nrep 0). */
 int hdup_find(const uint64_t *h, size_t n, hdup_buf *buf, uint64_t **rep, size_t *nrep);
 

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/hmap.h"
 #include "base/pdr_error.h"
 
@@ -20,11 +21,11 @@ static size_t slot_of(uint64_t k, size_t mask)
 
 static int hmap_resize(hmap *m, size_t cap)
 {
-    uint64_t *key = calloc(cap, sizeof *key);
-    uint32_t *val = malloc(cap * sizeof *val);
+    uint64_t *key = pr_calloc(cap, sizeof *key);
+    uint32_t *val = pr_malloc(cap * sizeof *val);
     if (!key || !val) {
-        free(key);
-        free(val);
+        pr_free(key);
+        pr_free(val);
         return PDR_ENOMEM;
     }
     size_t mask = cap - 1;
@@ -37,8 +38,8 @@ static int hmap_resize(hmap *m, size_t cap)
         key[s] = m->key[i];
         val[s] = m->val[i];
     }
-    free(m->key);
-    free(m->val);
+    pr_free(m->key);
+    pr_free(m->val);
     m->key = key;
     m->val = val;
     m->cap = cap;
@@ -103,8 +104,8 @@ uint32_t hmap_get(const hmap *m, uint64_t key)
 
 void hmap_free(hmap *m)
 {
-    free(m->key);
-    free(m->val);
+    pr_free(m->key);
+    pr_free(m->val);
     memset(m, 0, sizeof *m);
 }
 

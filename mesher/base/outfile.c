@@ -7,22 +7,33 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "base/outfile.h"
 
 static void outfile_release(outfile *of)
 {
-    free(of->path);
-    free(of->tmp);
+    pr_free(of->path);
+    pr_free(of->tmp);
     of->f = NULL;
     of->path = of->tmp = NULL;
+    of->set = NULL;
 }
 
 int outfile_open(outfile *of, const char *path, pdr_diag *diag)
 {
+    return outfile_open_in(of, NULL, path, diag);
+}
+
+int outfile_open_in(outfile *of, outset *set, const char *path, pdr_diag *diag)
+{
     memset(of, 0, sizeof *of);
+    if (set && set->n >= OUTSET_MAX) {
+        pdr_diag_add(diag, path, 0, "too many files in one output set");
+        return PDR_ELIMIT;
+    }
     size_t n = strlen(path);
-    of->path = malloc(n + 1);
-    of->tmp = malloc(n + 16);
+    of->path = pr_malloc(n + 1);
+    of->tmp = pr_malloc(n + 16);
     if (!of->path || !of->tmp) {
         outfile_release(of);
         pdr_diag_add(diag, path, 0, "out of memory");
@@ -46,6 +57,7 @@ int outfile_open(outfile *of, const char *path, pdr_diag *diag)
     mode_t mask = umask(0);
     umask(mask);
     fchmod(fd, 0666 & ~mask);
+    of->set = set;
     return 0;
 }
 
@@ -62,6 +74,16 @@ int outfile_commit(outfile *of, pdr_diag *diag)
         err = errno;
     }
     of->f = NULL;
+    if (!failed && of->set) {
+        /* The set renames it with the others (room checked at open). */
+        outset *set = of->set;
+        set->path[set->n] = of->path;
+        set->tmp[set->n] = of->tmp;
+        set->n++;
+        of->path = of->tmp = NULL;
+        of->set = NULL;
+        return 0;
+    }
     if (!failed && rename(of->tmp, of->path) != 0) {
         failed = 1;
         err = errno;
@@ -72,6 +94,35 @@ int outfile_commit(outfile *of, pdr_diag *diag)
     }
     outfile_release(of);
     return failed ? PDR_EIO : 0;
+}
+
+int outset_commit(outset *set, pdr_diag *diag)
+{
+    int rc = 0;
+    for (size_t i = 0; i < set->n; i++) {
+        if (!rc && rename(set->tmp[i], set->path[i]) != 0) {
+            pdr_diag_add(diag, set->path[i], 0, "write failed: %s", strerror(errno));
+            rc = PDR_EIO;
+        }
+        if (rc)
+            unlink(set->tmp[i]);
+        pr_free(set->path[i]);
+        pr_free(set->tmp[i]);
+        set->path[i] = set->tmp[i] = NULL;
+    }
+    set->n = 0;
+    return rc;
+}
+
+void outset_abort(outset *set)
+{
+    for (size_t i = 0; i < set->n; i++) {
+        unlink(set->tmp[i]);
+        pr_free(set->path[i]);
+        pr_free(set->tmp[i]);
+        set->path[i] = set->tmp[i] = NULL;
+    }
+    set->n = 0;
 }
 
 void outfile_abort(outfile *of)

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_error.h"
 
 const char *pdr_strerror(int code)
@@ -21,6 +22,8 @@ const char *pdr_strerror(int code)
 
 int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
 {
+    if (!d)
+        return 0;
     d->ntotal++;
     if (d->nkept >= PDR_DIAG_KEEP)
         return (int)(d->ntotal > (size_t)1 << 30 ? 1 << 30 : d->ntotal);
@@ -44,11 +47,12 @@ int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
     size_t plen = 0;
     while (prefix[plen])
         plen++;
-    char *msg = malloc(plen + (size_t)n + 1);
-    char **msgs = msg ? realloc(d->msgs, (d->nkept + 1) * sizeof *msgs) : NULL;
+    char *msg = pr_malloc(plen + (size_t)n + 1);
+    char **msgs = msg ? pr_realloc(d->msgs, (d->nkept + 1) * sizeof *msgs) : NULL;
     if (!msgs) {
-        free(msg);
+        pr_free(msg);
         va_end(ap2);
+        d->nlost++;
         return PDR_ENOMEM;
     }
     d->msgs = msgs;
@@ -60,20 +64,33 @@ int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
     return (int)(d->ntotal > (size_t)1 << 30 ? 1 << 30 : d->ntotal);
 }
 
-void pdr_diag_print(const pdr_diag *d, void *f)
+static void diag_print(const pdr_diag *d, FILE *out, int lost)
 {
-    FILE *out = f;
     for (size_t i = 0; i < d->nkept; i++)
         fprintf(out, "%s\n", d->msgs[i]);
-    if (d->ntotal > d->nkept)
-        fprintf(out, "(%zu more messages not shown)\n", d->ntotal - d->nkept);
+    size_t capped = d->ntotal - d->nkept - d->nlost;
+    if (capped)
+        fprintf(out, "(%zu more messages not shown)\n", capped);
+    if (lost && d->nlost)
+        fprintf(out, "(%zu message%s lost: out of memory)\n", d->nlost,
+                d->nlost == 1 ? "" : "s");
+}
+
+void pdr_diag_print(const pdr_diag *d, void *f)
+{
+    diag_print(d, f, 1);
+}
+
+void pdr_diag_print_kept(const pdr_diag *d, void *f)
+{
+    diag_print(d, f, 0);
 }
 
 void pdr_diag_free(pdr_diag *d)
 {
     for (size_t i = 0; i < d->nkept; i++)
-        free(d->msgs[i]);
-    free(d->msgs);
+        pr_free(d->msgs[i]);
+    pr_free(d->msgs);
     d->msgs = NULL;
-    d->nkept = d->ntotal = 0;
+    d->nkept = d->ntotal = d->nlost = 0;
 }

@@ -34,23 +34,30 @@ const char *pdr_strerror(int code);
 /* A list of diagnostics. Zero-initialised it is empty and valid; the caller
  * owns it and releases it with pdr_diag_free(). At most PDR_DIAG_KEEP
  * messages are stored; later ones are only counted, so a hopeless input
- * cannot exhaust memory through its error list. */
+ * cannot exhaust memory through its error list. A message that cannot be
+ * stored for lack of memory is counted as lost, and pdr_diag_print says
+ * so: an error found while memory is short is never silent. */
 #define PDR_DIAG_KEEP 100
 
 typedef struct pdr_diag {
     char **msgs;    /* owned, nkept strings "file:line: text" */
     size_t nkept;   /* messages stored */
     size_t ntotal;  /* messages reported, stored or not */
+    size_t nlost;   /* of those, not stored for lack of memory */
 } pdr_diag;
 
 /* Records "file:line: text". file may be NULL (then "line" is omitted too
- * when line is 0). Returns the number of messages reported so far, or
- * PDR_ENOMEM if the message could not be stored. */
+ * when line is 0). d may be NULL: the message is dropped (returns 0). Returns the number of messages reported so far, or
+ * PDR_ENOMEM if the message could not be stored (it counts as lost). */
 int pdr_diag_add(pdr_diag *d, const char *file, long line, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
-/* Writes every stored message, one per line, and a count of those that were
- * not stored, to f (a FILE *; void * keeps stdio out of this header). */
+/* Writes every stored message, one per line, a count of those that were
+ * not stored because of the PDR_DIAG_KEEP cap, and one of those lost for
+ * lack of memory ("(N messages lost: out of memory)"), to f (a FILE *; void * keeps stdio out of this header). */
 void pdr_diag_print(const pdr_diag *d, void *f);
+/* The same without the count of lost messages, for a caller that prints
+ * "out of memory" itself. */
+void pdr_diag_print_kept(const pdr_diag *d, void *f);
 void pdr_diag_free(pdr_diag *d);
 
 #endif /* PDR_ERROR_H */

@@ -10,6 +10,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 
 double pdr_now(void)
@@ -55,7 +56,7 @@ int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size)
     }
     if (size && c > SIZE_MAX / size)
         return PDR_ENOMEM;
-    void *q = realloc(*p, c * size);
+    void *q = pr_realloc(*p, c * size);
     if (!q)
         return PDR_ENOMEM;
     *p = q;
@@ -73,7 +74,7 @@ size_t pdr_path_stem(const char *path)
 char *pdr_path_ext(const char *base, size_t n, const char *ext)
 {
     size_t e = strlen(ext);
-    char *s = malloc(n + e + 1);
+    char *s = pr_malloc(n + e + 1);
     if (s) {
         memcpy(s, base, n);
         memcpy(s + n, ext, e + 1);

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/textin.h"
 
 int textin_open(textin *t, const char *path, pdr_diag *diag)
@@ -36,11 +37,46 @@ void textin_close(textin *t)
 {
     if (t->f && !t->borrowed)
         fclose(t->f);
-    free(t->buf);
+    pr_free(t->buf);
     t->f = NULL;
     t->buf = NULL;
     t->cur = NULL;
     t->cap = 0;
+}
+
+/* Reads the next line, up to and including its '\n' (or to the end of the
+ * file), into t->buf, NUL-terminated, and stores its length in *len. This
+ * is getline() on the allocation hook: t->buf grows by doubling through
+ * pr_realloc, and keeps its old contents when that fails. Returns 1 on a
+ * line, 0 at the end of the file or on a read error (ferror tells), or
+ * PDR_ENOMEM. */
+static int read_line(textin *t, size_t *len)
+{
+    size_t n = 0;
+    int c = EOF;
+    flockfile(t->f);
+    for (;;) {
+        if (n + 1 >= t->cap) {
+            size_t cap = t->cap ? 2 * t->cap : 128;
+            char *buf = cap > t->cap ? pr_realloc(t->buf, cap) : NULL;
+            if (!buf) {
+                funlockfile(t->f);
+                return PDR_ENOMEM;
+            }
+            t->buf = buf;
+            t->cap = cap;
+        }
+        c = getc_unlocked(t->f);
+        if (c == EOF)
+            break;
+        t->buf[n++] = (char)c;
+        if (c == '\n')
+            break;
+    }
+    funlockfile(t->f);
+    t->buf[n] = '\0';
+    *len = n;
+    return n > 0 && !(c == EOF && ferror(t->f));
 }
 
 int textin_next_raw(textin *t, int keep_comments)
@@ -48,9 +84,14 @@ int textin_next_raw(textin *t, int keep_comments)
     if (!t->f)
         return 0;
     for (;;) {
+        size_t n;
         errno = 0;
-        ssize_t n = getline(&t->buf, &t->cap, t->f);
-        if (n < 0) {
+        int rc = read_line(t, &n);
+        if (rc == PDR_ENOMEM) {
+            pdr_diag_add(t->diag, t->path, t->line + 1, "out of memory");
+            return PDR_ENOMEM;
+        }
+        if (rc == 0) {
             if (ferror(t->f)) {
                 pdr_diag_add(t->diag, t->path, t->line + 1, "read error: %s",
                              strerror(errno ? errno : EIO));
@@ -60,7 +101,7 @@ int textin_next_raw(textin *t, int keep_comments)
             return 0;
         }
         t->line++;
-        if (memchr(t->buf, '\0', (size_t)n)) {
+        if (memchr(t->buf, '\0', n)) {
             pdr_diag_add(t->diag, t->path, t->line, "binary data in a text file");
             return PDR_EPARSE;
         }

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "check/mc.h"
 #include "geom/pred.h"
 #include "base/v3.h"
@@ -178,14 +179,14 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
     for (int k = 0; k < 3; k++)
         diag += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
     double tol = REL_TOL * sqrt(diag);
-    double (*box)[2][3] = malloc((p->nfacet + 1) * sizeof *box);
-    double *am = calloc(p->nfacet + 1, sizeof *am);
-    c->loc = malloc((ntri + 1) * sizeof *c->loc);
-    c->fstart = calloc(p->nfacet + 2, sizeof *c->fstart);
-    c->byfacet = malloc((ntri + 1) * sizeof *c->byfacet);
+    double (*box)[2][3] = pr_malloc((p->nfacet + 1) * sizeof *box);
+    double *am = pr_calloc(p->nfacet + 1, sizeof *am);
+    c->loc = pr_malloc((ntri + 1) * sizeof *c->loc);
+    c->fstart = pr_calloc(p->nfacet + 2, sizeof *c->fstart);
+    c->byfacet = pr_malloc((ntri + 1) * sizeof *c->byfacet);
     if (!box || !am || !c->loc || !c->fstart || !c->byfacet) {
-        free(box);
-        free(am);
+        pr_free(box);
+        pr_free(am);
         return PDR_ENOMEM;
     }
     for (size_t f = 0; f < p->nfacet; f++) {
@@ -213,17 +214,17 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
     }
     for (size_t f = 0; f < p->nfacet; f++)
         c->fstart[f + 1] += c->fstart[f];
-    size_t *fill = malloc((p->nfacet + 1) * sizeof *fill);
+    size_t *fill = pr_malloc((p->nfacet + 1) * sizeof *fill);
     if (!fill) {
-        free(box);
-        free(am);
+        pr_free(box);
+        pr_free(am);
         return PDR_ENOMEM;
     }
     memcpy(fill, c->fstart, (p->nfacet + 1) * sizeof *fill);
     for (size_t i = 0; i < ntri; i++)
         if (c->loc[i] >= 0)
             c->byfacet[fill[c->loc[i]]++] = (uint32_t)i;
-    free(fill);
+    pr_free(fill);
     r->facets = p->nfacet;
     for (size_t f = 0; f < p->nfacet; f++) {
         double ap = 0;
@@ -251,8 +252,8 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
             r->facets_uncovered++;
     }
     r->volume_plc = mc_plc_volume(p, side_of, c);
-    free(box);
-    free(am);
+    pr_free(box);
+    pr_free(am);
     return 0;
 }
 
@@ -264,9 +265,9 @@ int mc_check(const tm_mesh *m, const uint32_t (*tri)[3], size_t ntri, const plc 
     r->with_plc = p != NULL;
     r->faces = ntri;
     struct ctx c = {m, tri, p, NULL, NULL, NULL, NULL, NULL};
-    fkey *keys = malloc((ntri + 1) * sizeof *keys);
-    c.cnt = calloc(ntri + 1, 1);
-    c.tet = malloc((ntri + 1) * sizeof *c.tet);
+    fkey *keys = pr_malloc((ntri + 1) * sizeof *keys);
+    c.cnt = pr_calloc(ntri + 1, 1);
+    c.tet = pr_malloc((ntri + 1) * sizeof *c.tet);
     int rc = 0;
     if (!keys || !c.cnt || !c.tet) {
         rc = PDR_ENOMEM;
@@ -316,12 +317,12 @@ int mc_check(const tm_mesh *m, const uint32_t (*tri)[3], size_t ntri, const plc 
         r->volume_mismatch = r->volume_err > REL_TOL;
     }
 done:
-    free(keys);
-    free(c.cnt);
-    free(c.tet);
-    free(c.loc);
-    free(c.fstart);
-    free(c.byfacet);
+    pr_free(keys);
+    pr_free(c.cnt);
+    pr_free(c.tet);
+    pr_free(c.loc);
+    pr_free(c.fstart);
+    pr_free(c.byfacet);
     return rc;
 }
 

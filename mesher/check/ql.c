@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "check/ql.h"
 #include "base/v3.h"
 
@@ -94,7 +95,7 @@ static int faceset_init(struct faceset *fs, size_t n)
     fs->cap = 16;
     while (fs->cap < 2 * n)
         fs->cap *= 2;
-    fs->key = malloc(fs->cap * sizeof *fs->key);
+    fs->key = pr_malloc(fs->cap * sizeof *fs->key);
     if (!fs->key)
         return PDR_ENOMEM;
     memset(fs->key, 0xff, fs->cap * sizeof *fs->key);
@@ -159,10 +160,10 @@ static int mark_boundary(const mesh_export *m, unsigned char *flag)
                 v3_sort3u(f[0], f[1], f[2], k);
                 flag[t] = (unsigned char)faceset_has(&fs, k);
             }
-        free(fs.key);
+        pr_free(fs.key);
         return 0;
     }
-    struct facerec *r = malloc((4 * m->nt + 1) * sizeof *r);
+    struct facerec *r = pr_malloc((4 * m->nt + 1) * sizeof *r);
     if (!r)
         return PDR_ENOMEM;
     for (size_t t = 0; t < m->nt; t++)
@@ -181,7 +182,7 @@ static int mark_boundary(const mesh_export *m, unsigned char *flag)
             flag[r[i].tet] = 1;
         i = j;
     }
-    free(r);
+    pr_free(r);
     return 0;
 }
 
@@ -191,11 +192,11 @@ int ql_mesh_stats(const mesh_export *m, double re_bound, ql_stats *s)
     s->re_bound = re_bound;
     s->re_min = s->dih_min = s->min_volume = s->shortest_edge = INFINITY;
     s->re_max = s->dih_max = 0.0;
-    unsigned char *flag = calloc(m->nt ? m->nt : 1, 1);
+    unsigned char *flag = pr_calloc(m->nt ? m->nt : 1, 1);
     if (!flag)
         return PDR_ENOMEM;
     if (mark_boundary(m, flag)) {
-        free(flag);
+        pr_free(flag);
         return PDR_ENOMEM;
     }
     for (size_t t = 0; t < m->nt; t++) {
@@ -230,7 +231,7 @@ int ql_mesh_stats(const mesh_export *m, double re_bound, ql_stats *s)
     }
     if (m->nt == 0)
         s->re_min = s->dih_min = s->min_volume = s->shortest_edge = 0.0;
-    free(flag);
+    pr_free(flag);
     return 0;
 }
 
@@ -333,7 +334,7 @@ int ql_plot_png(const ql_stats *s, const char *png_path, const char *title,
                 int dih_bin, pdr_diag *diag)
 {
     size_t n = strlen(png_path);
-    char *tmp_png = malloc(n + 16);
+    char *tmp_png = pr_malloc(n + 16);
     char script[] = "/tmp/pdr-plot-XXXXXX";
     if (!tmp_png) {
         pdr_diag_add(diag, png_path, 0, "out of memory");
@@ -343,7 +344,7 @@ int ql_plot_png(const ql_stats *s, const char *png_path, const char *title,
     int pfd = mkstemp(tmp_png);
     if (pfd < 0) {
         pdr_diag_add(diag, png_path, 0, "cannot create: %s", strerror(errno));
-        free(tmp_png);
+        pr_free(tmp_png);
         return PDR_EIO;
     }
     /* mkstemp made it 0600; give the plot the usual umask-based mode. */
@@ -362,7 +363,7 @@ int ql_plot_png(const ql_stats *s, const char *png_path, const char *title,
             unlink(script);
         }
         unlink(tmp_png);
-        free(tmp_png);
+        pr_free(tmp_png);
         return PDR_EIO;
     }
     int wr = ql_write_gnuplot(s, f, tmp_png, title, dih_bin);
@@ -400,6 +401,6 @@ out:
     unlink(script);
     if (rc)
         unlink(tmp_png);
-    free(tmp_png);
+    pr_free(tmp_png);
     return rc;
 }

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "base/pdr_error.h"
 #include "cli/pdr_cli.h"
 
 int pdr_cli_parse_only;
@@ -21,6 +22,16 @@ void pdr_cli_error(const char *cmd, const char *fmt, ...)
     vfprintf(stderr, fmt, ap);
     va_end(ap);
     fputc('\n', stderr);
+}
+
+void pdr_cli_fail(const char *cmd, const void *diag, int rc)
+{
+    if (rc == PDR_ENOMEM) {
+        pdr_diag_print_kept(diag, stderr);
+        pdr_cli_error(cmd, "%s", pdr_strerror(rc));
+    } else {
+        pdr_diag_print(diag, stderr);
+    }
 }
 
 int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out)

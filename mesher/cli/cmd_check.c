@@ -11,6 +11,7 @@
 
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "io/face.h"
 #include "io/tg.h"
 #include "check/mc.h"
@@ -145,7 +146,7 @@ int pdr_cmd_check(int argc, char **argv)
     else if (n > 4 && !strcmp(arg + n - 4, ".ele"))
         n -= 4;
     char *pnode = pdr_path_ext(arg, n, ".node"), *pele = pdr_path_ext(arg, n, ".ele");
-    char *pface = face_path ? strdup(face_path) : pdr_path_ext(arg, n, ".face");
+    char *pface = face_path ? pr_strdup(face_path) : pdr_path_ext(arg, n, ".face");
     int status = PDR_EXIT_FAIL;
     pdr_diag diag = {0};
     tg_nodes nodes = {0};
@@ -171,17 +172,24 @@ int pdr_cmd_check(int argc, char **argv)
         }
         have_plc = 1;
         fm_stats fs;
-        if (plc_read(&p, plc_path, &diag) || plc_validate(&p, &diag) ||
-            fm_prepare(&p, merge_angle, &fs, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int rc = plc_read(&p, plc_path, &diag);
+        if (!rc)
+            rc = plc_validate(&p, &diag);
+        if (!rc)
+            rc = fm_prepare(&p, merge_angle, &fs, &diag);
+        if (rc) {
+            pdr_cli_fail("check", &diag, rc);
             goto done;
         }
     }
     double t0 = pdr_now();
-    if (tg_read_node(pnode, &nodes, &diag) ||
-        tg_read_ele(pele, nodes.n, nodes.first, &tv, &ntets, &diag) ||
-        (with_face && face_read(pface, nodes.n, nodes.first, &ftri, &fmark, &nface, &diag))) {
-        pdr_diag_print(&diag, stderr);
+    int rrc = tg_read_node(pnode, &nodes, &diag);
+    if (!rrc)
+        rrc = tg_read_ele(pele, nodes.n, nodes.first, &tv, &ntets, &diag);
+    if (!rrc && with_face)
+        rrc = face_read(pface, nodes.n, nodes.first, &ftri, &fmark, &nface, &diag);
+    if (rrc) {
+        pdr_cli_fail("check", &diag, rrc);
         goto done;
     }
     if (tm_init(&m, 0)) {
@@ -218,7 +226,7 @@ int pdr_cmd_check(int argc, char **argv)
                             (const uint32_t(*)[3])ftri, fmark};
         rc = ql_mesh_stats(&view, max_ratio > 0 ? max_ratio : 2.0, &qs);
     }
-    free(tv);
+    pr_free(tv);
     tv = NULL;
     if (!rc && hull)
         rc = tm_add_ghosts(&m, NULL);
@@ -246,8 +254,9 @@ int pdr_cmd_check(int argc, char **argv)
     }
     if (plot) {
         const char *slash = strrchr(arg, '/');
-        if (ql_plot_png(&qs, plot, slash ? slash + 1 : arg, 5, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int prc = ql_plot_png(&qs, plot, slash ? slash + 1 : arg, 5, &diag);
+        if (prc) {
+            pdr_cli_fail("check", &diag, prc);
             goto done;
         }
         if (!quiet)
@@ -260,13 +269,13 @@ done:
         tm_free(&m);
     if (have_plc)
         plc_free(&p);
-    free(tv);
-    free(ftri);
-    free(fmark);
-    free(pface);
+    pr_free(tv);
+    pr_free(ftri);
+    pr_free(fmark);
+    pr_free(pface);
     tg_nodes_free(&nodes);
     pdr_diag_free(&diag);
-    free(pnode);
-    free(pele);
+    pr_free(pnode);
+    pr_free(pele);
     return status;
 }

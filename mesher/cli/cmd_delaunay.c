@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "pr_alloc.h"
 #include "mesh/dt.h"
 #include "io/tg.h"
 #include "cli/pdr_cli.h"
@@ -145,14 +146,15 @@ int pdr_cmd_delaunay(int argc, char **argv)
 
     /* 1. Points. */
     if (in) {
-        if (tg_read_node(in, &nodes, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int rrc = tg_read_node(in, &nodes, &diag);
+        if (rrc) {
+            pdr_cli_fail("delaunay", &diag, rrc);
             goto done;
         }
     } else {
         nodes.n = nrandom > 0 && nrandom < (1LL << 34) ? (size_t)nrandom : 0;
         nodes.first = 1;
-        nodes.xyz = calloc(nodes.n * 3 + 1, sizeof(double));
+        nodes.xyz = pr_calloc(nodes.n * 3 + 1, sizeof(double));
         if (!nodes.xyz) {
             pdr_cli_error("delaunay", "out of memory for %zu points", nodes.n);
             goto done;
@@ -164,8 +166,9 @@ int pdr_cmd_delaunay(int argc, char **argv)
     double t_read = pdr_now();
     if (points_only) {
         pnode = pdr_path_join(out, ".node");
-        if (!pnode || tg_write_node(pnode, &nodes, &diag)) {
-            pdr_diag_print(&diag, stderr);
+        int wrc = pnode ? tg_write_node(pnode, &nodes, NULL, &diag) : PDR_ENOMEM;
+        if (wrc) {
+            pdr_cli_fail("delaunay", &diag, wrc);
             goto done;
         }
         if (!quiet)
@@ -198,7 +201,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
         goto done;
     }
     if (!out) { /* the mesh has its own copy: keep the peak memory down */
-        free(nodes.xyz);
+        pr_free(nodes.xyz);
         nodes.xyz = NULL;
     }
     pdr_progress prog;
@@ -247,9 +250,20 @@ int pdr_cmd_delaunay(int argc, char **argv)
             pdr_cli_error("delaunay", "out of memory");
             goto done;
         }
-        if (tg_write_node(pnode, &nodes, &diag) || tg_write_ele(pele, &m, nodes.first, &diag) ||
-            (faces && tg_write_face(pface, &m, nodes.first, &diag))) {
-            pdr_diag_print(&diag, stderr);
+        /* All files or none: they wait in the set until the last is
+         * written. */
+        outset set = OUTSET_INIT;
+        int wrc = tg_write_node(pnode, &nodes, &set, &diag);
+        if (!wrc)
+            wrc = tg_write_ele(pele, &m, nodes.first, &set, &diag);
+        if (!wrc && faces)
+            wrc = tg_write_face(pface, &m, nodes.first, &set, &diag);
+        if (wrc)
+            outset_abort(&set);
+        else
+            wrc = outset_commit(&set, &diag);
+        if (wrc) {
+            pdr_cli_fail("delaunay", &diag, wrc);
             goto done;
         }
     }
@@ -283,8 +297,8 @@ done:
         tm_free(&m);
     tg_nodes_free(&nodes);
     pdr_diag_free(&diag);
-    free(pnode);
-    free(pele);
-    free(pface);
+    pr_free(pnode);
+    pr_free(pele);
+    pr_free(pface);
     return status;
 }

@@ -174,9 +174,7 @@ int pdr_cmd_domain(int argc, char **argv)
             pdr_cli_error("domain", "%s", d.msgs[i]);
         status = PDR_EXIT_USAGE;
     } else if (rc || (rc = plc_validate(&p, &d)) || (rc = plc_write_poly(&p, out, &d))) {
-        pdr_diag_print(&d, stderr);
-        if (rc == PDR_ENOMEM && d.nkept == 0)
-            pdr_cli_error("domain", "out of memory");
+        pdr_cli_fail("domain", &d, rc);
         status = PDR_EXIT_FAIL;
     } else {
         printf("pdr domain: wrote %s (%s: %zu vertices, %zu facets, %zu holes)\n", out,

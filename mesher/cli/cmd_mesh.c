@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "cli/mesh_par.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
@@ -123,24 +124,31 @@ static void usage(FILE *f)
  * or -1 for an unknown name (or no memory to split the list). */
 static int parse_formats(const char *s, unsigned *out)
 {
+    static const struct {
+        const char *name;
+        unsigned fmt;
+    } names[] = {{"node", MP_FMT_NODE}, {"ele", MP_FMT_NODE}, {"tetgen", MP_FMT_NODE},
+                 {"vtu", MP_FMT_VTU},   {"vtk", MP_FMT_VTU},  {"msh", MP_FMT_MSH},
+                 {"gmsh", MP_FMT_MSH},  {"none", 0}};
     unsigned f = 0;
-    char *copy = strdup(s);
-    if (!copy)
-        return -1;
     int ok = 1;
-    for (char *tok = strtok(copy, ","); tok; tok = strtok(NULL, ",")) {
-        if (!strcmp(tok, "node") || !strcmp(tok, "ele") || !strcmp(tok, "tetgen"))
-            f |= MP_FMT_NODE;
-        else if (!strcmp(tok, "vtu") || !strcmp(tok, "vtk"))
-            f |= MP_FMT_VTU;
-        else if (!strcmp(tok, "msh") || !strcmp(tok, "gmsh"))
-            f |= MP_FMT_MSH;
-        else if (!strcmp(tok, "none"))
-            ;
-        else
-            ok = 0;
+    /* Words between commas, compared in place (no copy to allocate). */
+    for (const char *w = s; *w;) {
+        size_t n = strcspn(w, ",");
+        if (n > 0) {
+            size_t i = 0;
+            while (i < sizeof names / sizeof names[0] &&
+                   (strlen(names[i].name) != n || strncmp(w, names[i].name, n)))
+                i++;
+            if (i < sizeof names / sizeof names[0])
+                f |= names[i].fmt;
+            else
+                ok = 0;
+        }
+        w += n;
+        if (*w == ',')
+            w++;
     }
-    free(copy);
     *out = f;
     return ok ? 0 : -1;
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include <sys/stat.h>
 
+#include "pr_alloc.h"
 #include "am.h"
 #include "base/outfile.h"
 #include "base/pdr_util.h"
@@ -55,7 +56,7 @@ static void on_job(am_ctx_t *am, const am_msg_t *msg, void *arg)
     job *j = arg;
     if (j->got || msg->len < 1)
         return;
-    j->data = malloc(msg->len);
+    j->data = pr_malloc(msg->len);
     if (!j->data) {
         j->got = 1;
         j->status = 1;
@@ -309,17 +310,22 @@ static int write_submesh(const par_sub *s, const char *base)
     pdr_diag diag = {0};
     rc = pn && pe && pf ? 0 : PDR_ENOMEM;
     tg_nodes nodes = {.n = out.view.nv, .first = 1, .xyz = (double *)out.xyz};
+    outset set = OUTSET_INIT;
     if (!rc)
-        rc = tg_write_node(pn, &nodes, &diag);
+        rc = tg_write_node(pn, &nodes, &set, &diag);
     if (!rc)
-        rc = tg_write_ele_view(pe, &out.view, out.tet_attr, 1, &diag);
+        rc = tg_write_ele_view(pe, &out.view, out.tet_attr, 1, &set, &diag);
     if (!rc)
-        rc = face_write(&out.view, pf, 1, &diag);
+        rc = face_write(&out.view, pf, 1, &set, &diag);
+    if (rc)
+        outset_abort(&set);
+    else
+        rc = outset_commit(&set, &diag);
     pdr_diag_print(&diag, stderr);
     pdr_diag_free(&diag);
-    free(pn);
-    free(pe);
-    free(pf);
+    pr_free(pn);
+    pr_free(pe);
+    pr_free(pf);
     ref_output_free(&out);
     return rc;
 }
@@ -444,7 +450,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
 
     if (rank == 0) {
-        pr_buf *msg = calloc((size_t)size, sizeof *msg);
+        pr_buf *msg = pr_calloc((size_t)size, sizeof *msg);
         int prc = msg ? prepare(&c, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
@@ -459,7 +465,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         }
         for (int k = 0; msg && k < size; k++)
             pr_buf_free(&msg[k]);
-        free(msg);
+        pr_free(msg);
         if (prc)
             goto done;
         /* Mo's memory goes before the submeshes are built. */
@@ -479,7 +485,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
-    free(j.data);
+    pr_free(j.data);
     j.data = NULL;
 
     /* Refine. */
@@ -567,9 +573,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
     }
     t_gathered = pdr_now();
-    rows = calloc((size_t)size, sizeof *rows);
-    const void **msgs = calloc((size_t)size, sizeof *msgs);
-    size_t *rests = calloc((size_t)size, sizeof *rests);
+    rows = pr_calloc((size_t)size, sizeof *rows);
+    const void **msgs = pr_calloc((size_t)size, sizeof *msgs);
+    size_t *rests = pr_calloc((size_t)size, sizeof *rests);
     rc = rows && msgs && rests ? 0 : PDR_ENOMEM;
     const uint8_t *pr = all_rows, *pm = all_mesh;
     for (int k = 0; k < size && !rc; k++) {
@@ -604,13 +610,13 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         recovered += n;
         pr += row_lens[k];
     }
-    free(msgs);
-    free(rests);
-    free(all_rows);
-    free(all_mesh);
+    pr_free(msgs);
+    pr_free(rests);
+    pr_free(all_rows);
+    pr_free(all_mesh);
     pr_buf_free(&mb);
-    free(row_lens);
-    free(mesh_lens);
+    pr_free(row_lens);
+    pr_free(mesh_lens);
     if (!rc && rc_missing) {
         rc = rc_missing;
         ref_free(&c.r);
@@ -715,8 +721,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         rc = mp_verify(&c);
     status = rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
 done:
-    free(rows);
-    free(j.data);
+    pr_free(rows);
+    pr_free(j.data);
     if (have_sub)
         par_sub_free(&s);
     if (have_plc)
@@ -735,9 +741,11 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--stats D]
      * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
      * options). */
-    char **av = calloc((size_t)argc + 16, sizeof *av);
-    if (!av)
+    char **av = pr_calloc((size_t)argc + 16, sizeof *av);
+    if (!av) {
+        pdr_cli_error("mesh", "out of memory");
         return PDR_EXIT_FAIL;
+    }
     char np[32];
     snprintf(np, sizeof np, "%d", po->nprocs);
     int n = 0;
@@ -773,6 +781,6 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     }
     av[n] = NULL;
     int rc = am_launch_main(n, av, "pdr mesh");
-    free(av);
+    pr_free(av);
     return rc;
 }

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
@@ -59,7 +60,7 @@ void mp_free(mp_ctx *c)
         plc_free(&c->p);
     c->have_out = c->have_r = c->have_plc = 0;
     pdr_diag_free(&c->diag);
-    free(c->base);
+    pr_free(c->base);
     c->base = NULL;
 }
 
@@ -67,8 +68,12 @@ void mp_free(mp_ctx *c)
  * the reason. Returns rc. */
 static int fail(mp_ctx *c, int rc)
 {
-    pdr_diag_print(&c->diag, stderr);
-    pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+    if (rc == PDR_ENOMEM) {
+        pdr_cli_fail(MP_CMD, &c->diag, rc);
+    } else {
+        pdr_diag_print(&c->diag, stderr);
+        pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+    }
     return rc;
 }
 
@@ -104,7 +109,7 @@ static int load_plc(mp_ctx *c)
 static char *output_base(const mp_ctx *c)
 {
     if (c->o.out)
-        return strdup(c->o.out);
+        return pr_strdup(c->o.out);
     const char *in = input_name(c);
     return pdr_path_ext(in, pdr_path_stem(in), ".1");
 }
@@ -119,9 +124,10 @@ int mp_read(mp_ctx *c)
     if ((rc = load_plc(c))) {
         /* The reader's file:line messages say it all for a bad input;
          * anything else (memory, no input) gets its reason too. */
-        pdr_diag_print(&c->diag, stderr);
-        if (rc != PDR_EPARSE && rc != PDR_EGEOMETRY && rc != PDR_EIO)
-            pdr_cli_error(MP_CMD, "%s", pdr_strerror(rc));
+        if (rc == PDR_EPARSE || rc == PDR_EGEOMETRY || rc == PDR_EIO)
+            pdr_diag_print(&c->diag, stderr);
+        else
+            fail(c, rc);
         return rc;
     }
     if (!(c->base = output_base(c)))
@@ -256,7 +262,10 @@ int mp_initial_mesh(mp_ctx *c)
     /* Warnings (a region point outside the domain) are shown even when
      * Mo was built. */
     if (c->diag.ntotal) {
-        pdr_diag_print(&c->diag, stderr);
+        if (rc == PDR_ENOMEM)
+            pdr_diag_print_kept(&c->diag, stderr); /* fail() says why */
+        else
+            pdr_diag_print(&c->diag, stderr);
         pdr_diag_free(&c->diag);
     }
     if (rc == PDR_ELIMIT)
@@ -350,7 +359,7 @@ static int guard_output(mp_ctx *c)
                       "refinement (nothing written)");
         return PDR_ETOPOLOGY;
     }
-    double *got = calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
+    double *got = pr_calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
     if (!got)
         return fail(c, PDR_ENOMEM);
     for (size_t i = 0; i < o->view.nf; i++)
@@ -370,7 +379,7 @@ static int guard_output(mp_ctx *c)
                 worst = err;
         }
     }
-    free(got);
+    pr_free(got);
     if (!bad)
         return 0;
     pdr_cli_error(MP_CMD,
@@ -404,7 +413,7 @@ int mp_export(mp_ctx *c)
 /* ------------------------------------------------------------ write */
 
 /* BASE.node, BASE.ele, BASE.face (1-based, region attributes). */
-static int write_tetgen(mp_ctx *c)
+static int write_tetgen(mp_ctx *c, outset *set)
 {
     const ref_output *o = &c->out;
     tg_nodes nodes = {.n = o->view.nv, .first = 1, .xyz = (double *)o->xyz};
@@ -412,59 +421,77 @@ static int write_tetgen(mp_ctx *c)
          *pf = pdr_path_join(c->base, ".face");
     int rc = pn && pe && pf ? 0 : PDR_ENOMEM;
     if (!rc)
-        rc = tg_write_node(pn, &nodes, &c->diag);
+        rc = tg_write_node(pn, &nodes, set, &c->diag);
     if (!rc)
-        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, &c->diag);
+        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, set, &c->diag);
     if (!rc)
-        rc = face_write(&o->view, pf, 1, &c->diag);
-    if (!rc && !c->o.quiet)
-        printf("wrote %s, %s, %s\n", pn, pe, pf);
-    free(pn);
-    free(pe);
-    free(pf);
+        rc = face_write(&o->view, pf, 1, set, &c->diag);
+    pr_free(pn);
+    pr_free(pe);
+    pr_free(pf);
     return rc;
 }
 
 /* BASE.vtu, binary, without the quality fields. */
-static int write_vtu(mp_ctx *c)
+static int write_vtu(mp_ctx *c, outset *set)
 {
     char *p = pdr_path_join(c->base, ".vtu");
     vtu_opts vo = {0, 0};
-    int rc = p ? vtu_write(&c->out.view, p, &vo, &c->diag) : PDR_ENOMEM;
-    if (!rc && !c->o.quiet)
-        printf("wrote %s\n", p);
-    free(p);
+    int rc = p ? vtu_write(&c->out.view, p, &vo, set, &c->diag) : PDR_ENOMEM;
+    pr_free(p);
     return rc;
 }
 
 /* BASE.msh, Gmsh 4.1. */
-static int write_msh(mp_ctx *c)
+static int write_msh(mp_ctx *c, outset *set)
 {
     char *p = pdr_path_join(c->base, ".msh");
-    int rc = p ? msh_write(&c->out.view, p, &c->diag) : PDR_ENOMEM;
-    if (!rc && !c->o.quiet)
-        printf("wrote %s\n", p);
-    free(p);
+    int rc = p ? msh_write(&c->out.view, p, set, &c->diag) : PDR_ENOMEM;
+    pr_free(p);
     return rc;
+}
+
+/* The "wrote ..." lines, once every file is in place (a file name is the
+ * base followed by its extension, as pdr_path_join makes it). */
+static void print_written(const mp_ctx *c)
+{
+    unsigned f = c->o.formats;
+    const char *b = c->base;
+    if (f & MP_FMT_NODE)
+        printf("wrote %s.node, %s.ele, %s.face\n", b, b, b);
+    if (f & MP_FMT_VTU)
+        printf("wrote %s.vtu\n", b);
+    if (f & MP_FMT_MSH)
+        printf("wrote %s.msh\n", b);
 }
 
 int mp_write(mp_ctx *c)
 {
     double t = pdr_now();
     unsigned f = c->o.formats;
+    /* Every format or none: the files wait in the set until the last one
+     * is written. */
+    outset set = OUTSET_INIT;
     int rc = 0;
     if (f & MP_FMT_NODE)
-        rc = write_tetgen(c);
+        rc = write_tetgen(c, &set);
     if (!rc && (f & MP_FMT_VTU))
-        rc = write_vtu(c);
+        rc = write_vtu(c, &set);
     if (!rc && (f & MP_FMT_MSH))
-        rc = write_msh(c);
+        rc = write_msh(c, &set);
+    if (rc)
+        outset_abort(&set);
+    else
+        rc = outset_commit(&set, &c->diag);
     if (rc) {
-        /* The writers name the file and the reason in diag; there is no
-         * further "pdr mesh:" line. */
-        pdr_diag_print(&c->diag, stderr);
+        /* The writers name the file and the reason in diag; only a lack
+         * of memory gets a further "pdr mesh:" line, since its message
+         * may have been lost. */
+        pdr_cli_fail(MP_CMD, &c->diag, rc);
         return rc;
     }
+    if (!c->o.quiet)
+        print_written(c);
     c->t_written = pdr_now();
     c->sec[MP_WRITE] = c->t_written - t;
     return 0;

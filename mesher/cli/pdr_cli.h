@@ -28,6 +28,11 @@ enum { PDR_EXIT_OK = 0, PDR_EXIT_FAIL = 1, PDR_EXIT_USAGE = 2 };
 /* Prints "pdr NAME: " and the formatted message to stderr. */
 void pdr_cli_error(const char *cmd, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
+/* After a step failed with rc: prints the messages in diag (a pdr_diag *;
+ * void * keeps base/ out of this header), and when rc is PDR_ENOMEM
+ * "pdr NAME: out of memory", the one line that says why whatever messages
+ * memory was too short to keep. */
+void pdr_cli_fail(const char *cmd, const void *diag, int rc);
 
 /* --merge-angle A of 'pdr mesh' and 'pdr check': A in [0, 90) degrees
  * into *out. Returns 0, or -1 after a usage message naming cmd. */

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_error.h"
 #include "geom/ss.h"
 
@@ -103,10 +104,10 @@ int ss_brio_hilbert(const double *xyz, size_t n, uint64_t seed, size_t min_round
         return 0;
     if (min_round == 0)
         min_round = 1000;
-    uint64_t *a = malloc(n * sizeof *a), *tmp = malloc(n * sizeof *tmp);
+    uint64_t *a = pr_malloc(n * sizeof *a), *tmp = pr_malloc(n * sizeof *tmp);
     if (!a || !tmp) {
-        free(a);
-        free(tmp);
+        pr_free(a);
+        pr_free(tmp);
         return PDR_ENOMEM;
     }
     double lo[3], hi[3];
@@ -174,7 +175,7 @@ int ss_brio_hilbert(const double *xyz, size_t n, uint64_t seed, size_t min_round
     const uint64_t idx_mask = (UINT64_C(1) << ib) - 1;
     for (size_t i = 0; i < n; i++)
         order[i] = (uint32_t)(a[i] & idx_mask);
-    free(a);
-    free(tmp);
+    pr_free(a);
+    pr_free(tmp);
     return 0;
 }

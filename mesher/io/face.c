@@ -4,14 +4,16 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "pr_alloc.h"
 #include "io/face.h"
 #include "base/outfile.h"
 #include "base/textin.h"
 
-int face_write(const mesh_export *m, const char *path, int base, pdr_diag *diag)
+int face_write(const mesh_export *m, const char *path, int base, outset *set,
+               pdr_diag *diag)
 {
     outfile of;
-    int rc = outfile_open(&of, path, diag);
+    int rc = outfile_open_in(&of, set, path, diag);
     if (rc)
         return rc;
     FILE *f = of.f;
@@ -62,10 +64,10 @@ int face_read(const char *path, size_t nnodes, long first, uint32_t **tri, int *
             size_t ncap = cap ? 2 * cap : 1024;
             if (ncap > (size_t)n + 1)
                 ncap = (size_t)n + 1;
-            uint32_t *q = realloc(out, ncap * 3 * sizeof *out);
+            uint32_t *q = pr_realloc(out, ncap * 3 * sizeof *out);
             if (q)
                 out = q;
-            int *qm = q && nm ? realloc(mk, ncap * sizeof *mk) : NULL;
+            int *qm = q && nm ? pr_realloc(mk, ncap * sizeof *mk) : NULL;
             if (qm)
                 mk = qm;
             if (!q || (nm && !qm)) {
@@ -123,8 +125,8 @@ int face_read(const char *path, size_t nnodes, long first, uint32_t **tri, int *
     out = NULL;
     mk = NULL;
 done:
-    free(out);
-    free(mk);
+    pr_free(out);
+    pr_free(mk);
     textin_close(&t);
     return rc;
 }

@@ -17,10 +17,14 @@
 #include <stdint.h>
 
 #include "mesh/mesh_export.h"
+#include "base/outfile.h"
 #include "base/pdr_error.h"
 
-/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. */
-int face_write(const mesh_export *m, const char *path, int base, pdr_diag *diag);
+/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. With a set
+ * (not NULL) the finished file waits in it for outset_commit
+ * (base/outfile.h). */
+int face_write(const mesh_export *m, const char *path, int base, outset *set,
+               pdr_diag *diag);
 
 /* Reads a .face file whose vertex numbers refer to nnodes points numbered
  * from 'first' (the .node file's first index). *tri gets 3 0-based point

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "io/msh.h"
 #include "base/outfile.h"
 
@@ -19,7 +20,7 @@ static int cmp_int(const void *x, const void *y)
 static int *distinct(const int *vals, size_t n, size_t *nd)
 {
     size_t cnt = vals && n ? n : 1;
-    int *d = malloc(cnt * sizeof *d);
+    int *d = pr_malloc(cnt * sizeof *d);
     if (!d)
         return NULL;
     if (vals && n)
@@ -52,9 +53,9 @@ struct group {
 static int group(struct group *g, const uint32_t *conn, int k, size_t n,
                  const int *vals, const int *d, size_t nd, const double (*xyz)[3])
 {
-    g->start = calloc(nd + 1, sizeof *g->start);
-    g->elem = malloc((n ? n : 1) * sizeof *g->elem);
-    g->box = malloc(nd * sizeof *g->box);
+    g->start = pr_calloc(nd + 1, sizeof *g->start);
+    g->elem = pr_malloc((n ? n : 1) * sizeof *g->elem);
+    g->box = pr_malloc(nd * sizeof *g->box);
     if (!g->start || !g->elem || !g->box)
         return PDR_ENOMEM;
     for (size_t e = 0; e < nd; e++)
@@ -66,7 +67,7 @@ static int group(struct group *g, const uint32_t *conn, int k, size_t n,
         g->start[entity_of(vals, i, d, nd) + 1]++;
     for (size_t e = 0; e < nd; e++)
         g->start[e + 1] += g->start[e];
-    size_t *fill = malloc((nd ? nd : 1) * sizeof *fill);
+    size_t *fill = pr_malloc((nd ? nd : 1) * sizeof *fill);
     if (!fill)
         return PDR_ENOMEM;
     memcpy(fill, g->start, nd * sizeof *fill);
@@ -81,15 +82,15 @@ static int group(struct group *g, const uint32_t *conn, int k, size_t n,
             }
         }
     }
-    free(fill);
+    pr_free(fill);
     return 0;
 }
 
 static void group_free(struct group *g)
 {
-    free(g->start);
-    free(g->elem);
-    free(g->box);
+    pr_free(g->start);
+    pr_free(g->elem);
+    pr_free(g->box);
 }
 
 static void put_box(FILE *f, const double *b)
@@ -99,7 +100,7 @@ static void put_box(FILE *f, const double *b)
         fprintf(f, "%.17g ", isfinite(b[j]) ? b[j] : 0.0);
 }
 
-int msh_write(const mesh_export *m, const char *path, pdr_diag *diag)
+int msh_write(const mesh_export *m, const char *path, outset *set, pdr_diag *diag)
 {
     size_t ns = 0, nvol = 0;
     int *smark = distinct(m->tri_marker, m->nf, &ns);
@@ -117,7 +118,7 @@ int msh_write(const mesh_export *m, const char *path, pdr_diag *diag)
         goto fail;
 
     outfile of;
-    if ((rc = outfile_open(&of, path, diag)))
+    if ((rc = outfile_open_in(&of, set, path, diag)))
         goto out;
     FILE *f = of.f;
     fprintf(f, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
@@ -184,7 +185,7 @@ fail:
 out:
     group_free(&gs);
     group_free(&gv);
-    free(smark);
-    free(vreg);
+    pr_free(smark);
+    pr_free(vreg);
     return rc;
 }

@@ -19,9 +19,12 @@
 #define PDR_IO_MSH_H
 
 #include "mesh/mesh_export.h"
+#include "base/outfile.h"
 #include "base/pdr_error.h"
 
-/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. */
-int msh_write(const mesh_export *m, const char *path, pdr_diag *diag);
+/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. With a set
+ * (not NULL) the finished file waits in it for outset_commit
+ * (base/outfile.h). */
+int msh_write(const mesh_export *m, const char *path, outset *set, pdr_diag *diag);
 
 #endif /* PDR_IO_MSH_H */

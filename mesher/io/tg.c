@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "io/tg.h"
 #include "base/nf.h"
 #include "base/outfile.h"
@@ -15,9 +16,9 @@
 
 void tg_nodes_free(tg_nodes *nodes)
 {
-    free(nodes->xyz);
-    free(nodes->attr);
-    free(nodes->marker);
+    pr_free(nodes->xyz);
+    pr_free(nodes->attr);
+    pr_free(nodes->marker);
     memset(nodes, 0, sizeof *nodes);
 }
 
@@ -40,18 +41,18 @@ static int node_room(tg_nodes *out, size_t i, size_t n, size_t *cap)
     size_t ncap = *cap ? *cap * 2 : 1024;
     if (ncap > n)
         ncap = n;
-    double *xyz = realloc(out->xyz, ncap * 3 * sizeof *xyz);
+    double *xyz = pr_realloc(out->xyz, ncap * 3 * sizeof *xyz);
     if (!xyz)
         return PDR_ENOMEM;
     out->xyz = xyz;
     if (out->nattr) {
-        double *a = realloc(out->attr, ncap * (size_t)out->nattr * sizeof *a);
+        double *a = pr_realloc(out->attr, ncap * (size_t)out->nattr * sizeof *a);
         if (!a)
             return PDR_ENOMEM;
         out->attr = a;
     }
     if (out->markers) {
-        long *m = realloc(out->marker, ncap * sizeof *m);
+        long *m = pr_realloc(out->marker, ncap * sizeof *m);
         if (!m)
             return PDR_ENOMEM;
         out->marker = m;
@@ -142,7 +143,7 @@ int tg_read_node_stream(FILE *f, const char *path, tg_nodes *out, pdr_diag *diag
     rc = 0;
     if (!out->xyz) {
         /* No points: still a valid (empty) array for the callers. */
-        out->xyz = malloc(sizeof *out->xyz);
+        out->xyz = pr_malloc(sizeof *out->xyz);
         if (!out->xyz) {
             pdr_diag_add(diag, path, 0, "out of memory");
             rc = PDR_ENOMEM;
@@ -188,7 +189,7 @@ int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, si
             size_t ncap = cap ? 2 * cap : 1024;
             if (ncap > (size_t)n + 1)
                 ncap = (size_t)n + 1;
-            uint32_t *q = realloc(out, ncap * 4 * sizeof *out);
+            uint32_t *q = pr_realloc(out, ncap * 4 * sizeof *out);
             if (!q) {
                 pdr_diag_add(diag, path, t.line, "out of memory for %ld tetrahedra", n);
                 rc = PDR_ENOMEM;
@@ -245,7 +246,7 @@ int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, si
     *ntets = (size_t)n;
     out = NULL;
 done:
-    free(out);
+    pr_free(out);
     textin_close(&t);
     return rc;
 }
@@ -313,16 +314,16 @@ static void wnl(wbuf *w)
     w->b[w->pos++] = '\n';
 }
 
-static int open_w(const char *path, outfile *of, wbuf **w, pdr_diag *diag)
+static int open_w(const char *path, outset *set, outfile *of, wbuf **w, pdr_diag *diag)
 {
-    *w = malloc(sizeof **w);
+    *w = pr_malloc(sizeof **w);
     if (!*w) {
         pdr_diag_add(diag, path, 0, "out of memory");
         return PDR_ENOMEM;
     }
-    int rc = outfile_open(of, path, diag);
+    int rc = outfile_open_in(of, set, path, diag);
     if (rc) {
-        free(*w);
+        pr_free(*w);
         *w = NULL;
         return rc;
     }
@@ -334,15 +335,15 @@ static int open_w(const char *path, outfile *of, wbuf **w, pdr_diag *diag)
 static int close_w(outfile *of, wbuf *w, pdr_diag *diag)
 {
     wflush(w);
-    free(w);
+    pr_free(w);
     return outfile_commit(of, diag);
 }
 
-int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag)
+int tg_write_node(const char *path, const tg_nodes *nodes, outset *set, pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     wstr(w, "# written by pdr\n");
@@ -370,11 +371,12 @@ static uint64_t orig(const tm_mesh *m, uint32_t v)
     return m->gid ? m->gid[v] : v;
 }
 
-int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
+int tg_write_ele(const char *path, const tm_mesh *m, long first, outset *set,
+                 pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     size_t n = 0;
@@ -398,11 +400,11 @@ int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
 }
 
 int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr, long first,
-                      pdr_diag *diag)
+                      outset *set, pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     wstr(w, "# written by pdr\n");
@@ -421,11 +423,12 @@ int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr
     return close_w(&of, w, diag);
 }
 
-int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag)
+int tg_write_face(const char *path, const tm_mesh *m, long first, outset *set,
+                  pdr_diag *diag)
 {
     outfile of;
     wbuf *w;
-    int rc = open_w(path, &of, &w, diag);
+    int rc = open_w(path, set, &of, &w, diag);
     if (rc)
         return rc;
     size_t n = 0;

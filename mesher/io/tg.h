@@ -25,6 +25,7 @@
 #include <stdint.h>
 
 #include "mesh/mesh_export.h"
+#include "base/outfile.h"
 #include "base/pdr_error.h"
 #include "mesh/tm.h"
 
@@ -43,24 +44,28 @@ int tg_read_node(const char *path, tg_nodes *out, pdr_diag *diag);
 /* The same from an open stream (not closed); path names it in messages. */
 int tg_read_node_stream(FILE *f, const char *path, tg_nodes *out, pdr_diag *diag);
 void tg_nodes_free(tg_nodes *nodes);
-int tg_write_node(const char *path, const tg_nodes *nodes, pdr_diag *diag);
+/* The writers below write path atomically (base/outfile.h); with a set
+ * (not NULL) the finished file waits in it for outset_commit. */
+int tg_write_node(const char *path, const tg_nodes *nodes, outset *set, pdr_diag *diag);
 
 /* Reads the corner nodes of a .ele file for 'nnodes' points numbered from
- * 'first'. *tets (owned by the caller, free()) gets 4 point numbers per
+ * 'first'. *tets (owned by the caller, pr_free()) gets 4 point numbers per
  * tetrahedron, 0-based. */
 int tg_read_ele(const char *path, size_t nnodes, long first, uint32_t **tets, size_t *ntets,
                 pdr_diag *diag);
 
 /* Writes the live real tetrahedra of m; mesh vertex v is point o-1, written
  * as o - 1 + first, where o = gid[v] if m has global ids, else v. */
-int tg_write_ele(const char *path, const tm_mesh *m, long first, pdr_diag *diag);
+int tg_write_ele(const char *path, const tm_mesh *m, long first, outset *set,
+                 pdr_diag *diag);
 /* Writes the tetrahedra of a mesh_export view, vertex i written as
  * i + first, with one attribute per tetrahedron (the region attribute)
  * when attr is not NULL. */
 int tg_write_ele_view(const char *path, const mesh_export *m, const double *attr, long first,
-                      pdr_diag *diag);
+                      outset *set, pdr_diag *diag);
 /* Writes the convex hull faces (the real faces of ghosts) and the domain
  * boundary faces of m. */
-int tg_write_face(const char *path, const tm_mesh *m, long first, pdr_diag *diag);
+int tg_write_face(const char *path, const tm_mesh *m, long first, outset *set,
+                  pdr_diag *diag);
 
 #endif /* PDR_IO_TETGEN_H */

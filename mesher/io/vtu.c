@@ -165,14 +165,14 @@ static void arr_end(struct arr *a)
     fprintf(a->f, "        </DataArray>\n");
 }
 
-int vtu_write(const mesh_export *m, const char *path, const vtu_opts *o,
+int vtu_write(const mesh_export *m, const char *path, const vtu_opts *o, outset *set,
               pdr_diag *diag)
 {
     vtu_opts def = {0, 0};
     if (!o)
         o = &def;
     outfile of;
-    int rc = outfile_open(&of, path, diag);
+    int rc = outfile_open_in(&of, set, path, diag);
     if (rc)
         return rc;
     FILE *f = of.f;

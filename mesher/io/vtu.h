@@ -15,6 +15,7 @@
 #define PDR_IO_VTU_H
 
 #include "mesh/mesh_export.h"
+#include "base/outfile.h"
 #include "base/pdr_error.h"
 
 typedef struct vtu_opts {
@@ -22,8 +23,10 @@ typedef struct vtu_opts {
     int radius_edge;  /* nonzero: add the radius_edge cell array */
 } vtu_opts;
 
-/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. */
-int vtu_write(const mesh_export *m, const char *path, const vtu_opts *o,
+/* Returns 0, PDR_EIO or PDR_ENOMEM with the reason in diag. With a set
+ * (not NULL) the finished file waits in it for outset_commit
+ * (base/outfile.h). */
+int vtu_write(const mesh_export *m, const char *path, const vtu_opts *o, outset *set,
               pdr_diag *diag);
 
 #endif /* PDR_IO_VTU_H */

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "mesh/dt.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
@@ -18,15 +19,15 @@ void dt_cavity_init(dt_cavity *c)
 
 void dt_cavity_free(dt_cavity *c)
 {
-    free(c->edge_table);
-    free(c->loc_ids);
-    free(c->tri);
-    free(c->edge_hash);
-    free(c->tets);
-    free(c->bnd);
-    free(c->newtets);
-    free(c->stack);
-    free(c->held);
+    pr_free(c->edge_table);
+    pr_free(c->loc_ids);
+    pr_free(c->tri);
+    pr_free(c->edge_hash);
+    pr_free(c->tets);
+    pr_free(c->bnd);
+    pr_free(c->newtets);
+    pr_free(c->stack);
+    pr_free(c->held);
     memset(c, 0, sizeof *c);
 }
 
@@ -611,7 +612,7 @@ static int link_by_hash(tm_mesh *m, dt_cavity *c)
         bits++;
     }
     if (cap > c->cap_hash) {
-        struct dt_edge_slot *h = realloc(c->edge_hash, cap * sizeof *h);
+        struct dt_edge_slot *h = pr_realloc(c->edge_hash, cap * sizeof *h);
         if (!h)
             return PDR_ENOMEM;
         c->edge_hash = h;
@@ -716,7 +717,7 @@ static int table_ready(dt_cavity *c, size_t nb)
     if (c->nmarked)
         return 0;
     if (!c->edge_table) {
-        c->edge_table = malloc(DT_LOCAL_MAX * DT_LOCAL_MAX * sizeof *c->edge_table);
+        c->edge_table = pr_malloc(DT_LOCAL_MAX * DT_LOCAL_MAX * sizeof *c->edge_table);
         if (!c->edge_table)
             return 0;
         for (size_t i = 0; i < DT_LOCAL_MAX * DT_LOCAL_MAX; i++)
@@ -1295,11 +1296,11 @@ static int renumber(tm_mesh *m, uint32_t *order, size_t n)
     int rc = tm_enable(m, TM_FEAT_GIDS);
     if (rc)
         return rc;
-    double *xyz = malloc((n + 1) * 3 * sizeof *xyz);
-    uint64_t *gid = malloc((n + 1) * sizeof *gid);
+    double *xyz = pr_malloc((n + 1) * 3 * sizeof *xyz);
+    uint64_t *gid = pr_malloc((n + 1) * sizeof *gid);
     if (!xyz || !gid) {
-        free(xyz);
-        free(gid);
+        pr_free(xyz);
+        pr_free(gid);
         return PDR_ENOMEM;
     }
     memcpy(xyz, m->xyz, 3 * sizeof *xyz);
@@ -1311,8 +1312,8 @@ static int renumber(tm_mesh *m, uint32_t *order, size_t n)
     }
     memcpy(m->xyz, xyz, (n + 1) * 3 * sizeof *xyz);
     memcpy(m->gid, gid, (n + 1) * sizeof *gid);
-    free(xyz);
-    free(gid);
+    pr_free(xyz);
+    pr_free(gid);
     return 0;
 }
 
@@ -1328,13 +1329,13 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     int rc = tm_room(m, n * 7 + 64);
     if (rc)
         return rc;
-    uint32_t *order = malloc(n * sizeof *order);
+    uint32_t *order = pr_malloc(n * sizeof *order);
     if (!order)
         return PDR_ENOMEM;
     double t0 = pdr_now();
     rc = ss_brio_hilbert(X(m, 1), n, opts ? opts->seed : 0, 0, order);
     if (rc) {
-        free(order);
+        pr_free(order);
         return rc;
     }
     for (size_t i = 0; i < n; i++)
@@ -1342,7 +1343,7 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     if (opts && opts->renumber) {
         rc = renumber(m, order, n);
         if (rc) {
-            free(order);
+            pr_free(order);
             return rc;
         }
     }
@@ -1366,12 +1367,12 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     if (i >= n)
         found = 0;
     if (!found) {
-        free(order);
+        pr_free(order);
         return PDR_EGEOMETRY;
     }
     rc = dt_init_simplex(m, order[0], order[pick[1]], order[pick[2]], order[pick[3]]);
     if (rc) {
-        free(order);
+        pr_free(order);
         return rc;
     }
     st.inserted = 4;
@@ -1382,7 +1383,7 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
     /* The bulk insertion needs the mark bit free in vertex numbers, the
      * infinite vertex at NaN (as tm_init leaves it) and its scratch
      * arrays. */
-    bk.half = malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
+    bk.half = pr_malloc((DT_LOCAL_MAX + 1) * (DT_LOCAL_MAX + 1) * sizeof *bk.half);
     int fused = bk.half && m->nv <= DT_MARK &&
                 m->xyz[0] != m->xyz[0] && /* NaN: ghosts fail the filter */
                 !pdr_grow((void **)&c.tets, &c.cap_tets, 256, sizeof *c.tets) &&
@@ -1411,13 +1412,13 @@ int dt_build(tm_mesh *m, const dt_build_opts *opts, dt_build_stats *stats)
             opts->progress(opts->progress_arg, i, n);
     }
     bulk_flush(m, &bk);
-    free(bk.pool);
-    free(bk.half);
-    free(bk.ids);
-    free(bk.bf);
-    free(bk.fq);
+    pr_free(bk.pool);
+    pr_free(bk.half);
+    pr_free(bk.ids);
+    pr_free(bk.bf);
+    pr_free(bk.fq);
     dt_cavity_free(&c);
-    free(order);
+    pr_free(order);
     st.insert_seconds = pdr_now() - t1;
     if (stats)
         *stats = st;

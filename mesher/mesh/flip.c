@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "mesh/flip.h"
@@ -414,7 +415,7 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
             for (int g = 0; g < 4 && !rc; g++)
                 rc = push(&st, &n, &cap, tm_mklink(made[i], g));
     }
-    free(st);
+    pr_free(st);
     return rc;
 }
 

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "mesh/tm.h"
 #include "base/v3.h"
 
@@ -25,7 +26,7 @@ static size_t grown(size_t cur, size_t need, size_t limit)
 
 static int resize(void **p, size_t n, size_t size)
 {
-    void *q = realloc(*p, n * size);
+    void *q = pr_realloc(*p, n * size);
     if (!q && n)
         return PDR_ENOMEM;
     *p = q;
@@ -77,13 +78,13 @@ int tm_init(tm_mesh *m, unsigned features)
 
 void tm_free(tm_mesh *m)
 {
-    free(m->xyz);
-    free(m->vhint);
-    free(m->gid);
-    free(m->tets);
-    free(m->flags);
-    free(m->marker);
-    free(m->lock);
+    pr_free(m->xyz);
+    pr_free(m->vhint);
+    pr_free(m->gid);
+    pr_free(m->tets);
+    pr_free(m->flags);
+    pr_free(m->marker);
+    pr_free(m->lock);
     memset(m, 0, sizeof *m);
     m->free_head = TM_NONE;
 }
@@ -91,17 +92,17 @@ void tm_free(tm_mesh *m)
 int tm_enable(tm_mesh *m, unsigned features)
 {
     if ((features & TM_FEAT_MARKERS) && !m->marker) {
-        m->marker = calloc(m->tcap ? m->tcap : 1, 4 * sizeof(int32_t));
+        m->marker = pr_calloc(m->tcap ? m->tcap : 1, 4 * sizeof(int32_t));
         if (!m->marker)
             return PDR_ENOMEM;
     }
     if ((features & TM_FEAT_LOCKS) && !m->lock) {
-        m->lock = calloc(m->tcap ? m->tcap : 1, sizeof(uint32_t));
+        m->lock = pr_calloc(m->tcap ? m->tcap : 1, sizeof(uint32_t));
         if (!m->lock)
             return PDR_ENOMEM;
     }
     if ((features & TM_FEAT_GIDS) && !m->gid) {
-        m->gid = calloc(m->vcap ? m->vcap : 1, sizeof(uint64_t));
+        m->gid = pr_calloc(m->vcap ? m->vcap : 1, sizeof(uint64_t));
         if (!m->gid)
             return PDR_ENOMEM;
         for (uint32_t v = 0; v < m->nv; v++)
@@ -271,7 +272,7 @@ int tm_link_faces(tm_mesh *m, size_t *nonmanifold)
      * each bucket, about 27 faces for a Delaunay mesh, is sorted by the
      * other two vertices. Memory: one link per face plus one offset per
      * vertex, instead of a sort of every face with its full key. */
-    size_t *start = calloc((size_t)m->nv + 1, sizeof *start);
+    size_t *start = pr_calloc((size_t)m->nv + 1, sizeof *start);
     if (!start)
         return PDR_ENOMEM;
     size_t nfaces = 0;
@@ -287,12 +288,12 @@ int tm_link_faces(tm_mesh *m, size_t *nonmanifold)
     }
     for (uint32_t v = 0; v < m->nv; v++)
         start[v + 1] += start[v];
-    tm_link *bucket = malloc((nfaces ? nfaces : 1) * sizeof *bucket);
-    size_t *fill = malloc(((size_t)m->nv + 1) * sizeof *fill);
+    tm_link *bucket = pr_malloc((nfaces ? nfaces : 1) * sizeof *bucket);
+    size_t *fill = pr_malloc(((size_t)m->nv + 1) * sizeof *fill);
     if (!bucket || !fill) {
-        free(start);
-        free(bucket);
-        free(fill);
+        pr_free(start);
+        pr_free(bucket);
+        pr_free(fill);
         return PDR_ENOMEM;
     }
     memcpy(fill, start, ((size_t)m->nv + 1) * sizeof *fill);
@@ -306,14 +307,14 @@ int tm_link_faces(tm_mesh *m, size_t *nonmanifold)
             bucket[fill[f[0]]++] = tm_mklink(t, i);
         }
     }
-    free(fill);
+    pr_free(fill);
     for (uint32_t v = 0; v < m->nv; v++)
         if (start[v + 1] - start[v] > maxrun)
             maxrun = start[v + 1] - start[v];
-    keyed *k = malloc((maxrun ? maxrun : 1) * sizeof *k);
+    keyed *k = pr_malloc((maxrun ? maxrun : 1) * sizeof *k);
     if (!k) {
-        free(start);
-        free(bucket);
+        pr_free(start);
+        pr_free(bucket);
         return PDR_ENOMEM;
     }
     size_t bad = 0;
@@ -329,9 +330,9 @@ int tm_link_faces(tm_mesh *m, size_t *nonmanifold)
         sort_keyed(k, n);
         bad += link_runs(m, k, n, 0);
     }
-    free(k);
-    free(bucket);
-    free(start);
+    pr_free(k);
+    pr_free(bucket);
+    pr_free(start);
     if (nonmanifold)
         *nonmanifold = bad;
     return 0;
@@ -348,7 +349,7 @@ int tm_add_ghosts(tm_mesh *m, size_t *open_edges)
     int rc = tm_room(m, nhull);
     if (rc)
         return rc;
-    keyed *k = malloc((3 * nhull + 1) * sizeof *k);
+    keyed *k = pr_malloc((3 * nhull + 1) * sizeof *k);
     if (!k)
         return PDR_ENOMEM;
     size_t nk = 0;
@@ -386,7 +387,7 @@ int tm_add_ghosts(tm_mesh *m, size_t *open_edges)
     }
     qsort(k, nk, sizeof *k, keyed_cmp);
     size_t bad = link_runs(m, k, nk, 1);
-    free(k);
+    pr_free(k);
     if (open_edges)
         *open_edges = bad;
     return 0;

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "geom/pred.h"
 #include "mesh/vf.h"
 #include "base/v3.h"
@@ -201,7 +202,7 @@ static int lex_cmp_ctx_sort(const void *a, const void *b, void *ctx)
 
 static int check_vertices(const tm_mesh *m, vf_report *r)
 {
-    unsigned char *used = calloc(m->nv, 1);
+    unsigned char *used = pr_calloc(m->nv, 1);
     if (!used)
         return PDR_ENOMEM;
     for (uint32_t t = 0; t < m->nslots; t++)
@@ -216,9 +217,9 @@ static int check_vertices(const tm_mesh *m, vf_report *r)
     if (unused) {
         /* Sort all vertices by coordinates; an unused vertex is a duplicate
          * if a used one has the same coordinates. */
-        uint32_t *idx = malloc((size_t)(m->nv - 1) * sizeof *idx);
+        uint32_t *idx = pr_malloc((size_t)(m->nv - 1) * sizeof *idx);
         if (!idx) {
-            free(used);
+            pr_free(used);
             return PDR_ENOMEM;
         }
         for (uint32_t v = 1; v < m->nv; v++)
@@ -240,9 +241,9 @@ static int check_vertices(const tm_mesh *m, vf_report *r)
                 }
             i = j;
         }
-        free(idx);
+        pr_free(idx);
     }
-    free(used);
+    pr_free(used);
     return 0;
 }
 

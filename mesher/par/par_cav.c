@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "mesh/dt.h"
 #include "par/par_cav.h"
@@ -47,10 +48,10 @@ static int push(u32list *l, uint32_t x)
 
 static void part_free(par_part *p)
 {
-    free(p->cav.a);
-    free(p->held.a);
-    free(p->repoint.a);
-    free(p->ifcs.a);
+    pr_free(p->cav.a);
+    pr_free(p->held.a);
+    pr_free(p->repoint.a);
+    pr_free(p->ifcs.a);
     memset(p, 0, sizeof *p);
 }
 
@@ -291,9 +292,9 @@ static int put_tets(const par_sub *s, const uint32_t *tets, size_t nt, pr_buf *b
             pr_put_u16(b, g->flags);
         }
     }
-    free(pieces.a);
+    pr_free(pieces.a);
 out:
-    free(verts.a);
+    pr_free(verts.a);
     hmap_free(&vidx);
     hmap_free(&seen);
     if (!rc && b->err)
@@ -308,7 +309,7 @@ static int get_tets(par_cav *c, pr_reader *rd, uint32_t src)
     if (pr_get_count(rd, MAX_CAV_TETS * 4, 8 + 24 + 4 + 4 + 1, &nv))
         return PDR_EPARSE;
     /* Reply vertex i + 1 -> gathered vertex index; 0 is infinite. */
-    uint32_t *map = malloc(((size_t)nv + 1) * sizeof *map);
+    uint32_t *map = pr_malloc(((size_t)nv + 1) * sizeof *map);
     if (!map)
         return PDR_ENOMEM;
     map[0] = UINT32_MAX;
@@ -404,7 +405,7 @@ static int get_tets(par_cav *c, pr_reader *rd, uint32_t src)
             break;
         c->ngp++;
     }
-    free(map);
+    pr_free(map);
     return rc;
 }
 
@@ -594,8 +595,8 @@ static int import(par_cav *c)
     par_sub *s = cc->s;
     ref_mesher *r = &s->r;
     tm_mesh *m = &r->m;
-    uint32_t *loc = malloc((c->ngv ? c->ngv : 1) * sizeof *loc);
-    uint32_t *newt = malloc((c->ngt ? c->ngt : 1) * sizeof *newt);
+    uint32_t *loc = pr_malloc((c->ngv ? c->ngv : 1) * sizeof *loc);
+    uint32_t *newt = pr_malloc((c->ngt ? c->ngt : 1) * sizeof *newt);
     int rc = loc && newt ? 0 : PDR_ENOMEM;
     size_t problems0 = dbg_count(s);
     for (size_t i = 0; i < c->ngv && !rc; i++) {
@@ -713,8 +714,8 @@ static int import(par_cav *c)
     if (r->o.check_each_step)
         dbg_report(s, problems0, "import", c->owner, c->ngt);
 out:
-    free(loc);
-    free(newt);
+    pr_free(loc);
+    pr_free(newt);
     return rc;
 }
 
@@ -1150,7 +1151,7 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
     for (size_t i = 0; i < facs.n; i++)
         if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
-    free(facs.a);
+    pr_free(facs.a);
     if (s->r.o.check_each_step)
         dbg_report(s, problems0, "migration", owner, pt->cav.n);
     cc->st.tets_out += pt->cav.n;
@@ -1203,8 +1204,8 @@ void par_cav_ctx_free(par_cav_ctx *cc)
 {
     for (size_t i = 0; i < cc->nrecs; i++)
         part_free(&cc->recs[i].part);
-    free(cc->recs);
-    free(cc->cavs);
+    pr_free(cc->recs);
+    pr_free(cc->cavs);
     hmap_free(&cc->origin);
     hmap_free(&cc->served);
     dt_cavity_free(&cc->scratch);
@@ -1239,12 +1240,12 @@ void par_cav_free(par_cav *c)
 {
     par_cav_release(c);
     part_free(&c->own);
-    free(c->gt);
-    free(c->gv);
-    free(c->gp);
-    free(c->face);
-    free(c->req);
-    free(c->parts.a);
+    pr_free(c->gt);
+    pr_free(c->gv);
+    pr_free(c->gp);
+    pr_free(c->face);
+    pr_free(c->req);
+    pr_free(c->parts.a);
     hmap_free(&c->gvmap);
     hmap_free(&c->facemap);
     if (c->fut)

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "par/par_decomp.h"
 #include "plc/fm.h"
 #include "par/par_wire.h"
@@ -47,9 +48,9 @@ static int metis_parts(const tm_mesh *m, const uint32_t *real, const uint32_t *d
 {
     if (4 * n > (size_t)((((uint64_t)1) << (PDR_METIS_IDXTYPEWIDTH - 1)) - 1))
         return PDR_ELIMIT;
-    idx_t *xadj = malloc((n + 1) * sizeof *xadj);
-    idx_t *adj = malloc((n ? 4 * n : 1) * sizeof *adj);
-    idx_t *where = malloc((n ? n : 1) * sizeof *where);
+    idx_t *xadj = pr_malloc((n + 1) * sizeof *xadj);
+    idx_t *adj = pr_malloc((n ? 4 * n : 1) * sizeof *adj);
+    idx_t *where = pr_malloc((n ? n : 1) * sizeof *where);
     int rc = 0;
     if (!xadj || !adj || !where) {
         rc = PDR_ENOMEM;
@@ -84,9 +85,9 @@ static int metis_parts(const tm_mesh *m, const uint32_t *real, const uint32_t *d
         part[real[k]] = (uint32_t)where[k];
     }
 out:
-    free(xadj);
-    free(adj);
-    free(where);
+    pr_free(xadj);
+    pr_free(adj);
+    pr_free(where);
     return rc;
 }
 
@@ -96,11 +97,11 @@ int par_decomp_partition(const ref_mesher *mo, uint32_t nparts, int seed, uint32
     const tm_mesh *m = &mo->m;
     if (nparts == 0)
         return PDR_EINVAL;
-    uint32_t *real = malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *real);
-    uint32_t *dense = malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *dense);
+    uint32_t *real = pr_malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *real);
+    uint32_t *dense = pr_malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *dense);
     if (!real || !dense) {
-        free(real);
-        free(dense);
+        pr_free(real);
+        pr_free(dense);
         return PDR_ENOMEM;
     }
     size_t n = 0;
@@ -125,8 +126,8 @@ int par_decomp_partition(const ref_mesher *mo, uint32_t nparts, int seed, uint32
     } else {
         rc = metis_parts(m, real, dense, n, nparts, seed, part);
     }
-    free(real);
-    free(dense);
+    pr_free(real);
+    pr_free(dense);
     if (rc)
         return rc;
     size_t cut = 0;
@@ -163,13 +164,13 @@ int par_decomp_encode_pe(pr_buf *b, const ref_mesher *mo, const uint32_t *part, 
         nt += !tm_is_dead(m, t) && part[t] % size == pe;
     if (nt > PR_MAX_TETS)
         return PDR_ELIMIT;
-    uint32_t *tets = malloc((nt ? nt : 1) * sizeof *tets);
-    uint32_t *fpe = malloc((nt ? 4 * nt : 1) * sizeof *fpe);
-    uint64_t *gid = malloc((size_t)m->nv * sizeof *gid);
+    uint32_t *tets = pr_malloc((nt ? nt : 1) * sizeof *tets);
+    uint32_t *fpe = pr_malloc((nt ? 4 * nt : 1) * sizeof *fpe);
+    uint64_t *gid = pr_malloc((size_t)m->nv * sizeof *gid);
     if (!tets || !fpe || !gid) {
-        free(tets);
-        free(fpe);
-        free(gid);
+        pr_free(tets);
+        pr_free(fpe);
+        pr_free(gid);
         return PDR_ENOMEM;
     }
     gid[0] = PAR_GID_INF;
@@ -194,9 +195,9 @@ int par_decomp_encode_pe(pr_buf *b, const ref_mesher *mo, const uint32_t *part, 
     par_wire_src src = {mo,   gid,  tets, (uint32_t)nt, fpe, pe, pe, size,
                         pe == 0 ? (uint64_t)m->nv : 1};
     int rc = par_wire_encode(b, &src);
-    free(tets);
-    free(fpe);
-    free(gid);
+    pr_free(tets);
+    pr_free(fpe);
+    pr_free(gid);
     return rc;
 }
 
@@ -205,10 +206,10 @@ void par_decomp_free(par_decomp *d)
     if (d->msg)
         for (uint32_t k = 0; k < d->size; k++)
             pr_buf_free(&d->msg[k]);
-    free(d->msg);
-    free(d->part);
-    free(d->tets);
-    free(d->ifaces);
+    pr_free(d->msg);
+    pr_free(d->part);
+    pr_free(d->tets);
+    pr_free(d->ifaces);
     memset(d, 0, sizeof *d);
 }
 
@@ -222,10 +223,10 @@ int par_decomp_run(const ref_mesher *mo, uint32_t size, uint32_t nparts, int see
     out->size = size;
     out->nparts = nparts;
     out->nslots = m->nslots;
-    out->part = malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *out->part);
-    out->msg = calloc(size, sizeof *out->msg);
-    out->tets = calloc(size, sizeof *out->tets);
-    out->ifaces = calloc(size, sizeof *out->ifaces);
+    out->part = pr_malloc(((size_t)m->nslots ? m->nslots : 1) * sizeof *out->part);
+    out->msg = pr_calloc(size, sizeof *out->msg);
+    out->tets = pr_calloc(size, sizeof *out->tets);
+    out->ifaces = pr_calloc(size, sizeof *out->ifaces);
     if (!out->part || !out->msg || !out->tets || !out->ifaces)
         return PDR_ENOMEM;
     int rc = par_decomp_partition(mo, nparts, seed, out->part, &out->edgecut);
@@ -343,7 +344,7 @@ static int get_name(pr_reader *rd, char **out)
     *out = NULL;
     if (pr_get_u16(rd, &n) || pr_get_view(rd, &s, n) || pr_str_check((const char *)s, n))
         return PDR_EPARSE;
-    *out = malloc((size_t)n + 1);
+    *out = pr_malloc((size_t)n + 1);
     if (!*out)
         return PDR_ENOMEM;
     memcpy(*out, s, n);
@@ -423,7 +424,7 @@ static int get_vertices(pr_reader *rd, plc *p)
             return PDR_EPARSE;
         /* plc.h: vattr holds nvattr values per vertex for cap_v vertices,
          * owned by the PLC and released by plc_free. */
-        p->vattr = calloc(p->cap_v * na, sizeof *p->vattr);
+        p->vattr = pr_calloc(p->cap_v * na, sizeof *p->vattr);
         if (!p->vattr)
             return PDR_ENOMEM;
         p->nvattr = na;
@@ -459,7 +460,7 @@ static int get_facets(pr_reader *rd, plc *p)
                 break;
             }
             if (n > cap) {
-                uint32_t *c2 = realloc(corner, (size_t)n * sizeof *c2);
+                uint32_t *c2 = pr_realloc(corner, (size_t)n * sizeof *c2);
                 if (!c2) {
                     rc = PDR_ENOMEM;
                     break;
@@ -483,7 +484,7 @@ static int get_facets(pr_reader *rd, plc *p)
                 rc = from_builder(plc_add_facet_hole(p, x, line));
         }
     }
-    free(corner);
+    pr_free(corner);
     return rc;
 }
 
@@ -544,12 +545,12 @@ int par_decomp_plc_decode(const void *msg, size_t len, plc *out, pdr_diag *diag)
         rc = get_name(&rd, &vfile);
     if (!rc)
         rc = plc_init(out, path);
-    free(path);
+    pr_free(path);
     if (rc) {
-        free(vfile);
+        pr_free(vfile);
         return rc;
     }
-    free(out->vfile);
+    pr_free(out->vfile);
     out->vfile = vfile;
     uint8_t base = 0;
     double tol = 0;

@@ -35,6 +35,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/hdup.h"
 #include "base/pdr_util.h"
 #include "base/v3.h"
@@ -98,16 +99,16 @@ static void st_free(merge *g)
             par_wire_clear(&g->w[k]);
     if (g->loc)
         for (uint32_t k = 0; k < g->n; k++)
-            free(g->loc[k]);
-    free(g->w);
-    free(g->loc);
-    free(g->base);
-    free(g->drop);
-    free(g->lf);
-    free(g->hash);
-    free(g->big);
+            pr_free(g->loc[k]);
+    pr_free(g->w);
+    pr_free(g->loc);
+    pr_free(g->base);
+    pr_free(g->drop);
+    pr_free(g->lf);
+    pr_free(g->hash);
+    pr_free(g->big);
     hdup_buf_free(&g->scratch);
-    free(g->vk);
+    pr_free(g->vk);
 }
 
 /* ---------------------------------------------------------------- hashes */
@@ -252,14 +253,14 @@ static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
     int rc = tm_reserve(m, total, 0);
     if (!rc)
         rc = bd_vertex_room(&r->bd, total);
-    g->loc = calloc(g->n, sizeof *g->loc);
-    uint32_t *cur = calloc(g->n, sizeof *cur), *heap = malloc(g->n * sizeof *heap);
+    g->loc = pr_calloc(g->n, sizeof *g->loc);
+    uint32_t *cur = pr_calloc(g->n, sizeof *cur), *heap = pr_malloc(g->n * sizeof *heap);
     if (!rc && (!g->loc || !cur || !heap))
         rc = PDR_ENOMEM;
     size_t nh = 0;
     for (uint32_t k = 0; k < g->n && !rc; k++) {
         const pr_vtable *vt = &g->w[k].sm->vert;
-        g->loc[k] = malloc(((size_t)vt->n ? vt->n : 1) * sizeof *g->loc[k]);
+        g->loc[k] = pr_malloc(((size_t)vt->n ? vt->n : 1) * sizeof *g->loc[k]);
         if (!g->loc[k]) {
             rc = PDR_ENOMEM;
             break;
@@ -300,10 +301,10 @@ static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
             heap[0] = heap[--nh];
         sift_down(g, cur, heap, nh, 0);
     }
-    free(cur);
-    free(heap);
+    pr_free(cur);
+    pr_free(heap);
     if (!rc) {
-        g->vk = malloc((size_t)m->nv * sizeof *g->vk);
+        g->vk = pr_malloc((size_t)m->nv * sizeof *g->vk);
         if (!g->vk)
             return PDR_ENOMEM;
         for (uint32_t x = 0; x < m->nv; x++)
@@ -337,7 +338,7 @@ static int add_tets(merge *g, ref_mesher *r)
     int rc = tm_reserve(m, 0, total);
     if (!rc)
         rc = ref_region_room(r);
-    g->base = malloc(((size_t)g->n + 1) * sizeof *g->base);
+    g->base = pr_malloc(((size_t)g->n + 1) * sizeof *g->base);
     if (!rc && g->careful)
         rc = pdr_grow((void **)&g->hash, &g->caphash, total ? total : 1, sizeof *g->hash);
     if (rc || !g->base)
@@ -413,7 +414,7 @@ static int find_dup_tets(merge *g, const tm_mesh *m, par_merge_report *rep)
     size_t nr = 0;
     int rc = hdup_find(g->hash, g->nhash, &g->scratch, &rh, &nr);
     if (rc || !nr) {
-        free(rh);
+        pr_free(rh);
         return rc;
     }
     /* Some hash repeats: a tetrahedron sent twice, or (rarely) two
@@ -426,8 +427,8 @@ static int find_dup_tets(merge *g, const tm_mesh *m, par_merge_report *rep)
             sort4(m->tets[t].v, s);
             rc = add_cand(&c, &nc, &cap, s, t);
         }
-    free(rh);
-    g->drop = rc ? NULL : calloc(m->nslots ? m->nslots : 1, 1);
+    pr_free(rh);
+    g->drop = rc ? NULL : pr_calloc(m->nslots ? m->nslots : 1, 1);
     if (!rc && !g->drop)
         rc = PDR_ENOMEM;
     if (!rc) {
@@ -438,7 +439,7 @@ static int find_dup_tets(merge *g, const tm_mesh *m, par_merge_report *rep)
                 rep->dup_tets++;
             }
     }
-    free(c);
+    pr_free(c);
     return rc;
 }
 
@@ -595,7 +596,7 @@ static int match_loose(merge *g, tm_mesh *m, par_merge_report *rep)
     size_t cap = 2;
     while (cap < 2 * n)
         cap *= 2;
-    uint32_t *tab = malloc(cap * sizeof *tab);
+    uint32_t *tab = pr_malloc(cap * sizeof *tab);
     if (!tab)
         return PDR_ENOMEM;
     memset(tab, 0xff, cap * sizeof *tab);
@@ -632,7 +633,7 @@ static int match_loose(merge *g, tm_mesh *m, par_merge_report *rep)
         if (!rc && size > 2)
             rc = add_hash(&g->big, &g->nbig, &g->capbig, h);
     }
-    free(tab);
+    pr_free(tab);
     return rc;
 }
 
@@ -665,7 +666,7 @@ static int find_nonmanifold(merge *g, const tm_mesh *m, par_merge_report *rep)
                 rc = add_cand(&c, &nc, &cap, s, tm_mklink(t, i));
         }
     }
-    free(rh);
+    pr_free(rh);
     if (!rc && nc) {
         qsort(c, nc, sizeof *c, cmp_cand);
         for (size_t k = 0; k < nc;) {
@@ -676,7 +677,7 @@ static int find_nonmanifold(merge *g, const tm_mesh *m, par_merge_report *rep)
             k = e;
         }
     }
-    free(c);
+    pr_free(c);
     return rc;
 }
 
@@ -733,7 +734,7 @@ static int add_bd(const merge *g, ref_mesher *r, par_merge_report *rep)
 static int merge_all(merge *g, const void *const *msg, const size_t *len, const plc *p,
                      ref_mesher *out, par_merge_report *rep)
 {
-    g->w = calloc(g->n ? g->n : 1, sizeof *g->w);
+    g->w = pr_calloc(g->n ? g->n : 1, sizeof *g->w);
     if (!g->w)
         return PDR_ENOMEM;
     for (uint32_t k = 0; k < g->n; k++) {

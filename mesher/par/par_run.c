@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "par/par_run.h"
 #include "par/par_verify.h"
@@ -348,13 +349,13 @@ static int start_work(am_ctx_t *am, void *arg)
     if (it) {
         pr->free_items = it->next_free;
     } else {
-        it = calloc(1, sizeof *it);
+        it = pr_calloc(1, sizeof *it);
         if (!it)
             return PDR_ENOMEM;
         it->pr = pr;
         par_cav_init(&it->cav, &pr->cc);
         if (!it->cav.fut) {
-            free(it);
+            pr_free(it);
             return PDR_ENOMEM;
         }
     }
@@ -374,7 +375,7 @@ static int start_work(am_ctx_t *am, void *arg)
 int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *row)
 {
     memset(row, 0, sizeof *row);
-    par_run *pr = calloc(1, sizeof *pr);
+    par_run *pr = pr_calloc(1, sizeof *pr);
     if (!pr)
         return PDR_ENOMEM;
     pr->am = am;
@@ -388,7 +389,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->row = row;
     int rc = par_cav_ctx_init(&pr->cc, am, s, PAR_RUN_HANDLER_BASE);
     if (rc) {
-        free(pr);
+        pr_free(pr);
         return rc;
     }
     pr->cc.requeue = requeue;
@@ -460,9 +461,9 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         par_item *it = pr->free_items;
         pr->free_items = it->next_free;
         par_cav_free(&it->cav);
-        free(it);
+        pr_free(it);
     }
     par_cav_ctx_free(&pr->cc);
-    free(pr);
+    pr_free(pr);
     return rc;
 }

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "par/par_sub.h"
 #include "pr.h"
@@ -49,7 +50,7 @@ void par_sub_free(par_sub *s)
     ref_free(&s->r);
     hmap_free(&s->vmap);
     hmap_free(&s->ifc_map);
-    free(s->ifc);
+    pr_free(s->ifc);
     memset(s, 0, sizeof *s);
 }
 

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "base/v3.h"
 #include "par/par_wire.h"
@@ -58,11 +59,11 @@ typedef struct gid_vertex {
  * that qsort took ten times as long for. Returns 0 or PDR_ENOMEM. */
 static int sort_gids(gid_vertex *a, uint32_t n)
 {
-    gid_vertex *tmp = malloc((n ? n : 1) * sizeof *tmp);
-    size_t *count = malloc(RADIX_BINS * sizeof *count);
+    gid_vertex *tmp = pr_malloc((n ? n : 1) * sizeof *tmp);
+    size_t *count = pr_malloc(RADIX_BINS * sizeof *count);
     if (!tmp || !count) {
-        free(tmp);
-        free(count);
+        pr_free(tmp);
+        pr_free(count);
         return PDR_ENOMEM;
     }
     gid_vertex *from = a, *to = tmp;
@@ -86,8 +87,8 @@ static int sort_gids(gid_vertex *a, uint32_t n)
     }
     if (from != a)
         memcpy(a, from, (size_t)n * sizeof *a);
-    free(tmp);
-    free(count);
+    pr_free(tmp);
+    pr_free(count);
     return 0;
 }
 
@@ -108,33 +109,33 @@ typedef struct enc {
 
 static void enc_free(enc *e)
 {
-    free(e->idx);
-    free(e->verts);
-    free(e->sent);
-    free(e->below);
-    free(e->pos);
-    free(e->sm.vert.gid);
-    free(e->sm.vert.xyz);
-    free(e->sm.vert.flags);
-    free(e->sm.tet.v);
-    free(e->sm.tet.marker);
-    free(e->sm.tet.subseg);
-    free(e->sm.iface.face);
-    free(e->sm.iface.remote);
-    free(e->seen_seg);
-    free(e->seen_fac);
-    free(e->segs);
-    free(e->facs);
+    pr_free(e->idx);
+    pr_free(e->verts);
+    pr_free(e->sent);
+    pr_free(e->below);
+    pr_free(e->pos);
+    pr_free(e->sm.vert.gid);
+    pr_free(e->sm.vert.xyz);
+    pr_free(e->sm.vert.flags);
+    pr_free(e->sm.tet.v);
+    pr_free(e->sm.tet.marker);
+    pr_free(e->sm.tet.subseg);
+    pr_free(e->sm.iface.face);
+    pr_free(e->sm.iface.remote);
+    pr_free(e->seen_seg);
+    pr_free(e->seen_fac);
+    pr_free(e->segs);
+    pr_free(e->facs);
 }
 
 /* The vertex table: every vertex the tetrahedra use, by ascending gid. */
 static int enc_vertices(enc *e, const par_wire_src *src)
 {
     const tm_mesh *m = &src->r->m;
-    e->idx = malloc(((size_t)m->nv ? m->nv : 1) * sizeof *e->idx);
+    e->idx = pr_malloc(((size_t)m->nv ? m->nv : 1) * sizeof *e->idx);
     /* at most 4 nt distinct vertices, and at most nv */
     size_t cap = 4 * (size_t)src->nt < m->nv ? 4 * (size_t)src->nt : m->nv;
-    e->verts = malloc((cap ? cap : 1) * sizeof *e->verts);
+    e->verts = pr_malloc((cap ? cap : 1) * sizeof *e->verts);
     if (!e->idx || !e->verts)
         return PDR_ENOMEM;
     memset(e->idx, 0xff, (size_t)m->nv * sizeof *e->idx);
@@ -168,9 +169,9 @@ static int enc_vertices(enc *e, const par_wire_src *src)
     e->nv = n;
     pr_vtable *vt = &e->sm.vert;
     vt->n = n;
-    vt->gid = malloc((n ? n : 1) * sizeof *vt->gid);
-    vt->xyz = malloc((n ? 3 * (size_t)n : 1) * sizeof *vt->xyz);
-    vt->flags = calloc(n ? n : 1, sizeof *vt->flags);
+    vt->gid = pr_malloc((n ? n : 1) * sizeof *vt->gid);
+    vt->xyz = pr_malloc((n ? 3 * (size_t)n : 1) * sizeof *vt->xyz);
+    vt->flags = pr_calloc(n ? n : 1, sizeof *vt->flags);
     if (!vt->gid || !vt->xyz || !vt->flags)
         return PDR_ENOMEM;
     for (uint32_t i = 0; i < n; i++) {
@@ -227,8 +228,8 @@ static int enc_positions(enc *e, const par_wire_src *src)
         ascending = src->tets[k] > src->tets[k - 1];
     if (ascending) {
         size_t nw = ns / 64 + 1;
-        e->sent = calloc(nw, sizeof *e->sent);
-        e->below = malloc(nw * sizeof *e->below);
+        e->sent = pr_calloc(nw, sizeof *e->sent);
+        e->below = pr_malloc(nw * sizeof *e->below);
         if (!e->sent || !e->below)
             return PDR_ENOMEM;
         for (size_t k = 0; k < nt; k++)
@@ -240,7 +241,7 @@ static int enc_positions(enc *e, const par_wire_src *src)
         }
         return 0;
     }
-    e->pos = malloc((ns ? ns : 1) * sizeof *e->pos);
+    e->pos = pr_malloc((ns ? ns : 1) * sizeof *e->pos);
     if (!e->pos)
         return PDR_ENOMEM;
     memset(e->pos, 0xff, ns * sizeof *e->pos);
@@ -298,9 +299,9 @@ static int enc_tets(enc *e, const par_wire_src *src)
     pr_ttable *tt = &e->sm.tet;
     size_t nt = src->nt;
     tt->n = src->nt;
-    tt->v = malloc((nt ? 4 * nt : 1) * sizeof *tt->v);
-    tt->marker = malloc((nt ? 4 * nt : 1) * sizeof *tt->marker);
-    tt->subseg = malloc(nt ? nt : 1);
+    tt->v = pr_malloc((nt ? 4 * nt : 1) * sizeof *tt->v);
+    tt->marker = pr_malloc((nt ? 4 * nt : 1) * sizeof *tt->marker);
+    tt->subseg = pr_malloc(nt ? nt : 1);
     if (!tt->v || !tt->marker || !tt->subseg)
         return PDR_ENOMEM;
     int rc = enc_positions(e, src);
@@ -339,11 +340,11 @@ static int enc_bd(enc *e, const par_wire_src *src)
 {
     const tm_mesh *m = &src->r->m;
     const bd_set *bd = &src->r->bd;
-    e->seen_seg = calloc(bd->nsegs ? bd->nsegs : 1, 1);
-    e->seen_fac = calloc(bd->nfacs ? bd->nfacs : 1, 1);
+    e->seen_seg = pr_calloc(bd->nsegs ? bd->nsegs : 1, 1);
+    e->seen_fac = pr_calloc(bd->nfacs ? bd->nfacs : 1, 1);
     size_t cs = bd->live_segs, cf = bd->live_facs;
-    e->segs = malloc((cs ? cs : 1) * sizeof *e->segs);
-    e->facs = malloc((cf ? cf : 1) * sizeof *e->facs);
+    e->segs = pr_malloc((cs ? cs : 1) * sizeof *e->segs);
+    e->facs = pr_malloc((cf ? cf : 1) * sizeof *e->facs);
     if (!e->seen_seg || !e->seen_fac || !e->segs || !e->facs)
         return PDR_ENOMEM;
     for (uint32_t k = 0; k < src->nt; k++) {
@@ -501,7 +502,7 @@ int par_wire_encode_sub(pr_buf *b, const par_sub *s)
 {
     const tm_mesh *m = &s->r.m;
     size_t n = m->nlive;
-    uint32_t *tets = malloc((n ? n : 1) * sizeof *tets);
+    uint32_t *tets = pr_malloc((n ? n : 1) * sizeof *tets);
     if (!tets)
         return PDR_ENOMEM;
     int rc = 0;
@@ -521,7 +522,7 @@ int par_wire_encode_sub(pr_buf *b, const par_sub *s)
                             s->size, s->next_seq, s->ifc, s->nifc};
         rc = par_wire_encode(b, &src);
     }
-    free(tets);
+    pr_free(tets);
     return rc;
 }
 
@@ -530,15 +531,15 @@ int par_wire_encode_sub(pr_buf *b, const par_sub *s)
 void par_wire_clear(par_wire *w)
 {
     pr_submesh_free(&w->sm);
-    free(w->vkind);
-    free(w->vfeat);
-    free(w->vrins);
-    free(w->seg_v);
-    free(w->seg_id);
-    free(w->seg_flags);
-    free(w->fac_v);
-    free(w->fac_id);
-    free(w->fac_flags);
+    pr_free(w->vkind);
+    pr_free(w->vfeat);
+    pr_free(w->vrins);
+    pr_free(w->seg_v);
+    pr_free(w->seg_id);
+    pr_free(w->seg_flags);
+    pr_free(w->fac_v);
+    pr_free(w->fac_id);
+    pr_free(w->fac_flags);
     memset(w, 0, sizeof *w);
 }
 
@@ -568,9 +569,9 @@ static int dec_vertices(pr_reader *rd, const plc *p, par_wire *w)
     if (pr_get_view(rd, &kind, n) || pr_get_view(rd, &feat, 4 * (size_t)n) ||
         pr_get_view(rd, &rins, 4 * (size_t)n))
         return PDR_EPARSE;
-    w->vkind = malloc(n ? n : 1);
-    w->vfeat = malloc((n ? n : 1) * sizeof *w->vfeat);
-    w->vrins = malloc((n ? n : 1) * sizeof *w->vrins);
+    w->vkind = pr_malloc(n ? n : 1);
+    w->vfeat = pr_malloc((n ? n : 1) * sizeof *w->vfeat);
+    w->vrins = pr_malloc((n ? n : 1) * sizeof *w->vrins);
     if (!w->vkind || !w->vfeat || !w->vrins)
         return PDR_ENOMEM;
     uint32_t rank = w->sm->rank;
@@ -650,9 +651,9 @@ static int dec_segs(pr_reader *rd, const plc *p, par_wire *w)
         pr_get_view(rd, &id, 4 * (size_t)n) || pr_get_view(rd, &fl, 2 * (size_t)n))
         return PDR_EPARSE;
     w->nseg = n;
-    w->seg_v = malloc((n ? 2 * (size_t)n : 1) * sizeof *w->seg_v);
-    w->seg_id = malloc((n ? n : 1) * sizeof *w->seg_id);
-    w->seg_flags = malloc((n ? n : 1) * sizeof *w->seg_flags);
+    w->seg_v = pr_malloc((n ? 2 * (size_t)n : 1) * sizeof *w->seg_v);
+    w->seg_id = pr_malloc((n ? n : 1) * sizeof *w->seg_id);
+    w->seg_flags = pr_malloc((n ? n : 1) * sizeof *w->seg_flags);
     if (!w->seg_v || !w->seg_id || !w->seg_flags)
         return PDR_ENOMEM;
     for (uint32_t j = 0; j < n; j++) {
@@ -678,9 +679,9 @@ static int dec_facs(pr_reader *rd, const plc *p, par_wire *w)
         pr_get_view(rd, &fl, 2 * (size_t)n))
         return PDR_EPARSE;
     w->nfac = n;
-    w->fac_v = malloc((n ? 3 * (size_t)n : 1) * sizeof *w->fac_v);
-    w->fac_id = malloc((n ? n : 1) * sizeof *w->fac_id);
-    w->fac_flags = malloc((n ? n : 1) * sizeof *w->fac_flags);
+    w->fac_v = pr_malloc((n ? 3 * (size_t)n : 1) * sizeof *w->fac_v);
+    w->fac_id = pr_malloc((n ? n : 1) * sizeof *w->fac_id);
+    w->fac_flags = pr_malloc((n ? n : 1) * sizeof *w->fac_flags);
     if (!w->fac_v || !w->fac_id || !w->fac_flags)
         return PDR_ENOMEM;
     for (uint32_t j = 0; j < n; j++) {
@@ -859,7 +860,7 @@ static int build(const par_wire *w, par_sub *s)
         rc = tm_reserve(m, (size_t)sm->vert.n + 1, sm->tet.n);
     if (rc)
         return rc;
-    uint32_t *loc = malloc(((size_t)sm->vert.n ? sm->vert.n : 1) * sizeof *loc);
+    uint32_t *loc = pr_malloc(((size_t)sm->vert.n ? sm->vert.n : 1) * sizeof *loc);
     if (!loc)
         return PDR_ENOMEM;
     for (uint32_t i = 0; i < sm->vert.n && !rc; i++) {
@@ -888,7 +889,7 @@ static int build(const par_wire *w, par_sub *s)
         rc = PDR_ETOPOLOGY;
     if (!rc)
         rc = build_bd(w, loc, s);
-    free(loc);
+    pr_free(loc);
     if (rc)
         return rc;
     tm_rebuild_hints(m);
@@ -925,8 +926,8 @@ int par_wire_load(const void *msg, size_t len, const plc *p, const ref_opts *o, 
 int par_wire_seg_acute(ref_mesher *r)
 {
     const plc *p = r->p;
-    free(r->seg_acute);
-    r->seg_acute = calloc(p->nv ? p->nv : 1, sizeof *r->seg_acute);
+    pr_free(r->seg_acute);
+    r->seg_acute = pr_calloc(p->nv ? p->nv : 1, sizeof *r->seg_acute);
     if (!r->seg_acute)
         return PDR_ENOMEM;
     for (size_t v = 0; v < p->nv; v++) {

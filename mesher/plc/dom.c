@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/hmap.h"
 #include "plc/dom.h"
 
@@ -207,9 +208,9 @@ int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
     /* V - E + F = 2 with E = 3F/2, F = 20 * 4^level */
     size_t nf = (size_t)20 << (2 * o->level), nv = nf / 2 + 2;
     struct ico s = {0};
-    s.x = malloc(nv * sizeof *s.x);
-    s.tri = malloc(nf * sizeof *s.tri);
-    uint32_t(*next)[3] = malloc(nf * sizeof *next);
+    s.x = pr_malloc(nv * sizeof *s.x);
+    s.tri = pr_malloc(nf * sizeof *s.tri);
+    uint32_t(*next)[3] = pr_malloc(nf * sizeof *next);
     int rc = PDR_ENOMEM;
     if (!s.x || !s.tri || !next)
         goto done;
@@ -254,9 +255,9 @@ int dom_sphere(plc *p, const dom_sphere_opts *o, pdr_diag *diag)
         rc = plc_add_region(p, centre, 1.0, -1.0, 0);
     }
 done:
-    free(s.x);
-    free(s.tri);
-    free(next);
+    pr_free(s.x);
+    pr_free(s.tri);
+    pr_free(next);
     hmap_free(&s.mid);
     return rc;
 }

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/hmap.h"
 #include "base/pdr_util.h"
 #include "base/v3.h"
@@ -298,11 +299,11 @@ static int emit_group(fm_work *w, uint32_t lead)
     /* Chain the loops into queue (reused: corners of loop after loop),
      * with loop starts, areas and longest edges kept aside. */
     size_t nloop = 0, ncorner = 0, outer = SIZE_MAX;
-    size_t *start = malloc((w->nbnd + 1) * sizeof *start);
-    uint32_t (*longest)[2] = malloc((w->nbnd + 1) * sizeof *longest);
+    size_t *start = pr_malloc((w->nbnd + 1) * sizeof *start);
+    uint32_t (*longest)[2] = pr_malloc((w->nbnd + 1) * sizeof *longest);
     if (!start || !longest) {
-        free(start);
-        free(longest);
+        pr_free(start);
+        pr_free(longest);
         return PDR_ENOMEM;
     }
     for (size_t e0 = 0; e0 < w->nbnd && !rc; e0++) {
@@ -367,29 +368,29 @@ static int emit_group(fm_work *w, uint32_t lead)
             w->vstamp[v] = lead + 1;
             rc = put_polygon(w, &v, 1, 0);
         }
-    free(start);
-    free(longest);
+    pr_free(start);
+    pr_free(longest);
     return rc;
 }
 
 static void work_free(fm_work *w)
 {
-    free(w->group);
-    free(w->ot);
-    free(w->next);
-    free(w->size);
-    free(w->merged);
-    free(w->queue);
+    pr_free(w->group);
+    pr_free(w->ot);
+    pr_free(w->next);
+    pr_free(w->size);
+    pr_free(w->merged);
+    pr_free(w->queue);
     hmap_free(&w->explicit_segs);
     hmap_free(&w->edges);
     hmap_free(&w->out);
-    free(w->bnd);
-    free(w->used);
-    free(w->vstamp);
-    free(w->facets);
-    free(w->polys);
-    free(w->corners);
-    free(w->fholes);
+    pr_free(w->bnd);
+    pr_free(w->used);
+    pr_free(w->vstamp);
+    pr_free(w->facets);
+    pr_free(w->polys);
+    pr_free(w->corners);
+    pr_free(w->fholes);
 }
 
 /* Groups every triangle facet; returns 0 or PDR_ENOMEM. */
@@ -464,13 +465,13 @@ int fm_merge(plc *p, double angle_tol, fm_stats *st)
         d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
     w.plane_tol = p->planar_tol * sqrt(d2);
     size_t nf = p->nfacet;
-    w.group = malloc(nf * sizeof *w.group);
-    w.ot = malloc(nf * sizeof *w.ot);
-    w.next = malloc(nf * sizeof *w.next);
-    w.size = malloc(nf * sizeof *w.size);
-    w.merged = calloc(nf, 1);
-    w.queue = malloc((nf * 3 + 1) * sizeof *w.queue);
-    w.vstamp = calloc(p->nv ? p->nv : 1, sizeof *w.vstamp);
+    w.group = pr_malloc(nf * sizeof *w.group);
+    w.ot = pr_malloc(nf * sizeof *w.ot);
+    w.next = pr_malloc(nf * sizeof *w.next);
+    w.size = pr_malloc(nf * sizeof *w.size);
+    w.merged = pr_calloc(nf, 1);
+    w.queue = pr_malloc((nf * 3 + 1) * sizeof *w.queue);
+    w.vstamp = pr_calloc(p->nv ? p->nv : 1, sizeof *w.vstamp);
     int rc = w.group && w.ot && w.next && w.size && w.merged && w.queue && w.vstamp ? 0
                                                                                       : PDR_ENOMEM;
     if (!rc)
@@ -575,12 +576,12 @@ int fm_features(plc *p, fm_stats *st)
 {
     if (!p->derived || !p->ftri_start)
         return PDR_EINVAL;
-    free(p->seg_mindih);
-    free(p->v_minang);
-    p->seg_mindih = malloc((p->nseg ? p->nseg : 1) * sizeof *p->seg_mindih);
-    p->v_minang = malloc((p->nv ? p->nv : 1) * sizeof *p->v_minang);
+    pr_free(p->seg_mindih);
+    pr_free(p->v_minang);
+    p->seg_mindih = pr_malloc((p->nseg ? p->nseg : 1) * sizeof *p->seg_mindih);
+    p->v_minang = pr_malloc((p->nv ? p->nv : 1) * sizeof *p->v_minang);
     size_t ntri = p->ftri_start[p->nfacet];
-    uint32_t *tf = malloc((ntri ? ntri : 1) * sizeof *tf);
+    uint32_t *tf = pr_malloc((ntri ? ntri : 1) * sizeof *tf);
     hmap tri_of = {0};
     int rc = p->seg_mindih && p->v_minang && tf ? 0 : PDR_ENOMEM;
     /* Every facet triangle under each of its edges, and its facet. */
@@ -601,10 +602,10 @@ int fm_features(plc *p, fm_stats *st)
         acute += p->v_minang[v] < FM_ACUTE_ANG;
     }
     hmap_free(&tri_of);
-    free(tf);
+    pr_free(tf);
     if (rc) {
-        free(p->seg_mindih);
-        free(p->v_minang);
+        pr_free(p->seg_mindih);
+        pr_free(p->v_minang);
         p->seg_mindih = p->v_minang = NULL;
         return rc;
     }

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/outfile.h"
 #include "plc/plc.h"
 #include "plc/plc_int.h"
@@ -20,7 +21,7 @@ int plc__grow(void **arr, size_t *cap, size_t need, size_t elsize)
             return PDR_ENOMEM;
         n *= 2;
     }
-    void *q = realloc(*arr, n * elsize);
+    void *q = pr_realloc(*arr, n * elsize);
     if (!q)
         return PDR_ENOMEM;
     *arr = q;
@@ -34,7 +35,7 @@ int plc__grow(void **arr, size_t *cap, size_t need, size_t elsize)
 static char *dup_str(const char *s)
 {
     size_t n = strlen(s) + 1;
-    char *d = malloc(n);
+    char *d = pr_malloc(n);
     if (d)
         memcpy(d, s, n);
     return d;
@@ -56,17 +57,17 @@ int plc_init(plc *p, const char *path)
 
 void plc__drop_derived(plc *p)
 {
-    free(p->segs);
-    free(p->seg_fstart);
-    free(p->seg_facets);
-    free(p->v_sstart);
-    free(p->v_segs);
-    free(p->v_fstart);
-    free(p->v_facets);
-    free(p->ftri_start);
-    free(p->ftri);
-    free(p->seg_mindih);
-    free(p->v_minang);
+    pr_free(p->segs);
+    pr_free(p->seg_fstart);
+    pr_free(p->seg_facets);
+    pr_free(p->v_sstart);
+    pr_free(p->v_segs);
+    pr_free(p->v_fstart);
+    pr_free(p->v_facets);
+    pr_free(p->ftri_start);
+    pr_free(p->ftri);
+    pr_free(p->seg_mindih);
+    pr_free(p->v_minang);
     p->seg_mindih = p->v_minang = NULL;
     p->segs = NULL;
     p->seg_fstart = p->v_sstart = p->v_fstart = p->ftri_start = NULL;
@@ -79,19 +80,19 @@ void plc__drop_derived(plc *p)
 void plc_free(plc *p)
 {
     plc__drop_derived(p);
-    free(p->path);
-    free(p->vfile);
-    free(p->xyz);
-    free(p->vmarker);
-    free(p->vattr);
-    free(p->vline);
-    free(p->corners);
-    free(p->polys);
-    free(p->facets);
-    free(p->fholes);
-    free(p->segin);
-    free(p->holes);
-    free(p->regions);
+    pr_free(p->path);
+    pr_free(p->vfile);
+    pr_free(p->xyz);
+    pr_free(p->vmarker);
+    pr_free(p->vattr);
+    pr_free(p->vline);
+    pr_free(p->corners);
+    pr_free(p->polys);
+    pr_free(p->facets);
+    pr_free(p->fholes);
+    pr_free(p->segin);
+    pr_free(p->holes);
+    pr_free(p->regions);
     double tol = p->planar_tol;
     memset(p, 0, sizeof *p);
     p->planar_tol = tol ? tol : PLC_PLANAR_TOL;
@@ -104,22 +105,22 @@ int plc_add_vertex(plc *p, const double xyz[3], long line, uint32_t *index)
     if (p->nv == p->cap_v) {
         /* All per-vertex arrays share the capacity cap_v. */
         size_t cap = p->cap_v ? 2 * p->cap_v : 64;
-        double(*xyz2)[3] = realloc(p->xyz, cap * sizeof *xyz2);
+        double(*xyz2)[3] = pr_realloc(p->xyz, cap * sizeof *xyz2);
         if (!xyz2)
             return PDR_ENOMEM;
         p->xyz = xyz2;
-        long *vl = realloc(p->vline, cap * sizeof *vl);
+        long *vl = pr_realloc(p->vline, cap * sizeof *vl);
         if (!vl)
             return PDR_ENOMEM;
         p->vline = vl;
         if (p->vmarker) {
-            int *vm = realloc(p->vmarker, cap * sizeof *vm);
+            int *vm = pr_realloc(p->vmarker, cap * sizeof *vm);
             if (!vm)
                 return PDR_ENOMEM;
             p->vmarker = vm;
         }
         if (p->vattr) {
-            double *va = realloc(p->vattr, cap * p->nvattr * sizeof *va);
+            double *va = pr_realloc(p->vattr, cap * p->nvattr * sizeof *va);
             if (!va)
                 return PDR_ENOMEM;
             p->vattr = va;
@@ -144,7 +145,7 @@ int plc_enable_vmarkers(plc *p)
 {
     if (p->vmarker)
         return 0;
-    p->vmarker = calloc(p->cap_v ? p->cap_v : 1, sizeof *p->vmarker);
+    p->vmarker = pr_calloc(p->cap_v ? p->cap_v : 1, sizeof *p->vmarker);
     return p->vmarker ? 0 : PDR_ENOMEM;
 }
 
@@ -153,7 +154,7 @@ int plc__enable_vattr(plc *p, size_t nattr)
     if (p->vattr || nattr == 0)
         return 0;
     p->nvattr = nattr;
-    p->vattr = calloc((p->cap_v ? p->cap_v : 1) * nattr, sizeof *p->vattr);
+    p->vattr = pr_calloc((p->cap_v ? p->cap_v : 1) * nattr, sizeof *p->vattr);
     return p->vattr ? 0 : PDR_ENOMEM;
 }
 
@@ -339,7 +340,7 @@ static int derive_segments(plc *p)
     size_t cap = p->nsegin;
     for (size_t k = 0; k < p->npoly; k++)
         cap += p->polys[k].n;
-    struct edge_rec *r = malloc((cap ? cap : 1) * sizeof *r);
+    struct edge_rec *r = pr_malloc((cap ? cap : 1) * sizeof *r);
     if (!r)
         return PDR_ENOMEM;
     size_t n = 0;
@@ -368,11 +369,11 @@ static int derive_segments(plc *p)
             (new_seg || r[i].facet != r[i - 1].facet))
             nsf++;
     }
-    p->segs = malloc((nseg ? nseg : 1) * sizeof *p->segs);
-    p->seg_fstart = malloc((nseg + 1) * sizeof *p->seg_fstart);
-    p->seg_facets = malloc((nsf ? nsf : 1) * sizeof *p->seg_facets);
+    p->segs = pr_malloc((nseg ? nseg : 1) * sizeof *p->segs);
+    p->seg_fstart = pr_malloc((nseg + 1) * sizeof *p->seg_fstart);
+    p->seg_facets = pr_malloc((nsf ? nsf : 1) * sizeof *p->seg_facets);
     if (!p->segs || !p->seg_fstart || !p->seg_facets) {
-        free(r);
+        pr_free(r);
         return PDR_ENOMEM;
     }
     size_t s = 0, sf = 0;
@@ -396,7 +397,7 @@ static int derive_segments(plc *p)
     }
     p->seg_fstart[s] = sf;
     p->nseg = nseg;
-    free(r);
+    pr_free(r);
     return 0;
 }
 
@@ -409,8 +410,8 @@ static int cmp_u32(const void *x, const void *y)
 static int derive_incidence(plc *p)
 {
     size_t nv = p->nv;
-    p->v_sstart = calloc(nv + 1, sizeof *p->v_sstart);
-    p->v_fstart = calloc(nv + 1, sizeof *p->v_fstart);
+    p->v_sstart = pr_calloc(nv + 1, sizeof *p->v_sstart);
+    p->v_fstart = pr_calloc(nv + 1, sizeof *p->v_fstart);
     if (!p->v_sstart || !p->v_fstart)
         return PDR_ENOMEM;
     for (size_t s = 0; s < p->nseg; s++) {
@@ -419,10 +420,10 @@ static int derive_incidence(plc *p)
     }
     for (size_t v = 0; v < nv; v++)
         p->v_sstart[v + 1] += p->v_sstart[v];
-    p->v_segs = malloc((p->v_sstart[nv] ? p->v_sstart[nv] : 1) * sizeof *p->v_segs);
-    size_t *fill = malloc((nv ? nv : 1) * sizeof *fill);
+    p->v_segs = pr_malloc((p->v_sstart[nv] ? p->v_sstart[nv] : 1) * sizeof *p->v_segs);
+    size_t *fill = pr_malloc((nv ? nv : 1) * sizeof *fill);
     if (!p->v_segs || !fill) {
-        free(fill);
+        pr_free(fill);
         return PDR_ENOMEM;
     }
     memcpy(fill, p->v_sstart, nv * sizeof *fill);
@@ -432,9 +433,9 @@ static int derive_incidence(plc *p)
 
     /* Facet incidence: (vertex, facet) pairs, sorted and made unique. */
     size_t npair = p->ncorner;
-    uint64_t *pairs = malloc((npair ? npair : 1) * sizeof *pairs);
+    uint64_t *pairs = pr_malloc((npair ? npair : 1) * sizeof *pairs);
     if (!pairs) {
-        free(fill);
+        pr_free(fill);
         return PDR_ENOMEM;
     }
     size_t m = 0;
@@ -452,10 +453,10 @@ static int derive_incidence(plc *p)
     for (size_t i = 0; i < m; i++)
         if (i == 0 || pairs[i] != pairs[i - 1])
             pairs[u++] = pairs[i];
-    p->v_facets = malloc((u ? u : 1) * sizeof *p->v_facets);
+    p->v_facets = pr_malloc((u ? u : 1) * sizeof *p->v_facets);
     if (!p->v_facets) {
-        free(pairs);
-        free(fill);
+        pr_free(pairs);
+        pr_free(fill);
         return PDR_ENOMEM;
     }
     for (size_t i = 0; i < u; i++) {
@@ -464,8 +465,8 @@ static int derive_incidence(plc *p)
     }
     for (size_t v = 0; v < nv; v++)
         p->v_fstart[v + 1] += p->v_fstart[v];
-    free(pairs);
-    free(fill);
+    pr_free(pairs);
+    pr_free(fill);
     /* Segments around a vertex are listed in segment order already (the
      * fill loop runs over s increasing); keep them sorted for lookups. */
     for (size_t v = 0; v < nv; v++)

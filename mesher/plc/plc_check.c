@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "plc/plc.h"
 #include "plc/plc_int.h"
 #include "geom/pred.h"
@@ -51,7 +52,7 @@ static int check_duplicates(const plc *p, pdr_diag *diag)
 {
     if (p->nv < 2)
         return 0;
-    struct vkey *k = malloc(p->nv * sizeof *k);
+    struct vkey *k = pr_malloc(p->nv * sizeof *k);
     if (!k)
         return PDR_ENOMEM;
     for (size_t v = 0; v < p->nv; v++) {
@@ -69,7 +70,7 @@ static int check_duplicates(const plc *p, pdr_diag *diag)
             bad = 1;
         }
     }
-    free(k);
+    pr_free(k);
     return bad ? PDR_EGEOMETRY : 0;
 }
 
@@ -114,7 +115,7 @@ static int check_polygons(const plc *p, pdr_diag *diag)
             if (q->n < 2)
                 continue;
             if (plc__grow((void **)&tmp, &cap, q->n, sizeof *tmp)) {
-                free(tmp);
+                pr_free(tmp);
                 return PDR_ENOMEM;
             }
             memcpy(tmp, c, q->n * sizeof *c);
@@ -147,7 +148,7 @@ static int check_polygons(const plc *p, pdr_diag *diag)
                          plc_vnum(p, p->segin[s].v[0]), plc_vnum(p, p->segin[s].v[1]));
             bad = 1;
         }
-    free(tmp);
+    pr_free(tmp);
     return bad ? PDR_EGEOMETRY : 0;
 }
 
@@ -201,10 +202,10 @@ static int triangulate_facets(plc *p, pdr_diag *diag)
     memset(&w, 0, sizeof w);
     size_t cap = 0, n = 0;
     int bad = 0, rc = 0;
-    free(p->ftri_start);
-    free(p->ftri);
+    pr_free(p->ftri_start);
+    pr_free(p->ftri);
     p->ftri = NULL;
-    p->ftri_start = malloc((p->nfacet + 1) * sizeof *p->ftri_start);
+    p->ftri_start = pr_malloc((p->nfacet + 1) * sizeof *p->ftri_start);
     if (!p->ftri_start)
         return PDR_ENOMEM;
     for (size_t f = 0; f < p->nfacet; f++) {
@@ -283,7 +284,7 @@ static int cmp_tedge(const void *x, const void *y)
 static int check_closed(const plc *p, pdr_diag *diag)
 {
     size_t nt = p->ftri_start[p->nfacet];
-    struct tedge *e = malloc((3 * nt + 1) * sizeof *e);
+    struct tedge *e = pr_malloc((3 * nt + 1) * sizeof *e);
     if (!e)
         return PDR_ENOMEM;
     size_t n = 0;
@@ -312,7 +313,7 @@ static int check_closed(const plc *p, pdr_diag *diag)
         }
         i = j;
     }
-    free(e);
+    pr_free(e);
     return bad ? PDR_EGEOMETRY : 0;
 }
 
@@ -627,7 +628,7 @@ static int check_intersections(const plc *p, pdr_diag *diag)
     size_t ntri = p->ftri_start[p->nfacet], n = ntri + p->nsegin;
     if (n < 2)
         return 0;
-    struct item *it = malloc(n * sizeof *it);
+    struct item *it = pr_malloc(n * sizeof *it);
     if (!it)
         return PDR_ENOMEM;
     double mean = 0;
@@ -675,9 +676,9 @@ static int check_intersections(const plc *p, pdr_diag *diag)
         h *= 1.5;
     }
     size_t ncell = g[0] * g[1] * g[2];
-    size_t *start = calloc(ncell + 1, sizeof *start);
-    uint32_t *big = malloc(n * sizeof *big);
-    unsigned char *isbig = calloc(n, 1);
+    size_t *start = pr_calloc(ncell + 1, sizeof *start);
+    uint32_t *big = pr_malloc(n * sizeof *big);
+    unsigned char *isbig = pr_calloc(n, 1);
     uint32_t *cellv = NULL;
     size_t nbig = 0;
     int rc = 0;
@@ -719,7 +720,7 @@ static int check_intersections(const plc *p, pdr_diag *diag)
         if (pass == 0) {
             for (size_t c = 0; c < ncell; c++)
                 start[c + 1] += start[c];
-            cellv = malloc((start[ncell] + 1) * sizeof *cellv);
+            cellv = pr_malloc((start[ncell] + 1) * sizeof *cellv);
             if (!cellv) {
                 rc = PDR_ENOMEM;
                 goto out;
@@ -755,12 +756,12 @@ static int check_intersections(const plc *p, pdr_diag *diag)
         rc = PDR_EGEOMETRY;
     }
 out:
-    free(hs.h);
-    free(start);
-    free(big);
-    free(isbig);
-    free(cellv);
-    free(it);
+    pr_free(hs.h);
+    pr_free(start);
+    pr_free(big);
+    pr_free(isbig);
+    pr_free(cellv);
+    pr_free(it);
     return rc;
 }
 

@@ -50,6 +50,7 @@
 #include <strings.h>
 #include <sys/types.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "plc/plc.h"
@@ -178,10 +179,10 @@ static int read_part1(plc *p, textin *t)
     rc = textin_open(&nt, node, t->diag);
     if (rc) {
         textin_error(t, "the vertex count is 0, so the vertices must be in %s", node);
-        free(node);
+        pr_free(node);
         return rc;
     }
-    free(p->vfile);
+    pr_free(p->vfile);
     p->vfile = node;
     if (!(rc = need_line(&nt, "the vertex-list header")) &&
         !(rc = textin_long(&nt, "vertex count", 0, MAX_COUNT, &count)))
@@ -323,7 +324,7 @@ static int read_poly_facets(plc *p, textin *t, int smesh)
         if (!rc && demote_flat_facet(p))
             rc = oom(t);
     }
-    free(cb.c);
+    pr_free(cb.c);
     return rc;
 }
 
@@ -431,9 +432,9 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
         u = v;
         v = s;
     }
-    double (*q)[2] = malloc(n * sizeof *q);
-    uint32_t *idx = malloc(n * sizeof *idx);
-    uint32_t(*tri)[3] = malloc((n - 2) * sizeof *tri);
+    double (*q)[2] = pr_malloc(n * sizeof *q);
+    uint32_t *idx = pr_malloc(n * sizeof *idx);
+    uint32_t(*tri)[3] = pr_malloc((n - 2) * sizeof *tri);
     int rc = q && idx && tri ? 0 : PDR_ENOMEM;
     uint32_t left = n, ntri = 0;
     for (uint32_t i = 0; i < n && !rc; i++) {
@@ -480,9 +481,9 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
     for (uint32_t i = 0; i < ntri && !rc; i++)
         if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, tri[i], 3, line))
             rc = PDR_ENOMEM;
-    free(q);
-    free(idx);
-    free(tri);
+    pr_free(q);
+    pr_free(idx);
+    pr_free(tri);
     return rc;
 }
 
@@ -626,7 +627,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     if (textin_next(&t) == 1)
         rc = textin_error(&t, "unexpected data after the last face");
 out:
-    free(c);
+    pr_free(c);
     textin_close(&t);
     return rc;
 }
@@ -659,7 +660,7 @@ static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
 {
     if ((p->nv + 1) * 2 > m->cap) {
         size_t ncap = m->cap ? m->cap * 2 : 1024;
-        uint32_t *s = calloc(ncap, sizeof *s);
+        uint32_t *s = pr_calloc(ncap, sizeof *s);
         if (!s)
             return PDR_ENOMEM;
         for (size_t v = 0; v < p->nv; v++) {
@@ -668,7 +669,7 @@ static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
                 i = (i + 1) & (ncap - 1);
             s[i] = (uint32_t)v + 1;
         }
-        free(m->slot);
+        pr_free(m->slot);
         m->slot = s;
         m->cap = ncap;
     }
@@ -728,7 +729,7 @@ static int read_stl_binary(plc *p, FILE *f, const char *path, unsigned long ntri
     }
     if (rc == PDR_ENOMEM)
         pdr_diag_add(diag, path, 0, "out of memory");
-    free(m.slot);
+    pr_free(m.slot);
     return rc;
 }
 
@@ -826,8 +827,8 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
         rc = textin_error(&t, "unexpected end of file: missing 'endsolid'");
     if (rc == 0 && nsolid == 0)
         rc = textin_error(&t, "empty STL file");
-    free(c);
-    free(m.slot);
+    pr_free(c);
+    pr_free(m.slot);
     textin_close(&t);
     return rc;
 }
@@ -882,11 +883,11 @@ static int read_stl(plc *p, FILE *f, const char *path, pdr_diag *diag)
 /* Records the names of the input in p. */
 static int set_paths(plc *p, const char *path, pdr_diag *diag)
 {
-    free(p->path);
-    free(p->vfile);
+    pr_free(p->path);
+    pr_free(p->vfile);
     size_t n = strlen(path) + 1;
-    p->path = malloc(n);
-    p->vfile = malloc(n);
+    p->path = pr_malloc(n);
+    p->vfile = pr_malloc(n);
     if (!p->path || !p->vfile) {
         pdr_diag_add(diag, path, 0, "out of memory");
         return PDR_ENOMEM;

@@ -30,6 +30,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "plc/plc_int.h"
 #include "geom/pred.h"
 #include "plc/plc_tri.h"
@@ -562,7 +563,7 @@ int plc_cdt_facet(plc_cdt *w, const plc *p, size_t f, plc_cdt_fail *fail)
     touch(w, 0);
 
     /* Insert the corners in a random order (expected linear walks). */
-    uint32_t *order = malloc((m ? m : 1) * sizeof *order);
+    uint32_t *order = pr_malloc((m ? m : 1) * sizeof *order);
     if (!order)
         return PDR_ENOMEM;
     for (size_t i = 0; i < m; i++)
@@ -577,7 +578,7 @@ int plc_cdt_facet(plc_cdt *w, const plc *p, size_t f, plc_cdt_fail *fail)
     int rc = 0;
     for (size_t i = 0; i < m && !rc; i++)
         rc = insert_point(w, order[i], &hint, fail);
-    free(order);
+    pr_free(order);
     if (rc)
         return rc;
 
@@ -634,12 +635,12 @@ int plc_cdt_facet(plc_cdt *w, const plc *p, size_t f, plc_cdt_fail *fail)
 
 void plc_cdt_free(plc_cdt *w)
 {
-    free(w->out);
-    free(w->t);
-    free(w->pt);
-    free(w->gid);
-    free(w->vtri);
-    free(w->stack);
-    free(w->edges);
+    pr_free(w->out);
+    pr_free(w->t);
+    pr_free(w->pt);
+    pr_free(w->gid);
+    pr_free(w->vtri);
+    pr_free(w->stack);
+    pr_free(w->edges);
     memset(w, 0, sizeof *w);
 }

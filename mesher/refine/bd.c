@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "refine/bd.h"
 #include "base/pdr_util.h"
 
@@ -22,13 +23,13 @@ void bd_init(bd_set *b)
 
 void bd_free(bd_set *b)
 {
-    free(b->segs);
-    free(b->facs);
+    pr_free(b->segs);
+    pr_free(b->facs);
     hmap_free(&b->seg_map);
     hmap_free(&b->edge_map);
-    free(b->vkind);
-    free(b->vfeat);
-    free(b->vrins);
+    pr_free(b->vkind);
+    pr_free(b->vfeat);
+    pr_free(b->vrins);
     bd_init(b);
 }
 
@@ -39,15 +40,15 @@ int bd_vertex_room(bd_set *b, size_t nv)
     size_t c = b->vcap ? b->vcap : 1024;
     while (c < nv)
         c += c / 2;
-    uint8_t *k = realloc(b->vkind, c * sizeof *k);
+    uint8_t *k = pr_realloc(b->vkind, c * sizeof *k);
     if (!k)
         return PDR_ENOMEM;
     b->vkind = k;
-    uint32_t *f = realloc(b->vfeat, c * sizeof *f);
+    uint32_t *f = pr_realloc(b->vfeat, c * sizeof *f);
     if (!f)
         return PDR_ENOMEM;
     b->vfeat = f;
-    float *r = realloc(b->vrins, c * sizeof *r);
+    float *r = pr_realloc(b->vrins, c * sizeof *r);
     if (!r)
         return PDR_ENOMEM;
     b->vrins = r;

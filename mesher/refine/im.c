@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "mesh/dt.h"
 #include "refine/im.h"
 #include "base/pdr_util.h"
@@ -184,7 +185,7 @@ double im_paper_d(const plc *p)
             best = fmin(best,
                         seg_seg2(p->xyz[a[0]], p->xyz[a[1]], p->xyz[b[0]], p->xyz[b[1]]));
         }
-    double (*box)[2][3] = malloc((p->nfacet ? p->nfacet : 1) * sizeof *box);
+    double (*box)[2][3] = pr_malloc((p->nfacet ? p->nfacet : 1) * sizeof *box);
     if (!box)
         return sqrt(best) / M_SQRT2;
     for (size_t f = 0; f < p->nfacet; f++)
@@ -234,7 +235,7 @@ double im_paper_d(const plc *p)
                 }
         }
     }
-    free(box);
+    pr_free(box);
     return sqrt(best) / M_SQRT2;
 }
 
@@ -260,7 +261,7 @@ double im_interior_volume(const ref_mesher *r)
 static int find_acute(ref_mesher *r)
 {
     const plc *p = r->p;
-    r->seg_acute = calloc(p->nv ? p->nv : 1, sizeof *r->seg_acute);
+    r->seg_acute = pr_calloc(p->nv ? p->nv : 1, sizeof *r->seg_acute);
     if (!r->seg_acute)
         return PDR_ENOMEM;
     for (size_t v = 0; v < p->nv; v++)

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "plc/fm.h"
 #include "refine/refine_int.h"
 
@@ -72,7 +73,7 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
         }
     }
     if (r->o.constrained && p->v_minang) {
-        r->fac_needle = calloc(p->nfacet ? p->nfacet : 1, 1);
+        r->fac_needle = pr_calloc(p->nfacet ? p->nfacet : 1, 1);
         if (!r->fac_needle) {
             ref_free(r);
             return PDR_ENOMEM;
@@ -90,14 +91,14 @@ void ref_free(ref_mesher *r)
     ref_release_work(r);
     tm_free(&r->m);
     bd_free(&r->bd);
-    free(r->region);
-    free(r->seg_acute);
-    free(r->fac_needle);
-    free(r->bflag);
-    free(r->breg);
-    free(r->list);
-    free(r->bedge);
-    free(r->miss);
+    pr_free(r->region);
+    pr_free(r->seg_acute);
+    pr_free(r->fac_needle);
+    pr_free(r->bflag);
+    pr_free(r->breg);
+    pr_free(r->list);
+    pr_free(r->bedge);
+    pr_free(r->miss);
     memset(r, 0, sizeof *r);
 }
 
@@ -109,8 +110,8 @@ void ref_release_work(ref_mesher *r)
     ref__queue_free(&r->facq);
     ref__queue_free(&r->tetq);
     ref__queue_free(&r->tetq_local);
-    free(r->flipped.tets);
-    free(r->flipped.stuck_faces);
+    pr_free(r->flipped.tets);
+    pr_free(r->flipped.stuck_faces);
     memset(&r->flipped, 0, sizeof r->flipped);
 }
 
@@ -119,7 +120,7 @@ int ref_region_room(ref_mesher *r)
     if (!r->p->nregion || r->region_cap >= r->m.tcap)
         return 0;
     size_t c = r->m.tcap;
-    uint16_t *g = realloc(r->region, c * sizeof *g);
+    uint16_t *g = pr_realloc(r->region, c * sizeof *g);
     if (!g)
         return PDR_ENOMEM;
     memset(g + r->region_cap, 0, (c - r->region_cap) * sizeof *g);

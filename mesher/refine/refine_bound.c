@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "plc/fm.h"
@@ -515,12 +516,12 @@ static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c,
             if (seen)
                 continue;
             if (n == cap) {
-                uint32_t *ns = malloc(2 * cap * sizeof *ns);
+                uint32_t *ns = pr_malloc(2 * cap * sizeof *ns);
                 if (!ns)
                     break;
                 memcpy(ns, stack, n * sizeof *ns);
                 if (stack != stackbuf)
-                    free(stack);
+                    pr_free(stack);
                 stack = ns;
                 cap *= 2;
             }
@@ -528,7 +529,7 @@ static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c,
         }
     }
     if (stack != stackbuf)
-        free(stack);
+        pr_free(stack);
     return found;
 }
 

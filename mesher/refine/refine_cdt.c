@@ -70,6 +70,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "plc/fm.h"
@@ -241,7 +242,7 @@ static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32
     }
     if (!rc)
         rc = dt_cavity_set(m, p, sa.t, sa.n, ref__cdt_flags(r), &r->cav);
-    free(sa.t);
+    pr_free(sa.t);
     if (rc)
         return rc == PDR_EINVAL ? 1 : rc;
     /* p is rounded: each new tetrahedron must still be positive. */
@@ -537,7 +538,7 @@ int ref_cdt_restore(ref_mesher *r)
     }
     if (rc)
         return rc;
-    uint32_t *all = malloc((m->nslots ? m->nslots : 1) * sizeof *all);
+    uint32_t *all = pr_malloc((m->nslots ? m->nslots : 1) * sizeof *all);
     if (!all)
         return PDR_ENOMEM;
     size_t n = 0;
@@ -545,7 +546,7 @@ int ref_cdt_restore(ref_mesher *r)
         if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
             all[n++] = t;
     rc = ref__cdt_flip(r, all, n);
-    free(all);
+    pr_free(all);
     return rc;
 }
 

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "mesh/vf.h"
 #include "refine/refine_int.h"
@@ -32,7 +33,7 @@ static int push(uint32_t **st, size_t *n, size_t *cap, uint32_t t)
 {
     if (*n == *cap) {
         size_t c = *cap ? *cap * 2 : 1024;
-        uint32_t *s = realloc(*st, c * sizeof *s);
+        uint32_t *s = pr_realloc(*st, c * sizeof *s);
         if (!s)
             return PDR_ENOMEM;
         *st = s;
@@ -111,7 +112,7 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
     int rc = ref_region_room(r);
     if (rc)
         return rc;
-    uint8_t *state = calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */
+    uint8_t *state = pr_calloc(m->nslots ? m->nslots : 1, 1); /* 1 out, 2 in */
     uint32_t *st = NULL;
     size_t n = 0, cap = 0;
     if (!state)
@@ -120,9 +121,9 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
      * (the exterior flags stay on the mesh until the end) */
     uint16_t *old = NULL;
     if (r->region && r->classified) {
-        old = malloc(r->region_cap * sizeof *old);
+        old = pr_malloc(r->region_cap * sizeof *old);
         if (!old) {
-            free(state);
+            pr_free(state);
             return PDR_ENOMEM;
         }
         memcpy(old, r->region, r->region_cap * sizeof *old);
@@ -183,9 +184,9 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
         *unreached = lost;
     if (changed)
         *changed = nchanged;
-    free(old);
-    free(st);
-    free(state);
+    pr_free(old);
+    pr_free(st);
+    pr_free(state);
     return rc;
 }
 
@@ -205,7 +206,7 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int what)
     /* Which subfacets some tetrahedron marks: a scan, not a walk from the
      * vertices, because on one PE of the parallel refinement the star of a
      * vertex may be cut into pieces by interface faces. */
-    uint8_t *marked = calloc(bd->nfacs ? bd->nfacs : 1, 1);
+    uint8_t *marked = pr_calloc(bd->nfacs ? bd->nfacs : 1, 1);
     if (!marked) {
         if (log)
             fprintf(log, "no memory for the consistency check\n");
@@ -274,7 +275,7 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int what)
                                                                         : "no face");
         bad++;
     }
-    free(marked);
+    pr_free(marked);
     if (r->carved && !r->hooks && !(what & REF_CONSIST_PART) && r->segq.n == r->segq.head &&
         r->facq.n == r->facq.head) {
         /* The constrained mode keeps a CDT: every face that is no
@@ -394,7 +395,7 @@ void ref_count_bad(ref_mesher *r)
     if (nkeys)
         qsort(keys, nkeys, sizeof *keys, cmp_u64);
     tally_sites(r, keys, nkeys);
-    free(keys);
+    pr_free(keys);
 }
 
 /* ------------------------------------------------------------ summary */
@@ -479,14 +480,14 @@ void ref_quality_range(const mesh_export *e, ref_quality *q)
 
 void ref_output_free(ref_output *out)
 {
-    free(out->xyz);
-    free(out->tet);
-    free(out->tet_region);
-    free(out->tet_attr);
-    free(out->tri);
-    free(out->tri_marker);
-    free(out->tri_facet);
-    free(out->vmap);
+    pr_free(out->xyz);
+    pr_free(out->tet);
+    pr_free(out->tet_region);
+    pr_free(out->tet_attr);
+    pr_free(out->tri);
+    pr_free(out->tri_marker);
+    pr_free(out->tri_facet);
+    pr_free(out->vmap);
     memset(out, 0, sizeof *out);
 }
 
@@ -498,15 +499,15 @@ static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
     const tm_mesh *m = &r->m;
     const bd_set *bd = &r->bd;
     size_t nt = ref_interior_tets(r);
-    out->vmap = malloc((size_t)m->nv * sizeof *out->vmap);
+    out->vmap = pr_malloc((size_t)m->nv * sizeof *out->vmap);
     if (with_tets)
-        out->tet = malloc((nt ? nt : 1) * sizeof *out->tet);
+        out->tet = pr_malloc((nt ? nt : 1) * sizeof *out->tet);
     if (!out->vmap || (with_tets && !out->tet))
         goto nomem;
     memset(out->vmap, 0xff, (size_t)m->nv * sizeof *out->vmap);
     if (r->region) {
-        out->tet_region = malloc((nt ? nt : 1) * sizeof *out->tet_region);
-        out->tet_attr = malloc((nt ? nt : 1) * sizeof *out->tet_attr);
+        out->tet_region = pr_malloc((nt ? nt : 1) * sizeof *out->tet_region);
+        out->tet_attr = pr_malloc((nt ? nt : 1) * sizeof *out->tet_attr);
         if (!out->tet_region || !out->tet_attr)
             goto nomem;
     }
@@ -531,7 +532,7 @@ static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
         }
         k++;
     }
-    out->xyz = malloc((nv ? nv : 1) * sizeof *out->xyz);
+    out->xyz = pr_malloc((nv ? nv : 1) * sizeof *out->xyz);
     if (!out->xyz)
         goto nomem;
     for (uint32_t v = 1; v < m->nv; v++)
@@ -545,9 +546,9 @@ static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
     for (int pass = 0; pass < 2; pass++) {
         if (pass == 1) {
             capf = nf ? nf : 1;
-            out->tri = malloc(capf * sizeof *out->tri);
-            out->tri_marker = malloc(capf * sizeof *out->tri_marker);
-            out->tri_facet = malloc(capf * sizeof *out->tri_facet);
+            out->tri = pr_malloc(capf * sizeof *out->tri);
+            out->tri_marker = pr_malloc(capf * sizeof *out->tri_marker);
+            out->tri_facet = pr_malloc(capf * sizeof *out->tri_facet);
             if (!out->tri || !out->tri_marker || !out->tri_facet)
                 goto nomem;
             nf = 0;
@@ -626,7 +627,7 @@ int ref_export_take(ref_mesher *r, ref_output *out)
         k++;
     }
     size_t bytes = (k ? k : 1) * sizeof *dst;
-    uint32_t(*shrunk)[4] = realloc(dst, bytes);
+    uint32_t(*shrunk)[4] = pr_realloc(dst, bytes);
     out->tet = shrunk ? shrunk : dst;
     m->tets = NULL;
     tm_free(m);

@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "geom/pred.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
@@ -102,7 +103,7 @@ static int marks_add(ref_marks *cm, ref_mark **out)
 {
     if (cm->n == cm->cap) {
         size_t c = cm->cap ? cm->cap * 2 : 32;
-        ref_mark *m = realloc(cm->m, c * sizeof *m);
+        ref_mark *m = pr_realloc(cm->m, c * sizeof *m);
         if (!m)
             return PDR_ENOMEM;
         cm->m = m;
@@ -115,8 +116,8 @@ static int marks_add(ref_marks *cm, ref_mark **out)
 
 void ref_marks_free(ref_marks *cm)
 {
-    free(cm->m);
-    free(cm->seg);
+    pr_free(cm->m);
+    pr_free(cm->seg);
     memset(cm, 0, sizeof *cm);
 }
 
@@ -147,10 +148,10 @@ static int seg_room(ref_marks *cm)
     if (2 * (cm->nseg + 1) <= cm->seg_cap)
         return 0;
     size_t cap = cm->seg_cap ? 2 * cm->seg_cap : 16;
-    ref_seg_slot *t = calloc(cap, sizeof *t);
+    ref_seg_slot *t = pr_calloc(cap, sizeof *t);
     if (!t)
         return PDR_ENOMEM;
-    free(cm->seg);
+    pr_free(cm->seg);
     cm->seg = t;
     cm->seg_cap = cap;
     cm->stamp = 1;

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pr_alloc.h"
 #include "base/pdr_util.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
@@ -44,11 +45,11 @@ static int q_push(ref_queue *q, uint32_t id, float rmin)
             q->head = 0;
         } else {
             size_t c = q->cap ? q->cap * 2 : 1024;
-            uint32_t *ids = realloc(q->id, c * sizeof *ids);
+            uint32_t *ids = pr_realloc(q->id, c * sizeof *ids);
             if (!ids)
                 return PDR_ENOMEM;
             q->id = ids;
-            float *rp = realloc(q->rmin, c * sizeof *rp);
+            float *rp = pr_realloc(q->rmin, c * sizeof *rp);
             if (!rp)
                 return PDR_ENOMEM;
             q->rmin = rp;
@@ -79,8 +80,8 @@ static uint32_t q_pop(ref_queue *q, int lifo, float *rmin)
 
 void ref__queue_free(ref_queue *q)
 {
-    free(q->id);
-    free(q->rmin);
+    pr_free(q->id);
+    pr_free(q->rmin);
     memset(q, 0, sizeof *q);
 }
 
