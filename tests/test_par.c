@@ -1177,12 +1177,17 @@ START_TEST(merge_reclassifies)
         }
     ck_assert_uint_eq(flipped, 5);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior - 5);
+    /* the wrong flags show as unmarked faces between inside and outside
+     * (tetrahedra every 97 slots: none of the five is next to another) */
+    ck_assert_uint_eq(ref_unmarked_bounds(&mo), 0);
+    ck_assert_uint_gt(ref_unmarked_bounds(&mg), 0);
     size_t moved, added;
     ck_assert_int_eq(par_merge_reclassify(&mg, 0, 0, &moved, &added), 0);
     ck_assert_uint_eq(moved, 5);
     ck_assert_uint_eq(added, 0);
     ck_assert_uint_eq(ref_interior_tets(&mg), interior);
     ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
+    ck_assert_uint_eq(ref_unmarked_bounds(&mg), 0);
     same_export(&mo, &mg);
     /* nothing to do the second time */
     ck_assert_int_eq(par_merge_reclassify(&mg, 0, 0, &moved, &added), 0);

@@ -520,6 +520,13 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int what);
 /* Number of interior (non-exterior, non-ghost) tetrahedra. */
 size_t ref_interior_tets(const ref_mesher *r);
 
+/* Number of faces of interior tetrahedra that bound the interior (their
+ * other side exterior, a ghost or nothing) without a face mark: each is
+ * an inside/outside flag that the classification would change, since the
+ * domain's boundary is made of marked faces. One pass over the faces,
+ * cheaper than classifying again. */
+size_t ref_unmarked_bounds(const ref_mesher *r);
+
 /* Radius-edge ratio and volume of tetrahedron abcd (positively oriented):
  * returns the squared ratio circumradius^2 / shortest-edge^2 (INFINITY if
  * degenerate); *vol, *lmax2 and *cc (circumcentre) when not NULL. */

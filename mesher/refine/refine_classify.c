@@ -302,6 +302,23 @@ size_t ref_interior_tets(const ref_mesher *r)
     return n;
 }
 
+size_t ref_unmarked_bounds(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!ref_is_interior(m, t))
+            continue;
+        for (int f = 0; f < 4; f++) {
+            if (m->flags[t] & TM_F_FACEMARK(f))
+                continue;
+            tm_link l = m->tets[t].n[f];
+            n += l == TM_LINK_NONE || (!tm_is_special(l) && !ref_is_interior(m, tm_ltet(l)));
+        }
+    }
+    return n;
+}
+
 /* The input feature tetrahedron t is left next to: the apex of the small
  * angle its seditious shortest edge is across (constrained mode), else an
  * input vertex of it, else a segment one of its vertices lies on, else a
