@@ -51,6 +51,8 @@ EXTRA_DIST += \
 	tests/data/plc/bad-number.poly \
 	tests/data/plc/colour.off \
 	tests/data/plc/four-d.off \
+	tests/data/plc/welded.off \
+	tests/data/plc/welded-open.off \
 	tests/data/plc/crossing-segments.poly \
 	tests/data/plc/cube.smesh \
 	tests/data/plc/duplicate-vertex.poly \

@@ -39,12 +39,14 @@ intersecting.poly|intersecting.poly:22: facets 2 and 9 (line 36) intersect near 
 t-junction.poly|t-junction.poly:19: facets 3 and 6 (line 25) intersect near (0.25, 0, 1)
 four-d.off|four-d.off:1: the 4OFF variant of OFF is not supported (plain OFF, and COFF, NOFF, CNOFF, STOFF with their extra vertex data ignored)
 open.off|open.off:8: facet 1: edge (1, 2) belongs to no other facet (the surface is open there)
+welded-open.off|welded-open.off:14: facet 4: edge (2, 5) belongs to no other facet (the surface is open there)
 no-endloop.stl|no-endloop.stl:7: expected 'vertex' or 'endloop', found 'endfacet'
 unknown.xyz|unknown.xyz: unknown input format '.xyz': expected .poly, .smesh, .off or .stl
 TABLE
 
-# The valid fixtures pass (colour.off: COFF, a colour after each vertex).
-for f in cube.smesh tet.off tet.stl colour.off; do
+# The valid fixtures pass (colour.off: COFF, a colour after each vertex;
+# welded.off: a vertex written twice, merged).
+for f in cube.smesh tet.off tet.stl colour.off welded.off; do
     "$tool" "$f" >"$out/stdout" 2>"$out/stderr" || { cat "$out/stderr"; fail "$f refused"; }
 done
 echo "plc errors: ok"

@@ -64,6 +64,31 @@ START_TEST(refinement_outside_the_pipeline)
 }
 END_TEST
 
+/* A tetrahedron taken for outside although it is inside: the interior's
+ * boundary then has faces on no input facet, and the export refuses the
+ * mesh (pdr mesh writes nothing). */
+START_TEST(export_refuses_a_boundary_off_the_facets)
+{
+    mp_opts o;
+    cube_opts(&o);
+    mp_ctx c;
+    mp_init(&c, &o);
+    ck_assert_int_eq(mp_read(&c), 0);
+    ck_assert_int_eq(mp_initial_mesh(&c), 0);
+    ck_assert_int_eq(ref_refine(&c.r), 0);
+    c.refined = 1;
+    ck_assert_uint_eq(ref_unmarked_bounds(&c.r), 0);
+    uint32_t t = 0;
+    while (t < c.r.m.nslots && !ref_is_interior(&c.r.m, t))
+        t++;
+    ck_assert_uint_lt(t, c.r.m.nslots);
+    c.r.m.flags[t] |= REF_F_EXTERIOR;
+    ck_assert_uint_gt(ref_unmarked_bounds(&c.r), 0);
+    ck_assert_int_eq(mp_export(&c), PDR_ETOPOLOGY);
+    mp_free(&c);
+}
+END_TEST
+
 static int file_size(const char *dir, const char *name, off_t *size)
 {
     char path[512];
@@ -142,6 +167,7 @@ static Suite *suite(void)
     TCase *t = tcase_create("stages");
     tcase_set_timeout(t, 60);
     tcase_add_test(t, refinement_outside_the_pipeline);
+    tcase_add_test(t, export_refuses_a_boundary_off_the_facets);
     tcase_add_test(t, write_report_verify_from_an_output_alone);
     tcase_add_test(t, read_failures);
     suite_add_tcase(s, t);

@@ -657,6 +657,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     int cdt = c.o.ref.constrained != 0;
     if (cdt) {
         c.r.carved = 1;
+        c.r.finishing = 1;
         /* What a PE gave up it may have given up for want of the other
          * PEs' tetrahedra (a split whose cavity reached them): tried
          * again here. */

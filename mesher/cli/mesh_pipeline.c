@@ -139,6 +139,10 @@ int mp_read(mp_ctx *c)
                "(%.3f s)\n",
                input_name(c), p->nv, p->nseg, p->nfacet, p->nhole, p->nhole == 1 ? "" : "s",
                p->nregion, p->nregion == 1 ? "" : "s", c->sec[MP_READ]);
+    if (!c->o.quiet && p->read_welded)
+        printf("input repair: %zu vert%s merged into an equal one before %s\n",
+               p->read_welded, p->read_welded == 1 ? "ex" : "ices",
+               p->read_welded == 1 ? "it" : "them");
     if (!c->o.quiet && p->read_dropped)
         printf("input repair: %zu face%s with fewer than 3 distinct corners dropped (no "
                "area)\n", p->read_dropped, p->read_dropped == 1 ? "" : "s");
@@ -359,6 +363,19 @@ static int guard_output(mp_ctx *c)
                       "refinement (nothing written)");
         return PDR_ETOPOLOGY;
     }
+    /* The domain's boundary is made of subfacets: a face that bounds the
+     * interior without a mark (counted by mp_export before the export
+     * took the mesh) is a crack in the mesh or a wrong inside/outside
+     * flag. */
+    size_t open = c->unmarked_bounds;
+    if (open) {
+        pdr_cli_error(MP_CMD,
+                      "the mesh's boundary has %zu face%s on no input facet (a crack in the "
+                      "mesh, or tetrahedra taken for inside that are not): a defect of the "
+                      "refinement (nothing written)",
+                      open, open == 1 ? "" : "s");
+        return PDR_ETOPOLOGY;
+    }
     double *got = pr_calloc(p->nfacet ? p->nfacet : 1, sizeof *got);
     if (!got)
         return fail(c, PDR_ENOMEM);
@@ -400,6 +417,7 @@ int mp_export(mp_ctx *c)
     /* The work memory goes first, so that the export's peak is lower. */
     ref_release_work(&c->r);
     c->v_added = (size_t)(c->r.m.nv - c->v0);
+    c->unmarked_bounds = ref_unmarked_bounds(&c->r);
     int rc = ref_export_take(&c->r, &c->out);
     if (rc)
         return fail(c, rc);

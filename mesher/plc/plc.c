@@ -77,6 +77,17 @@ void plc__drop_derived(plc *p)
     p->derived = 0;
 }
 
+int plc__number_vertex(plc *p, uint32_t v, long num)
+{
+    if (plc__grow((void **)&p->vnum, &p->cap_vnum, (size_t)v + 1, sizeof *p->vnum))
+        return PDR_ENOMEM;
+    for (size_t k = p->nvnum; k < v; k++)
+        p->vnum[k] = (long)k + p->base;
+    p->vnum[v] = num + p->base;
+    p->nvnum = (size_t)v + 1;
+    return 0;
+}
+
 void plc_free(plc *p)
 {
     plc__drop_derived(p);
@@ -86,6 +97,7 @@ void plc_free(plc *p)
     pr_free(p->vmarker);
     pr_free(p->vattr);
     pr_free(p->vline);
+    pr_free(p->vnum);
     pr_free(p->corners);
     pr_free(p->polys);
     pr_free(p->facets);

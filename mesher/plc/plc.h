@@ -155,6 +155,11 @@ typedef struct plc {
      * faces dropped because their corners are fewer than three distinct
      * vertices, polygons that were not planar cut into triangles. */
     size_t read_dropped, read_split;
+    /* ... and OFF vertices merged into an equal one before them; vnum
+     * (NULL unless some were) gives each vertex its number in the file. */
+    size_t read_welded;
+    long *vnum;
+    size_t nvnum, cap_vnum;
 } plc;
 
 /* Relative flatness tolerance of facets (TetGen-like; see plc_validate). */
@@ -247,7 +252,7 @@ int plc_validate(plc *p, pdr_diag *diag);
 /* The number the input file uses for vertex v (index plus base). */
 static inline long plc_vnum(const plc *p, uint32_t v)
 {
-    return (long)v + p->base;
+    return v < p->nvnum ? p->vnum[v] : (long)v + p->base;
 }
 
 #endif /* PDR_PLC_H */

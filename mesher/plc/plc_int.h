@@ -21,5 +21,10 @@ int plc__enable_vattr(plc *p, size_t nattr);
  * centroid of polygon q. */
 void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3]);
 int plc__cmp_u64(const void *x, const void *y);
+/* Gives vertex v (the last one added) the number num (0-based, the base
+ * is added) in its file, where some vertex before it was merged away;
+ * the vertices before v without one keep their own. Returns 0 or
+ * PDR_ENOMEM. */
+int plc__number_vertex(plc *p, uint32_t v, long num);
 
 #endif /* PDR_PLC_INTERNAL_H */

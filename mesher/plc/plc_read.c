@@ -29,7 +29,9 @@
  *    indices; every face is a facet with marker 0, mended as the surface
  *    faces below say. The STOFF, COFF, NOFF (and combined, e.g. CNOFF)
  *    variants are read with what follows x y z on a vertex line ignored;
- *    4OFF, nOFF and binary OFF are not supported.
+ *    4OFF, nOFF and binary OFF are not supported. Vertices with equal
+ *    coordinates are merged, as in STL; messages keep the file's vertex
+ *    numbers.
  *  - .stl: binary when the size is exactly 84 + 50 * (triangle count in
  *    the header), ASCII otherwise (which must start with "solid"). Several
  *    solids in one ASCII file are read as one surface. Every triangle is a
@@ -391,6 +393,63 @@ static int read_tetgen(plc *p, FILE *f, const char *path, pdr_diag *diag, int sm
 
 /* --------------------------------------------------------------------- OFF */
 
+/* ------------------------------------------------------ vertex merge */
+
+/* Merges vertices with equal coordinates: open addressing on the bits of
+ * the coordinates (with -0 folded into +0, so equal values hash equally). */
+struct vmerge {
+    uint32_t *slot; /* vertex index + 1, 0 when empty */
+    size_t cap;     /* power of two */
+};
+
+static uint64_t hash_point(const double x[3])
+{
+    uint64_t h = 0x9e3779b97f4a7c15u;
+    for (int k = 0; k < 3; k++) {
+        double v = x[k] == 0.0 ? 0.0 : x[k];
+        uint64_t b;
+        memcpy(&b, &v, sizeof b);
+        h ^= b + 0x9e3779b97f4a7c15u + (h << 6) + (h >> 2);
+        h *= 0xff51afd7ed558ccdu;
+        h ^= h >> 33;
+    }
+    return h;
+}
+
+static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
+                         uint32_t *out)
+{
+    if ((p->nv + 1) * 2 > m->cap) {
+        size_t ncap = m->cap ? m->cap * 2 : 1024;
+        uint32_t *s = pr_calloc(ncap, sizeof *s);
+        if (!s)
+            return PDR_ENOMEM;
+        for (size_t v = 0; v < p->nv; v++) {
+            size_t i = hash_point(p->xyz[v]) & (ncap - 1);
+            while (s[i])
+                i = (i + 1) & (ncap - 1);
+            s[i] = (uint32_t)v + 1;
+        }
+        pr_free(m->slot);
+        m->slot = s;
+        m->cap = ncap;
+    }
+    size_t i = hash_point(x) & (m->cap - 1);
+    while (m->slot[i]) {
+        const double *y = p->xyz[m->slot[i] - 1];
+        if (y[0] == x[0] && y[1] == x[1] && y[2] == x[2]) {
+            *out = m->slot[i] - 1;
+            return 0;
+        }
+        i = (i + 1) & (m->cap - 1);
+    }
+    int rc = plc_add_vertex(p, x, line, out);
+    if (rc)
+        return rc;
+    m->slot[i] = *out + 1;
+    return 0;
+}
+
 /* ------------------------------------------------------ surface faces */
 
 /* The faces of a surface file (.off, .stl) as CAD tools and scanners write
@@ -557,6 +616,9 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     p->base = 0;
     long nv, nf, ne;
     double tol = 0;
+    struct vmerge vm = {NULL, 0};
+    uint32_t *map = NULL;
+    size_t cap_map = 0;
     uint32_t *c = NULL;
     size_t cap = 0;
     if ((rc = need_line(&t, "the OFF header")))
@@ -589,6 +651,9 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
         (rc = textin_opt_long(&t, "edge count", 0, MAX_COUNT, &ne)) < 0 ||
         (rc = expect_eol(&t, "the OFF counts")))
         goto out;
+    /* Vertices with equal coordinates are one vertex (meshes exported
+     * per part or per face repeat their seams' vertices): map[i] is file
+     * vertex i's, and p->vnum keeps the file's numbers for messages. */
     for (long i = 0; i < nv; i++) {
         double x[3];
         if ((rc = need_line(&t, "the vertex list")) ||
@@ -597,10 +662,15 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
             (rc = textin_double(&t, "z coordinate", &x[2])) ||
             (!extra && (rc = expect_eol(&t, "the vertex"))))
             goto out;
-        if (plc_add_vertex(p, x, t.line, NULL)) {
+        size_t before = p->nv;
+        if (plc__grow((void **)&map, &cap_map, (size_t)i + 1, sizeof *map) ||
+            vmerge_insert(&vm, p, x, t.line, &map[i]) ||
+            (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
+             plc__number_vertex(p, p->nv - 1, i))) {
             rc = oom(&t);
             goto out;
         }
+        p->read_welded += p->nv == before;
     }
     for (long f = 0; f < nf; f++) {
         long n;
@@ -613,8 +683,14 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
                 rc = oom(&t);
                 goto out;
             }
-            if ((rc = read_corner(p, &t, &c[i])))
+            long num;
+            if ((rc = record_long(&t, "vertex index", -MAX_COUNT, MAX_COUNT, &num)))
                 goto out;
+            if (num < 0 || num >= nv) {
+                rc = textin_error(&t, "vertex index %ld is out of range [0, %ld]", num, nv - 1);
+                goto out;
+            }
+            c[i] = map[num];
         }
         /* Anything after the corners is a colour: ignored. */
         if (f == 0)
@@ -628,66 +704,13 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
         rc = textin_error(&t, "unexpected data after the last face");
 out:
     pr_free(c);
+    pr_free(map);
+    pr_free(vm.slot);
     textin_close(&t);
     return rc;
 }
 
 /* --------------------------------------------------------------------- STL */
-
-/* Merges vertices with equal coordinates: open addressing on the bits of
- * the coordinates (with -0 folded into +0, so equal values hash equally). */
-struct vmerge {
-    uint32_t *slot; /* vertex index + 1, 0 when empty */
-    size_t cap;     /* power of two */
-};
-
-static uint64_t hash_point(const double x[3])
-{
-    uint64_t h = 0x9e3779b97f4a7c15u;
-    for (int k = 0; k < 3; k++) {
-        double v = x[k] == 0.0 ? 0.0 : x[k];
-        uint64_t b;
-        memcpy(&b, &v, sizeof b);
-        h ^= b + 0x9e3779b97f4a7c15u + (h << 6) + (h >> 2);
-        h *= 0xff51afd7ed558ccdu;
-        h ^= h >> 33;
-    }
-    return h;
-}
-
-static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
-                         uint32_t *out)
-{
-    if ((p->nv + 1) * 2 > m->cap) {
-        size_t ncap = m->cap ? m->cap * 2 : 1024;
-        uint32_t *s = pr_calloc(ncap, sizeof *s);
-        if (!s)
-            return PDR_ENOMEM;
-        for (size_t v = 0; v < p->nv; v++) {
-            size_t i = hash_point(p->xyz[v]) & (ncap - 1);
-            while (s[i])
-                i = (i + 1) & (ncap - 1);
-            s[i] = (uint32_t)v + 1;
-        }
-        pr_free(m->slot);
-        m->slot = s;
-        m->cap = ncap;
-    }
-    size_t i = hash_point(x) & (m->cap - 1);
-    while (m->slot[i]) {
-        const double *y = p->xyz[m->slot[i] - 1];
-        if (y[0] == x[0] && y[1] == x[1] && y[2] == x[2]) {
-            *out = m->slot[i] - 1;
-            return 0;
-        }
-        i = (i + 1) & (m->cap - 1);
-    }
-    int rc = plc_add_vertex(p, x, line, out);
-    if (rc)
-        return rc;
-    m->slot[i] = *out + 1;
-    return 0;
-}
 
 static int read_stl_binary(plc *p, FILE *f, const char *path, unsigned long ntri,
                            pdr_diag *diag)

@@ -211,9 +211,10 @@ typedef struct ref_stats {
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
     size_t shrunk;       /* constrained: cavities shrunk to a star */
-    size_t moved_splits; /* constrained: subsegment splits a face no flip
-                            mends asked for, made elsewhere than at the
-                            split point, which was refused */
+    size_t moved_splits; /* constrained, at rank 0's finish: subsegment
+                            splits a face no flip mends asked for, made
+                            elsewhere than at the split point, which was
+                            refused */
     size_t cdt_refused;  /* constrained: boundary splits refused because
                             their 3D cavity kept a subfacet of their 2D one */
     size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's
@@ -334,6 +335,8 @@ typedef struct ref_mesher {
     double b2;         /* ratio^2, or 0 */
     double sin_min;    /* sin(min_dihedral), or 0 */
     int classified;    /* exterior marked, regions assigned */
+    int finishing;     /* rank 0 finishes the merged mesh of a parallel
+                          run (split_subseg's retries) */
     int carved;        /* exterior deleted, ghosts on the boundary faces
                           (constrained mode, ref_carve) */
     uint16_t *region;  /* per tet slot: region index + 1 (0 none), or NULL

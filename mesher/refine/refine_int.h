@@ -120,6 +120,9 @@ unsigned ref__cdt_flags(const ref_mesher *r);
  * cannot be made a star is split in the tetrahedra around it instead. */
 #define REF_CDT_ELSEWHERE 2
 #define REF_CDT_LOCKED 3
+/* At most this many subsegment splits moved off their refused point at
+ * rank 0's finish (refine_run.c, split_subseg). */
+#define REF_MOVED_SPLITS 8
 int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
                           int missing, int edge_star);
 /* Lawson's flips from tetrahedra seed[0..n) (mesh/flip.h), the facet

@@ -610,21 +610,29 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
     return rc;
 }
 
-/* split_subseg_at at the split point. In the constrained mode a split
+/* split_subseg_at at the split point. When rank 0 finishes the merged
+ * mesh of a parallel run in the constrained mode (r->finishing), a split
  * that a face no flip mends asked for (queued; ref__cdt_flip) and that is
  * refused there (the floor rmin, or a cavity that cannot be made) is
  * tried at other points of the subsegment: any point inside it removes
  * the face, since every tetrahedron around the subsegment is in conflict
  * with it, and a face left so would leave the mesh no CDT (one run in
- * eight of the tee-like boxcylsph-0.2 on 3 PEs, where rank 0 finishes the
- * merged mesh). Not on a PE, whose subsegment may be another's by then. */
+ * eight of boxcylsph-0.2 on 3 PEs). */
 static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int *result)
 {
     static const double other_at[] = {0.375, 0.625, 0.25, 0.75};
     uint16_t flags = r->bd.segs[id].flags;
     size_t tolerated = r->st.tolerated;
     int rc = split_subseg_at(r, id, rmin, queued, -1.0, result);
-    int retry = queued && r->o.constrained && !r->hooks && !(flags & BD_F_MISSING);
+    /* Only where rank 0 finishes a merged mesh, and a few times: the
+     * splits the floor refused are what keeps faces no flip mends from
+     * asking for ever more splits next to acute vertices (in the
+     * sequential refinement, unbounded retries made CGAL's
+     * double-torus-example run on past 12,800 vertices, where it meshes
+     * into 8,784 without them; at rank 0, 64 and one per hundred vertices
+     * made its 2-PE run stop on its heartbeat). */
+    int retry = queued && r->finishing && r->o.constrained && !r->hooks &&
+                !(flags & BD_F_MISSING) && r->st.moved_splits < REF_MOVED_SPLITS;
     for (size_t k = 0; retry && !rc && *result == SPLIT_REFUSED && k < 4; k++) {
         r->bd.segs[id].flags = flags;
         r->st.tolerated = tolerated;
