@@ -416,6 +416,25 @@ static int make_env(launch *L, int r, char env[NENV][1200])
 
 static void default_signals(void);
 
+/* Writes the n bytes at buf to fd, again after EINTR. Returns 0, or -1
+ * with errno set (EIO when a write took nothing). */
+static int write_all(int fd, const char *buf, size_t n)
+{
+    while (n) {
+        ssize_t w = write(fd, buf, n);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            if (!w)
+                errno = EIO;
+            return -1;
+        }
+        buf += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
 /* PE r's CURVE key block in a memfd (close-on-exec, read from the
  * start), or -1 with errno set. Not a file: nothing to remove, and
  * nothing another process can open by name. */
@@ -428,17 +447,9 @@ static int key_fd(const launch *L, int r)
         return -1;
     }
     int fd = memfd_create("am-curve-keys", MFD_CLOEXEC);
-    size_t off = 0;
-    while (fd >= 0 && off < len) {
-        ssize_t w = write(fd, block + off, len - off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            close(fd);
-            fd = -1;
-            break;
-        }
-        off += (size_t)w;
+    if (fd >= 0 && write_all(fd, block, len)) {
+        close(fd);
+        fd = -1;
     }
     memset(block, 0, len);
     pr_free(block);
@@ -584,14 +595,7 @@ static pid_t start_remote(launch *L, int r)
             memset(&ign, 0, sizeof ign);
             ign.sa_handler = SIG_IGN;
             sigaction(SIGPIPE, &ign, &old_pipe);
-            for (size_t off = 0; off < len;) {
-                ssize_t w = write(keys[1], block + off, len - off);
-                if (w < 0 && errno == EINTR)
-                    continue;
-                if (w <= 0)
-                    break;
-                off += (size_t)w;
-            }
+            (void)write_all(keys[1], block, len); /* the PE says if it lacks keys */
             sigaction(SIGPIPE, &old_pipe, NULL);
             memset(block, 0, len);
             pr_free(block);
@@ -912,18 +916,12 @@ static int keys_file(const launch *L, const char *path)
     int fd = ok ? open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600) : -1;
     if (ok && fd < 0)
         lerr(L, "cannot make %s: %s", path, strerror(errno));
-    size_t off = 0;
-    while (fd >= 0 && off < len) {
-        ssize_t w = write(fd, block + off, len - off);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            lerr(L, "cannot write %s: %s", path, strerror(errno));
-            break;
-        }
-        off += (size_t)w;
+    int written = fd >= 0 && write_all(fd, block, len) == 0;
+    if (fd >= 0 && !written) {
+        lerr(L, "cannot write %s: %s", path, strerror(errno));
+        close(fd);
     }
-    int done = fd >= 0 && off == len && close(fd) == 0;
+    int done = written && close(fd) == 0;
     if (fd >= 0 && !done)
         unlink(path);
     if (block)
