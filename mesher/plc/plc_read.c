@@ -391,9 +391,7 @@ static int read_tetgen(plc *p, FILE *f, const char *path, pdr_diag *diag, int sm
     return rc;
 }
 
-/* --------------------------------------------------------------------- OFF */
-
-/* ------------------------------------------------------ vertex merge */
+/* ------------------------------------------------------------ vertex merge */
 
 /* Merges vertices with equal coordinates: open addressing on the bits of
  * the coordinates (with -0 folded into +0, so equal values hash equally). */
@@ -450,7 +448,7 @@ static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
     return 0;
 }
 
-/* ------------------------------------------------------ surface faces */
+/* ----------------------------------------------------------- surface faces */
 
 /* The faces of a surface file (.off, .stl) as CAD tools and scanners write
  * them, mended where the fix is certain and loses nothing:
@@ -460,7 +458,7 @@ static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
  *    edge is used once in each direction by it, so the surface stays
  *    closed without it;
  *  - a polygon whose corners are not in one plane (quad meshes from
- *    scanners and modellers, within 1e-7 of flat but beyond the planarity
+ *    scanners and modellers, nearly flat but beyond the planarity
  *    tolerance) is cut into triangles by ear clipping in its projection
  *    along its Newell normal, each triangle a facet of its own; one whose
  *    projection is no simple polygon is kept whole, and the validation
@@ -607,6 +605,8 @@ static double surface_tol(const plc *p)
         s += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     return p->planar_tol * sqrt(s);
 }
+
+/* --------------------------------------------------------------------- OFF */
 
 static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
 {
