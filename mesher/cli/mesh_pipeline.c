@@ -203,6 +203,16 @@ static int point_limit(mp_ctx *c)
                       where, n, r->stop_at[0], r->stop_at[1], r->stop_at[2]);
         return PDR_ELIMIT;
     }
+    if (r->recovery_capped) {
+        pdr_cli_error(MP_CMD,
+                      "the boundary recovery does not terminate: after %zu points (its bound: "
+                      "%d per input vertex and %d more) pieces of the boundary are still "
+                      "missing; splits cascade next to small angles of the input, where a "
+                      "recovery by cavity retriangulation, as TetGen's, is not implemented "
+                      "(nothing written)",
+                      r->recovery_capped, IM_RECOVERY_PER_VERTEX, IM_RECOVERY_BASE);
+        return PDR_ELIMIT;
+    }
     if (r->stopped_below) {
         pdr_cli_error(MP_CMD,
                       "the boundary recovery does not terminate: after %zu points a missing "

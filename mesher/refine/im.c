@@ -278,6 +278,17 @@ static int find_acute(ref_mesher *r)
     return 0;
 }
 
+/* The end of the recovery's bound on points (im_build): max_points back
+ * to saved, and a stop at the bound cap (0: none set) recorded. Returns
+ * rc. */
+static int recovery_end(ref_mesher *r, int rc, size_t cap, size_t saved)
+{
+    r->o.max_points = saved;
+    if (rc == PDR_ELIMIT && cap && !r->stopped_below)
+        r->recovery_capped = cap;
+    return rc;
+}
+
 int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
 {
     im_stats s;
@@ -377,13 +388,24 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         }
     }
     size_t seg0 = r->st.seg_points, fac0 = r->st.fac_points;
+    /* The constrained recovery inserts points only on missing pieces, a
+     * few per input vertex at most on every surface measured (the
+     * armadillo scan: 2.6); where it cascades (splits of missing segments
+     * next to small angles, on points along curves whose Delaunay
+     * tetrahedralization grows quadratically) it would run for hours
+     * before the general bound, so it has a bound of its own. */
+    size_t save_max = r->o.max_points;
+    size_t cap = IM_RECOVERY_PER_VERTEX * p->nv + IM_RECOVERY_BASE;
+    int capped = r->o.constrained && !(o && o->paper) && (!save_max || cap < save_max);
+    if (capped)
+        r->o.max_points = r->st.seg_points + r->st.fac_points + r->st.tet_points + cap;
     rc = ref_queue_boundary(r);
     if (!rc)
         rc = ref_run(r, 0);
     r->o.seg_maxlen = save_len;
     r->o.fac_maxrad = save_rad;
     if (rc)
-        return rc;
+        return recovery_end(r, rc, capped ? cap : 0, save_max);
     s.seg_points = r->st.seg_points - seg0;
     s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
@@ -398,6 +420,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         rc = ref_cdt_restore(r);
     if (!rc && r->o.constrained)
         rc = ref_run(r, 0);
+    rc = recovery_end(r, rc, capped ? cap : 0, save_max);
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

@@ -47,6 +47,11 @@ typedef struct im_opts {
     double d;  /* > 0: use this d instead of computing it */
 } im_opts;
 
+/* The bound on the points of the constrained recovery (im_build): this
+ * many per input vertex and IM_RECOVERY_BASE more. */
+#define IM_RECOVERY_PER_VERTEX 5
+#define IM_RECOVERY_BASE 2000
+
 typedef struct im_stats {
     double d;               /* the paper's d (0 when not computed) */
     size_t input_vertices;  /* PLC vertices inserted */

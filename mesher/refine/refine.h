@@ -390,6 +390,8 @@ typedef struct ref_mesher {
                           stop_vkind (BD_V_SEGMENT, BD_V_FACET) */
     int stop_vkind;
     uint32_t stop_feat;
+    size_t recovery_capped; /* the constrained recovery stopped at its own
+                               bound on points (im_build), this one */
     double stop_at[3];
     flip_out flipped;  /* constrained: the last insertion's flips */
     uint32_t *miss;    /* new subfacets missing from T */
