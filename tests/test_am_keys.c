@@ -187,23 +187,29 @@ static const char *try_client(void *zctx, void *server, const char *ep,
     return got;
 }
 
-START_TEST(zap_admits_the_jobs_keys_only)
+/* A ROUTER that is a CURVE server (PE 0's secret) on a loopback port,
+ * behind a ZAP handler admitting keys[0..n); its endpoint in ep. */
+static void *zap_server(void *zctx, const char (*keys)[41], int n, am__zap **z, char *ep,
+                        size_t eplen)
 {
-    make_keys();
-    void *zctx = zmq_ctx_new();
-    am__zap *z = NULL;
-    ck_assert_int_eq(am__zap_start(zctx, (const char (*)[41])pub, NK,
-                                   "test_am_keys: ", "the test server", &z),
-                     0);
+    ck_assert_int_eq(am__zap_start(zctx, keys, n, "test_am_keys: ", "the test server", z), 0);
     void *server = zmq_socket(zctx, ZMQ_ROUTER);
     int one = 1, zero = 0;
     zmq_setsockopt(server, ZMQ_LINGER, &zero, sizeof zero);
     zmq_setsockopt(server, ZMQ_CURVE_SERVER, &one, sizeof one);
     zmq_setsockopt(server, ZMQ_CURVE_SECRETKEY, sec[0], 40);
     ck_assert_int_eq(zmq_bind(server, "tcp://127.0.0.1:*"), 0);
+    zmq_getsockopt(server, ZMQ_LAST_ENDPOINT, ep, &eplen);
+    return server;
+}
+
+START_TEST(zap_admits_the_jobs_keys_only)
+{
+    make_keys();
+    void *zctx = zmq_ctx_new();
+    am__zap *z = NULL;
     char ep[128], uid[32];
-    size_t len = sizeof ep;
-    zmq_getsockopt(server, ZMQ_LAST_ENDPOINT, ep, &len);
+    void *server = zap_server(zctx, (const char (*)[41])pub, NK, &z, ep, sizeof ep);
     /* PE 2's key: admitted, and named. */
     const char *u = try_client(zctx, server, ep, pub[2], sec[2], uid, sizeof uid);
     ck_assert_ptr_nonnull(u);
@@ -230,18 +236,8 @@ START_TEST(zap_shared_key_names_no_rank)
     memcpy(same[1], pub[1], 41);
     void *zctx = zmq_ctx_new();
     am__zap *z = NULL;
-    ck_assert_int_eq(am__zap_start(zctx, (const char (*)[41])same, 2,
-                                   "test_am_keys: ", "the test server", &z),
-                     0);
-    void *server = zmq_socket(zctx, ZMQ_ROUTER);
-    int one = 1, zero = 0;
-    zmq_setsockopt(server, ZMQ_LINGER, &zero, sizeof zero);
-    zmq_setsockopt(server, ZMQ_CURVE_SERVER, &one, sizeof one);
-    zmq_setsockopt(server, ZMQ_CURVE_SECRETKEY, sec[0], 40);
-    ck_assert_int_eq(zmq_bind(server, "tcp://127.0.0.1:*"), 0);
     char ep[128], uid[32];
-    size_t len = sizeof ep;
-    zmq_getsockopt(server, ZMQ_LAST_ENDPOINT, ep, &len);
+    void *server = zap_server(zctx, (const char (*)[41])same, 2, &z, ep, sizeof ep);
     const char *u = try_client(zctx, server, ep, pub[1], sec[1], uid, sizeof uid);
     ck_assert_ptr_nonnull(u);
     ck_assert_str_eq(u, "");
