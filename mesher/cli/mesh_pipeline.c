@@ -356,14 +356,14 @@ static double tri_area(const double *a, const double *b, const double *c)
 }
 
 /* The guard against a mesh that does not cover its input: no tetrahedra
- * at all, or a facet whose subfacets in the output do not add up to its
- * area. A facet may have no subfacet at all only when the input has hole
+ * at all, open (> 0) faces that bound the interior on no input facet, or
+ * a facet whose subfacets in the output do not add up to its area. A facet may have no subfacet at all only when the input has hole
  * points (a facet with a hole or the outside on both sides bounds
  * nothing); without them every facet of a valid PLC bounds some of the
  * domain. Such a mesh means the boundary was lost (the classification
  * of inside and outside then leaks through it), never a valid result.
  * Returns 0, or PDR_ETOPOLOGY after saying what is wrong. */
-static int guard_output(mp_ctx *c)
+static int guard_output(mp_ctx *c, size_t open)
 {
     const ref_output *o = &c->out;
     const plc *p = &c->p;
@@ -374,10 +374,8 @@ static int guard_output(mp_ctx *c)
         return PDR_ETOPOLOGY;
     }
     /* The domain's boundary is made of subfacets: a face that bounds the
-     * interior without a mark (counted by mp_export before the export
-     * took the mesh) is a crack in the mesh or a wrong inside/outside
-     * flag. */
-    size_t open = c->unmarked_bounds;
+     * interior without a mark (open, counted before the export took the
+     * mesh) is a crack in the mesh or a wrong inside/outside flag. */
     if (open) {
         pdr_cli_error(MP_CMD,
                       "the mesh's boundary has %zu face%s on no input facet (a crack in the "
@@ -427,7 +425,7 @@ int mp_export(mp_ctx *c)
     /* The work memory goes first, so that the export's peak is lower. */
     ref_release_work(&c->r);
     c->v_added = (size_t)(c->r.m.nv - c->v0);
-    c->unmarked_bounds = ref_unmarked_bounds(&c->r);
+    size_t open = ref_unmarked_bounds(&c->r);
     int rc = ref_export_take(&c->r, &c->out);
     if (rc)
         return fail(c, rc);
@@ -435,7 +433,7 @@ int mp_export(mp_ctx *c)
     c->st = c->r.st;
     c->sec[MP_EXPORT] = pdr_now() - t;
     mp_print_mesh_summary(c);
-    return guard_output(c);
+    return guard_output(c, open);
 }
 
 /* ------------------------------------------------------------ write */

@@ -97,10 +97,6 @@ typedef struct mp_ctx {
     size_t v0;           /* mesh vertices of Mo */
     int refined;         /* a refinement ran (its summary line is due) */
     size_t v_added;      /* vertices the refinement added */
-    size_t unmarked_bounds; /* faces bounding the interior without a mark,
-                               counted before the export (ref_unmarked_bounds):
-                               not 0 only for a broken mesh, which is not
-                               written */
     ref_stats st;        /* the refinement's counts, with those left above
                             the bounds (ref_count_bad) */
     double t_start;      /* pdr_now() at mp_init */

@@ -279,8 +279,8 @@ static int find_acute(ref_mesher *r)
 }
 
 /* The end of the recovery's bound on points (im_build): max_points back
- * to saved, and a stop at the bound cap (0: none set) recorded. Returns
- * rc. */
+ * to saved, and a stop at the bound cap (0: none was set) recorded.
+ * Returns rc. */
 static int recovery_end(ref_mesher *r, int rc, size_t cap, size_t saved)
 {
     r->o.max_points = saved;
@@ -396,8 +396,9 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
      * before the general bound, so it has a bound of its own. */
     size_t save_max = r->o.max_points;
     size_t cap = IM_RECOVERY_PER_VERTEX * p->nv + IM_RECOVERY_BASE;
-    int capped = r->o.constrained && !(o && o->paper) && (!save_max || cap < save_max);
-    if (capped)
+    if (!r->o.constrained || (o && o->paper) || (save_max && cap >= save_max))
+        cap = 0; /* no bound of its own */
+    if (cap)
         r->o.max_points = r->st.seg_points + r->st.fac_points + r->st.tet_points + cap;
     rc = ref_queue_boundary(r);
     if (!rc)
@@ -405,7 +406,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     r->o.seg_maxlen = save_len;
     r->o.fac_maxrad = save_rad;
     if (rc)
-        return recovery_end(r, rc, capped ? cap : 0, save_max);
+        return recovery_end(r, rc, cap, save_max);
     s.seg_points = r->st.seg_points - seg0;
     s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
@@ -420,7 +421,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         rc = ref_cdt_restore(r);
     if (!rc && r->o.constrained)
         rc = ref_run(r, 0);
-    rc = recovery_end(r, rc, capped ? cap : 0, save_max);
+    rc = recovery_end(r, rc, cap, save_max);
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

@@ -336,7 +336,8 @@ typedef struct ref_mesher {
     double sin_min;    /* sin(min_dihedral), or 0 */
     int classified;    /* exterior marked, regions assigned */
     int finishing;     /* rank 0 finishes the merged mesh of a parallel
-                          run (split_subseg's retries) */
+                          run in the constrained mode (no hooks there;
+                          split_subseg's retries) */
     int carved;        /* exterior deleted, ghosts on the boundary faces
                           (constrained mode, ref_carve) */
     uint16_t *region;  /* per tet slot: region index + 1 (0 none), or NULL

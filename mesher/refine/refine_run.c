@@ -631,9 +631,10 @@ static int split_subseg(ref_mesher *r, uint32_t id, double rmin, int queued, int
      * double-torus-example run on past 12,800 vertices, where it meshes
      * into 8,784 without them; at rank 0, 64 and one per hundred vertices
      * made its 2-PE run stop on its heartbeat). */
-    int retry = queued && r->finishing && r->o.constrained && !r->hooks &&
-                !(flags & BD_F_MISSING) && r->st.moved_splits < REF_MOVED_SPLITS;
-    for (size_t k = 0; retry && !rc && *result == SPLIT_REFUSED && k < 4; k++) {
+    int retry = queued && r->finishing && !(flags & BD_F_MISSING) &&
+                r->st.moved_splits < REF_MOVED_SPLITS;
+    size_t nat = sizeof other_at / sizeof *other_at;
+    for (size_t k = 0; retry && !rc && *result == SPLIT_REFUSED && k < nat; k++) {
         r->bd.segs[id].flags = flags;
         r->st.tolerated = tolerated;
         rc = split_subseg_at(r, id, rmin, queued, other_at[k], result);
