@@ -232,7 +232,9 @@ AM_EXPORT const char *am_version(void);
  * AM_RENDEZVOUS (file:PATH on a shared file system, or tcp://HOST:PORT of
  * an am-run rendezvous server) to publish and find rank 0's endpoint when
  * AM_ROOT is not given, AM_JOB (job id; PEs of other jobs are refused),
- * AM_LATENCY, AM_BANDWIDTH, AM_STATS_DIR, AM_STACK_SIZE, AM_SWITCH
+ * AM_LATENCY, AM_BANDWIDTH, AM_SCHED (the PE's scheduling policy: other,
+ * batch, fifo or rr; fifo and rr need root or CAP_SYS_NICE, and am_init
+ * fails without), AM_STATS_DIR, AM_STACK_SIZE, AM_SWITCH
  * (ucontext|fast), AM_BOOT_TIMEOUT, AM_HEARTBEAT (seconds), AM_HWM (ZeroMQ
  * high-water mark, default 0 = unlimited: the send windows bound memory),
  * AM_SEND_WINDOW and AM_SEND_QUEUE (bytes, suffix k, M or G for powers of

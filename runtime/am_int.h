@@ -679,6 +679,10 @@ int am__is_basic(const am_ctx_t *ctx, const pr_header *h);
 /* am_stats.c */
 void am__stats_free(am_ctx_t *ctx);
 
+/* am_ctx.c: AM_SCHED's values (other, batch, fifo, rr): 0, or -1 if v is
+ * none of them. */
+int am__sched_policy_parse(const char *v, int *policy, int *prio);
+
 /* am_latency.c */
 /* Parses "200us", "100us-2ms", "0": seconds in *lo, *hi. */
 int am__latency_parse(const char *spec, double *lo, double *hi);

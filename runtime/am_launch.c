@@ -38,6 +38,7 @@
 #include "config.h"
 
 #include <errno.h>
+#include <sched.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -74,6 +75,7 @@ typedef struct launch {
     const char *transport;
     const char *bind;
     const char *latency, *bandwidth;
+    const char *sched;      /* --sched: AM_SCHED of every PE */
     const char *hostfile;
     const char *rdv_host;
     const char *ssh;
@@ -134,6 +136,12 @@ static void usage(const launch *L, FILE *out)
             "100us-2ms (uniform)\n"
             "  -b, --bandwidth SPEC    cap bandwidth per link: 100Mbit, 1Gbit, "
             "12.5MB\n"
+            "      --sched POLICY      the PEs' scheduling policy (AM_SCHED): "
+            "other (default),\n"
+            "                          batch, fifo or rr (fifo, rr: root or "
+            "CAP_SYS_NICE; with\n"
+            "                          more PEs than cores, fifo lets a PE run "
+            "until it waits)\n"
             "      --hostfile FILE     start ranks on these hosts over ssh "
             "(lines: HOST [slots=N])\n"
             "      --rendezvous HOST   address the hosts reach this machine at "
@@ -407,6 +415,8 @@ static int make_env(launch *L, int r, char env[NENV][1200])
         snprintf(env[n++], 1200, "AM_LATENCY=%s", L->latency);
     if (L->bandwidth)
         snprintf(env[n++], 1200, "AM_BANDWIDTH=%s", L->bandwidth);
+    if (L->sched)
+        snprintf(env[n++], 1200, "AM_SCHED=%s", L->sched);
     if (L->stats_dir)
         snprintf(env[n++], 1200, "AM_STATS_DIR=%s", L->stats_dir);
     if (!L->hosts && L->report_wr >= 0)
@@ -1068,7 +1078,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
     L.ssh = getenv("AM_SSH") && *getenv("AM_SSH") ? getenv("AM_SSH") : "ssh";
     const char *stats = NULL, *write_keys = NULL;
     enum { O_BIND = 256, O_HOSTFILE, O_RDV, O_SSH, O_STATS, O_NOCURVE,
-           O_TIMEOUT, O_GRACE, O_WRITE_KEYS };
+           O_TIMEOUT, O_GRACE, O_WRITE_KEYS, O_SCHED };
     static const struct option opts[] = {
         {"np", required_argument, NULL, 'n'},
         {"transport", required_argument, NULL, 't'},
@@ -1083,6 +1093,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
         {"timeout", required_argument, NULL, O_TIMEOUT},
         {"grace", required_argument, NULL, O_GRACE},
         {"write-keys", required_argument, NULL, O_WRITE_KEYS},
+        {"sched", required_argument, NULL, O_SCHED},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int c;
@@ -1127,6 +1138,26 @@ int am_launch_main(int argc, char **argv, const char *prog)
             }
             L.bandwidth = optarg;
             break;
+        case O_SCHED: {
+            int policy, prio;
+            if (am__sched_policy_parse(optarg, &policy, &prio)) {
+                lerr(&L, "--sched is other, batch, fifo or rr, not '%s'", optarg);
+                return EXIT_USAGE;
+            }
+            /* The launcher too: real-time PEs that keep their cores would
+             * otherwise leave it the throttled remainder, late to see a
+             * PE fail. Refused here, before any PE starts, with the
+             * reason. */
+            struct sched_param sp = {.sched_priority = prio};
+            if (sched_setscheduler(0, policy, &sp) != 0) {
+                lerr(&L, "--sched %s: cannot set the scheduling policy: %s%s", optarg,
+                     strerror(errno),
+                     errno == EPERM ? " (fifo and rr need root or CAP_SYS_NICE)" : "");
+                return EXIT_USAGE;
+            }
+            L.sched = optarg;
+            break;
+        }
         case O_HOSTFILE:
             L.hostfile = optarg;
             break;

@@ -12,7 +12,8 @@ expect_line "^Usage: am-run -n P" "am-run --help"
 [ $? -eq 2 ] || fail "am-run without arguments should exit 2"
 expect_line "-n P is required" "am-run"
 for bad in "-n 0 true" "-n x true" "-n 2 --latency fast true" \
-    "-n 2 --bandwidth 9 true" "-n 2 -t udp true" "-n 2" "--bogus"; do
+    "-n 2 --bandwidth 9 true" "-n 2 -t udp true" "-n 2" "--bogus" \
+    "-n 2 --sched idle true"; do
     # shellcheck disable=SC2086
     "$AMRUN" $bad >"$work/out" 2>&1
     [ $? -eq 2 ] || fail "am-run $bad should be a usage error (2)"
@@ -53,6 +54,28 @@ rc=$?
 [ "$rc" -eq 130 ] || fail "Ctrl-C should make am-run exit 130, not $rc"
 [ $(($(date +%s) - start)) -lt 10 ] || fail "Ctrl-C took too long"
 no_leftovers
+
+# --- --sched: the launcher and every PE run under the policy asked for;
+# AM_SCHED set by hand reaches am_init, which refuses a bad one.
+job 30 "$AMRUN" -n 2 --sched batch -- sh -c 'chrt -p $$ | grep -q SCHED_BATCH'
+expect_ok "--sched batch: the PEs run as SCHED_BATCH"
+job 30 env AM_SCHED=idle "$AMRUN" -n 2 -- "$MP" coll
+[ "$rc" -ne 0 ] || fail "AM_SCHED=idle should make am_init fail"
+expect_line "bad AM_SCHED 'idle' (expected other, batch, fifo or rr)" "AM_SCHED=idle"
+job 60 env AM_SCHED=batch "$AMRUN" -n 2 -- "$MP" coll
+expect_ok "AM_SCHED=batch am_mp coll"
+nobody="setpriv --reuid 65534 --regid 65534 --clear-groups"
+if [ "$(id -u)" -eq 0 ] && command -v setpriv >/dev/null 2>&1 &&
+    $nobody "$AMRUN" --help >/dev/null 2>&1; then
+    job 30 "$AMRUN" -n 2 --sched fifo -- sh -c 'chrt -p $$ | grep -q SCHED_FIFO'
+    expect_ok "--sched fifo (as root): the PEs run as SCHED_FIFO"
+    # Without the privilege: refused before any PE starts, with the reason.
+    job 30 $nobody "$AMRUN" -n 2 --sched fifo -- true
+    [ "$rc" -eq 2 ] || fail "--sched fifo without privilege should exit 2, not $rc"
+    expect_line "fifo and rr need root or CAP_SYS_NICE" "--sched fifo without privilege"
+else
+    echo "--sched fifo not tried: needs root, setpriv, and an am-run user nobody can run"
+fi
 
 # --- foreign launchers: rank and size from their variables, rank 0's
 # endpoint through a rendezvous file, tcp on loopback.

@@ -745,7 +745,7 @@ done:
 
 int mpar_launch(int argc, char **argv, const mpar_opts *po)
 {
-    /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--stats D]
+    /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--sched S] [--stats D]
      * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
      * options). */
     char **av = pr_calloc((size_t)argc + 16, sizeof *av);
@@ -767,6 +767,10 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
         av[n++] = (char *)"--bandwidth";
         av[n++] = (char *)po->bandwidth;
     }
+    if (po->sched) {
+        av[n++] = (char *)"--sched";
+        av[n++] = (char *)po->sched;
+    }
     if (po->stats) {
         av[n++] = (char *)"--stats";
         av[n++] = (char *)po->stats;
@@ -777,12 +781,13 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     av[n++] = (char *)"--parallel";
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "-n") || !strcmp(a, "--latency") || !strcmp(a, "--bandwidth")) {
+        if (!strcmp(a, "-n") || !strcmp(a, "--latency") || !strcmp(a, "--bandwidth") ||
+            !strcmp(a, "--sched")) {
             i++;
             continue;
         }
         if (!strncmp(a, "-n", 2) || !strncmp(a, "--latency=", 10) ||
-            !strncmp(a, "--bandwidth=", 12))
+            !strncmp(a, "--bandwidth=", 12) || !strncmp(a, "--sched=", 8))
             continue;
         av[n++] = argv[i];
     }

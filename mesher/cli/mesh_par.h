@@ -38,6 +38,7 @@ typedef struct mpar_opts {
     uint64_t seed;        /* --seed S */
     const char *latency;  /* --latency (launcher) */
     const char *bandwidth;/* --bandwidth (launcher) */
+    const char *sched;    /* --sched (launcher) */
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
     int work_clock;       /* --work-clock: enum mpar_clock */
@@ -59,7 +60,7 @@ void mpar_default_opts(mpar_opts *o);
 int mpar_run(const mp_opts *mo, const mpar_opts *po);
 
 /* 'pdr mesh -n P': starts P PEs running argv with --parallel added and
- * the launcher's own options (-n, --latency, --bandwidth, --stats) given
+ * the launcher's own options (-n, --latency, --bandwidth, --sched, --stats) given
  * to the launcher. Returns the exit status. */
 int mpar_launch(int argc, char **argv, const mpar_opts *po);
 
