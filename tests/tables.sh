@@ -61,8 +61,10 @@ grep -q '^| mesh | size | tetrahedra | row | execution | completed cavity | mask
 echo "table1: ok"
 
 # ---------------------------------------------------------------- table2
-"$tools/table2" --pdr "$PDR" --scale 0.01 -n 2 --sizes "1e6 2e6" --out "$tmp/t2" \
+"$tools/table2" --pdr "$PDR" --scale 0.01 -n 2 --sizes "1e6 2e6" --sched batch --out "$tmp/t2" \
     >"$tmp/t2.log" 2>&1 || { cat "$tmp/t2.log"; fail "tools/table2 exited non-zero"; }
+grep -q 'pdr: .*; scheduling: batch$' "$tmp/t2/table2.md" ||
+    fail "table2.md does not say --sched batch: $(grep 'pdr: ' "$tmp/t2/table2.md")"
 csv=$tmp/t2/table2.csv
 [ "$(head -1 "$csv")" = "source,mesh,size,target_tets,pipeline,tets,mo_tets,generate_s,partition_s,distribute_s,refine_s,total_s,gather_s,merge_s,check,wall_s,max_volume" ] ||
     fail "table2.csv header: $(head -1 "$csv")"

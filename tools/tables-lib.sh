@@ -19,7 +19,7 @@ tl_header() {
         "$(awk '/^MemTotal/ { printf "%.0f GiB", $2 / 1048576 }' /proc/meminfo)," \
         "load average $(cut -d' ' -f1-3 /proc/loadavg)"
     tl_rev=$(git -C "$(dirname "$pdr")" rev-parse --short HEAD 2>/dev/null || echo unknown)
-    echo "# pdr: $("$pdr" --version) (commit $tl_rev)"
+    echo "# pdr: $("$pdr" --version) (commit $tl_rev); scheduling: ${sched:-other}"
 }
 
 # tl_poly NAME: writes the built-in domain NAME (cube-in-cube, tee) to
@@ -59,6 +59,28 @@ tl_label() {
         else printf "%d\n", n }'
 }
 
+# tl_chrt: chrt's arguments for the scheduling policy $sched (--sched of
+# the scripts: other, batch, fifo or rr; empty: other), under which every
+# pdr mesh runs, the sequential ones too; tl_check_sched refuses another
+# value before anything runs.
+tl_chrt() {
+    case ${sched:-other} in
+    batch) echo "-b 0" ;;
+    fifo) echo "-f 1" ;;
+    rr) echo "-r 1" ;;
+    *) echo "-o 0" ;;
+    esac
+}
+tl_check_sched() {
+    case ${sched:-other} in
+    other | batch | fifo | rr) ;;
+    *)
+        echo "${0##*/}: --sched is other, batch, fifo or rr, not '$sched'" >&2
+        exit 2
+        ;;
+    esac
+}
+
 # tl_mesh NAME POLY MAXVOL NP ARGS...: runs 'pdr mesh -q 2 -a MAXVOL' on
 # POLY (with -n NP when NP > 0, and ARGS), output base $work/NAME, its
 # summary in $work/NAME.out and its wall seconds in $work/NAME.wall.
@@ -67,10 +89,12 @@ tl_mesh() {
     tl_n=$1 tl_p=$2 tl_v=$3 tl_np=$4
     shift 4
     [ "$tl_np" -gt 0 ] && set -- -n "$tl_np" "$@"
+    [ "$tl_np" -gt 0 ] && [ -n "${sched:-}" ] && set -- "$@" --sched "$sched"
     tl_t0=$(tl_now)
     tl_st=0
-    timeout --foreground "$run_timeout" "$pdr" mesh -q 2 -a "$tl_v" -o "$work/$tl_n" "$@" \
-        "$tl_p" >"$work/$tl_n.out" 2>&1 || tl_st=$?
+    # shellcheck disable=SC2046
+    timeout --foreground "$run_timeout" chrt $(tl_chrt) "$pdr" mesh -q 2 -a "$tl_v" \
+        -o "$work/$tl_n" "$@" "$tl_p" >"$work/$tl_n.out" 2>&1 || tl_st=$?
     tl_t1=$(tl_now)
     awk -v a="$tl_t0" -v b="$tl_t1" 'BEGIN { printf "%.3f\n", b - a }' >"$work/$tl_n.wall"
     [ "$tl_st" -eq 0 ] ||
