@@ -508,6 +508,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     ro_run.order = local || local_all         ? REF_ORDER_LOCAL_FIRST
                    : !strcmp(order, "lifo")   ? REF_ORDER_LIFO
                                               : REF_ORDER_FIFO;
+    const char *reach = getenv("PDR_PAR_BUSY_REACH");
+    ro_run.busy_reach = reach ? atof(reach) : -1;
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;

@@ -3,6 +3,7 @@
 #include "config.h"
 
 #include <math.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -58,6 +59,31 @@ static void part_free(par_part *p)
 static void part_clear(par_part *p)
 {
     p->cav.n = p->held.n = p->repoint.n = p->ifcs.n = 0;
+    p->boxed = 0;
+}
+
+void par_part_box(const tm_mesh *m, par_part *p)
+{
+    if (p->boxed == 0)
+        for (int k = 0; k < 3; k++) {
+            p->lo[k] = HUGE_VAL;
+            p->hi[k] = -HUGE_VAL;
+        }
+    for (; p->boxed < p->held.n; p->boxed++) {
+        uint32_t t = p->held.a[p->boxed];
+        if (t >= m->nslots)
+            continue;
+        for (int i = 0; i < 4; i++) {
+            uint32_t v = m->tets[t].v[i];
+            if (v == TM_VINF || v >= m->nv)
+                continue;
+            const double *x = m->xyz + 3 * (size_t)v;
+            for (int k = 0; k < 3; k++) {
+                p->lo[k] = x[k] < p->lo[k] ? x[k] : p->lo[k];
+                p->hi[k] = x[k] > p->hi[k] ? x[k] : p->hi[k];
+            }
+        }
+    }
 }
 
 static void unlock_held(tm_mesh *m, uint32_t owner, const u32list *held)
@@ -735,7 +761,36 @@ void par_cav_release(par_cav *c)
         return;
     unlock_held(&c->cc->s->r.m, c->owner, &c->own.held);
     c->own.held.n = 0;
+    c->own.boxed = 0;
     c->owner = 0;
+}
+
+static int boxes_meet(const par_part *p, const double lo[3], const double hi[3], double margin)
+{
+    for (int k = 0; k < 3; k++)
+        if (lo[k] > p->hi[k] + margin || hi[k] < p->lo[k] - margin)
+            return 0;
+    return 1;
+}
+
+int par_cav_near_locks(par_cav_ctx *cc, const double lo[3], const double hi[3], double margin)
+{
+    const tm_mesh *m = &cc->s->r.m;
+    for (size_t i = 0; i < cc->ncavs; i++) {
+        par_part *p = &cc->cavs[i]->own;
+        par_part_box(m, p);
+        if (p->held.n && boxes_meet(p, lo, hi, margin))
+            return 1;
+    }
+    for (size_t i = 0; i < cc->nrecs; i++) {
+        par_rec *r = &cc->recs[i];
+        if (!r->owner)
+            continue;
+        par_part_box(m, &r->part);
+        if (r->part.held.n && boxes_meet(&r->part, lo, hi, margin))
+            return 1;
+    }
+    return 0;
 }
 
 static void reset_attempt(par_cav *c)

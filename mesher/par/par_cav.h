@@ -107,6 +107,10 @@ typedef struct par_u32list {
  * other PEs. */
 typedef struct par_part {
     par_u32list cav, held, repoint, ifcs;
+    /* The bounding box of the held tetrahedra's finite vertices, over
+     * held.a[0..boxed) (par_part_box). */
+    double lo[3], hi[3];
+    size_t boxed;
 } par_part;
 
 /* One insertion attempt of one thread of the origin. */
@@ -140,6 +144,17 @@ typedef struct par_cav {
     uint32_t slot;      /* index in par_cav_ctx.cavs while waiting, else
                            UINT32_MAX */
 } par_cav;
+
+/* Extends p's bounding box over the tetrahedra held since the last call
+ * (held lists only grow until the part is cleared). */
+void par_part_box(const tm_mesh *m, par_part *p);
+
+/* 1 if the box [lo, hi] grown by margin meets the bounding box of the
+ * tetrahedra locked on this PE by a cavity in progress: one of this PE's
+ * threads waiting for replies, or another PE's cavity served here. */
+struct par_cav_ctx;
+int par_cav_near_locks(struct par_cav_ctx *cc, const double lo[3], const double hi[3],
+                       double margin);
 
 /* Statistics of the protocol on one PE. */
 typedef struct par_cav_stats {

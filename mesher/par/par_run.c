@@ -181,6 +181,28 @@ static void hook_relink(void *arg, tm_link outer, uint32_t t, int f)
     pr->s->ifc[outer - TM_LINK_SPECIAL].local = tm_mklink(t, f);
 }
 
+/* ref_hooks.busy: the bounding box of t, grown by PAR_RUN_BUSY_REACH times
+ * its largest extent, meets that of a cavity in progress here (see
+ * PAR_RUN_BUSY_REACH). */
+static int hook_busy(void *arg, uint32_t t)
+{
+    par_run *pr = arg;
+    const tm_mesh *m = &pr->s->r.m;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int i = 0; i < 4; i++) {
+        uint32_t v = m->tets[t].v[i];
+        if (v == TM_VINF)
+            continue;
+        const double *x = m->xyz + 3 * (size_t)v;
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], x[k]);
+            hi[k] = fmax(hi[k], x[k]);
+        }
+    }
+    double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    return par_cav_near_locks(&pr->cc, lo, hi, pr->o.busy_reach * ext);
+}
+
 static int requeue(void *arg, int kind, uint32_t id)
 {
     par_run *pr = arg;
@@ -383,6 +405,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->o = *o;
     if (pr->o.max_threads < 1)
         pr->o.max_threads = 1;
+    if (pr->o.busy_reach < 0)
+        pr->o.busy_reach = PAR_RUN_BUSY_REACH;
     if (!(pr->o.backoff_s > 0))
         pr->o.backoff_s = 200e-6;
     pr->rng = (o->seed ^ 0x9E3779B97F4A7C15ULL) * (s->rank + 1) | 1;
@@ -401,6 +425,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->hooks.committed = hook_committed;
     pr->hooks.owner = hook_owner;
     pr->hooks.relink = hook_relink;
+    if (pr->o.busy_reach > 0)
+        pr->hooks.busy = hook_busy;
     pr->hooks.arg = pr;
     pr->cc.search_flags = ref_cavity_flags(&s->r);
     s->r.hooks = &pr->hooks;

@@ -315,6 +315,10 @@ typedef struct ref_hooks {
      * tetrahedron's face t, f that took over interface link outer. */
     uint32_t (*owner)(void *arg);
     void (*relink)(void *arg, tm_link outer, uint32_t t, int f);
+    /* While busy_depth > 0: 1 if the search of bad tetrahedron t would
+     * likely meet a cavity in progress (a setback), so that it waits;
+     * NULL: the locks within busy_depth neighbour steps tell. */
+    int (*busy)(void *arg, uint32_t t);
     void *arg;
 } ref_hooks;
 
@@ -373,8 +377,9 @@ typedef struct ref_mesher {
     const ref_hooks *hooks; /* NULL when sequential; not owned */
     int busy_depth;    /* parallel, set by the caller before ref_next: a bad
                           tetrahedron with a lock at most this many
-                          neighbour steps away goes to the back of the
-                          queue unstarted (its search would be a setback);
+                          neighbour steps away (or that hooks->busy calls
+                          busy) goes to the back of the queue unstarted
+                          (its search would be a setback);
                           not with REF_ORDER_LIFO; 0: no check (m->lock
                           may be NULL) */
     uint32_t split_a, split_b; /* constrained: the subsegment being split

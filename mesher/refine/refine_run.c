@@ -1268,7 +1268,10 @@ static int pop_tet(ref_mesher *r, uint32_t *t)
         uint32_t x = local ? q_pop(&r->tetq_local, 1, NULL) : q_pop(&r->tetq, lifo, NULL);
         if (tm_is_dead(m, x) || !(m->flags[x] & TM_F_QUEUED))
             continue;
-        if (defer_left && tet_busy(m, x, UINT32_MAX, r->busy_depth) && q_push(&r->tetq, x, 0.0f) == 0) {
+        int busy = defer_left && (r->hooks && r->hooks->busy
+                                      ? r->hooks->busy(r->hooks->arg, x)
+                                      : tet_busy(m, x, UINT32_MAX, r->busy_depth));
+        if (busy && q_push(&r->tetq, x, 0.0f) == 0) {
             r->st.deferred++;
             if (!--defer_left)
                 return 0;
