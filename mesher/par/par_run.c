@@ -159,7 +159,7 @@ static int hook_committed(void *arg, uint32_t v, const dt_cavity *c)
     tm_mesh *m = &s->r.m;
     uint64_t gid = par_sub_new_gid(s);
     m->gid[v] = gid;
-    int rc = hmap_put(&s->vmap, gid, v);
+    int rc = par_sub_map_vertex(s, gid, v);
     for (size_t i = 0; i < c->nbnd && !rc; i++) {
         tm_link l = c->bnd[i].outer;
         if (c->bnd[i].reason == DT_BND_REMOTE && l != TM_LINK_NONE)

@@ -34,6 +34,7 @@ int par_sub_init(par_sub *s, const plc *p, const ref_opts *o, uint32_t rank, uin
     s->rank = rank;
     s->size = size;
     s->next_seq = 1;
+    s->own_base = 1;
     s->ifc_free = PAR_PE_NONE;
     int rc = ref_init(&s->r, p, o);
     if (!rc)
@@ -49,6 +50,7 @@ void par_sub_free(par_sub *s)
 {
     ref_free(&s->r);
     hmap_free(&s->vmap);
+    pr_free(s->own_v);
     hmap_free(&s->ifc_map);
     pr_free(s->ifc);
     memset(s, 0, sizeof *s);
@@ -58,8 +60,30 @@ uint32_t par_sub_find_vertex(const par_sub *s, uint64_t gid)
 {
     if (gid == PAR_GID_INF)
         return TM_VINF;
+    if (pr_gid_rank(gid) == s->rank && pr_gid_seq(gid) >= s->own_base) {
+        uint64_t i = pr_gid_seq(gid) - s->own_base;
+        return i < s->own_n ? s->own_v[i] : TM_NONE;
+    }
     uint32_t v = hmap_get(&s->vmap, gid);
     return v == HMAP_NONE ? TM_NONE : v;
+}
+
+int par_sub_map_vertex(par_sub *s, uint64_t gid, uint32_t v)
+{
+    if (pr_gid_rank(gid) != s->rank || pr_gid_seq(gid) < s->own_base)
+        return hmap_put(&s->vmap, gid, v);
+    uint64_t i = pr_gid_seq(gid) - s->own_base;
+    if (i >= s->own_n) {
+        if (i >= SIZE_MAX / sizeof *s->own_v - 1)
+            return PDR_ENOMEM;
+        if (pdr_grow((void **)&s->own_v, &s->own_cap, (size_t)i + 1, sizeof *s->own_v))
+            return PDR_ENOMEM;
+        for (size_t k = s->own_n; k <= i; k++)
+            s->own_v[k] = TM_NONE;
+        s->own_n = (size_t)i + 1;
+    }
+    s->own_v[i] = v;
+    return 0;
 }
 
 int par_sub_vertex(par_sub *s, uint64_t gid, const double xyz[3], uint8_t kind,
@@ -75,7 +99,7 @@ int par_sub_vertex(par_sub *s, uint64_t gid, const double xyz[3], uint8_t kind,
     if (!rc)
         rc = bd_vertex_room(&s->r.bd, m->nv);
     if (!rc)
-        rc = hmap_put(&s->vmap, gid, v);
+        rc = par_sub_map_vertex(s, gid, v);
     if (rc)
         return rc;
     m->gid[v] = gid;

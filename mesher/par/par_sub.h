@@ -55,7 +55,13 @@ typedef struct par_sub {
     ref_mesher r;      /* the local mesh and the refinement state; owned */
     uint32_t rank, size;
     uint64_t next_seq; /* counter of the next vertex this PE creates */
-    hmap vmap;         /* gid -> local vertex (gid 0 not stored) */
+    hmap vmap;         /* gid -> local vertex (gid 0 not stored), but for
+                          the vertices this PE makes: */
+    uint32_t *own_v;   /* own_v[seq - own_base]: the local vertex of this
+                          PE's gid with counter seq >= own_base (TM_NONE:
+                          none); a dense array where most gids are */
+    size_t own_n, own_cap;
+    uint64_t own_base; /* next_seq when the submesh was made */
     par_iface *ifc;
     size_t nifc, cap_ifc; /* slots used (live + free), capacity */
     uint32_t ifc_free;    /* free list head, PAR_PE_NONE if empty */
@@ -97,6 +103,8 @@ int par_sub_vertex(par_sub *s, uint64_t gid, const double xyz[3], uint8_t kind,
                    uint32_t feat, float rins, uint32_t *out);
 /* Local vertex of gid, or TM_NONE. */
 uint32_t par_sub_find_vertex(const par_sub *s, uint64_t gid);
+/* Records that gid is local vertex v. Returns 0 or PDR_ENOMEM. */
+int par_sub_map_vertex(par_sub *s, uint64_t gid, uint32_t v);
 /* A new global id for a vertex this PE creates. */
 uint64_t par_sub_new_gid(par_sub *s);
 

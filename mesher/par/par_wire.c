@@ -855,6 +855,7 @@ static int build(const par_wire *w, par_sub *s)
     const pr_submesh *sm = w->sm;
     tm_mesh *m = &s->r.m;
     s->next_seq = w->next_seq;
+    s->own_base = w->next_seq;
     int rc = par_wire_seg_acute(&s->r);
     if (!rc)
         rc = tm_reserve(m, (size_t)sm->vert.n + 1, sm->tet.n);
