@@ -1403,10 +1403,17 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
         raw_send(zctx, ep, other_id, 2, f, 24, 1);
         /* 7: two parts */
         raw_send(zctx, ep, bad_id, 5, f, 24, 2);
+        /* 8: a bundle of two frames and a cut-off third: its first frame
+         * is rejected (the routing id), and the rest goes with it, so it
+         * counts once */
+        frame_header(f, 1, 0, 99, 0);
+        frame_header(f + 24, 1, 0, 99, 0);
+        frame_header(f + 48, 1, 0, 99, 8);
+        raw_send(zctx, ep, bad_id, 5, f, 60, 1);
         zmq_ctx_term(zctx);
     }
     if (r == 1) {
-        expected = 8;
+        expected = 9;
         am_stats_t st;
         double limit = now_s() + 10;
         do {
