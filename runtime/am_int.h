@@ -586,9 +586,9 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget);
 int am__socket_readable(am_ctx_t *ctx);
 /* Hands every peer's queued frames to ZeroMQ (bundled, with coalescing
  * on) until ZeroMQ would block; returns 0 or a fatal code. The flush
- * points of send coalescing: am_poll and every path on which the PE may
- * wait (am_idle, am_flush, finalize, the failure exit; the blocking calls
- * drive the loop). */
+ * points of send coalescing: am_poll, each round of am_run_until_done, and
+ * every path on which the PE may wait (am_idle, am_flush, finalize, the
+ * failure exit; the blocking calls drive the loop). */
 int am__flush_sendq(am_ctx_t *ctx);
 /* Reads socket monitor events and probes suspected peers. */
 void am__check_peers(am_ctx_t *ctx);

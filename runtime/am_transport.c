@@ -19,14 +19,15 @@
  * Send coalescing: while the PE runs, a frame to another PE is not handed
  * to ZeroMQ at once but waits in the peer's send queue until the next
  * flush point, a place where the PE would wait anyway or goes back to the
- * network (am_poll, before am_idle blocks, am_flush, the finalize and
- * failure paths; see am_loop.c); then the frames queued for each peer go
+ * network (am_poll, before am_idle blocks, the end of each round of
+ * am_run_until_done, am_flush, the finalize and failure paths; see
+ * am_loop.c); then the frames queued for each peer go
  * out as bundles, several frames back to back in one ZeroMQ message
  * (CONTROL.md, "Bundles"). Every ZeroMQ message costs a wake-up of its
  * I/O thread when that thread sleeps, its system calls, and the same on
- * the receiving side; measured on the 2-PE refinement, loop-level
- * bundling carries about three frames per message and halves the I/O
- * threads' CPU and the job's context switches (bench/runtime.md). The
+ * the receiving side; measured on the 2-PE refinement, bundling carries
+ * about 2.4 frames per message and halves the I/O threads' CPU and the
+ * job's context switches (bench/runtime.md). The
  * receiver cuts a bundle into frames and takes each as it takes a lone
  * frame: validation, sequence numbers, statistics, termination counts,
  * credits and injected latency all stay per frame. Frames larger than
