@@ -19,7 +19,7 @@
  * which it was sent, and never while the PE sleeps. Flushing only at
  * polls would let frames wait through the rounds that skip the poll
  * (POLL_GAP) for a few more bundles: on the 2-PE refinement 2.7 frames
- * per ZeroMQ message instead of 2.4, at up to 20 us more per frame. A PE
+ * per ZeroMQ message instead of 2.3, at up to 20 us more per frame. A PE
  * with queued frames is not passive (am_quiescent).
  *
  * Accounting: am_poll's own time (minus the handlers it runs) is poll

@@ -26,7 +26,7 @@
  * (CONTROL.md, "Bundles"). Every ZeroMQ message costs a wake-up of its
  * I/O thread when that thread sleeps, its system calls, and the same on
  * the receiving side; measured on the 2-PE refinement, bundling carries
- * about 2.4 frames per message and halves the I/O threads' CPU and the
+ * about 2.3 frames per message and halves the I/O threads' CPU and the
  * job's context switches (bench/runtime.md). The
  * receiver cuts a bundle into frames and takes each as it takes a lone
  * frame: validation, sequence numbers, statistics, termination counts,
