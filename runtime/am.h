@@ -321,7 +321,8 @@ AM_EXPORT int am_register(am_ctx_t *ctx, unsigned id, const char *name,
  * Coalescing. A message to another PE is handed to the network at the
  * PE's next flush point: am_poll, am_idle before it blocks, the end of each
  * round of am_run_until_done, am_flush, any blocking call (they drive the
- * loop), am_finalize. Messages
+ * loop), any collective (its messages take the waiting ones along),
+ * am_finalize. Messages
  * to the same PE that wait together travel in one network message
  * (runtime/CONTROL.md, "Bundles"), which costs the system calls and
  * thread wake-ups of one. A program that sends and then computes for long

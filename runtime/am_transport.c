@@ -28,6 +28,8 @@
  * the receiving side; measured on the 2-PE refinement, bundling carries
  * about 2.3 frames per message and halves the I/O threads' CPU and the
  * job's context switches (bench/runtime.md). The
+ * Control frames other than RPC's go at once and flush every queue (they
+ * mark synchronisation points, after which a PE may compute). The
  * receiver cuts a bundle into frames and takes each as it takes a lone
  * frame: validation, sequence numbers, statistics, termination counts,
  * credits and injected latency all stay per frame. Frames larger than
@@ -535,9 +537,11 @@ static void sendq_drop_head(am_ctx_t *ctx, int pe)
 static int flush_peer(am_ctx_t *ctx, int pe);
 
 /* Writes h (its seq filled in here) into the header room of msg and hands
- * msg to ZeroMQ, the peer's send queue, or the loopback queue. Takes
- * ownership of msg on success only; on failure the caller closes it. */
-int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
+ * msg to ZeroMQ, the peer's send queue (later: to wait for the next flush
+ * point), or the loopback queue. Takes ownership of msg on success only;
+ * on failure the caller closes it. */
+static int hand_over_frame(am_ctx_t *ctx, int pe, pr_header *h,
+                           zmq_msg_t *msg, int later)
 {
     am__frame *f;
     if (pe == ctx->rank) {
@@ -553,7 +557,6 @@ int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
     am__peer *p = &ctx->peers[pe];
     h->seq = p->send_seq;
     pr_header_encode(h, zmq_msg_data(msg));
-    int later = defer_send(ctx);
     if (p->sendq.n == 0 && !later) {
         int rc = zsend(ctx, pe, msg);
         if (rc == 2) /* dropped while finalizing */
@@ -589,6 +592,24 @@ int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
             return rc;
     }
     return 0;
+}
+
+int am__hand_over(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
+{
+    /* Basic frames (user AMs, RPC) wait for a flush point. Any other
+     * control frame (a collective's, the termination token, a credit,
+     * BYE...) marks a point where the PE synchronises and may then compute
+     * without polling (a barrier that finds its children's contributions
+     * already there returns at once): it leaves now, and takes with it
+     * every frame that waits, to every peer, in order. */
+    int coalescing = defer_send(ctx);
+    int later = coalescing && am__is_basic(ctx, h);
+    int rc = hand_over_frame(ctx, pe, h, msg, later);
+    /* The frame is ours now: a failure of the flush is the context's
+     * (am__fail), not this send's. */
+    if (rc == 0 && coalescing && !later && ctx->sendq_total)
+        am__flush_sendq(ctx);
+    return rc;
 }
 
 /* Sends a frame already holding header room (every send path ends here,

@@ -21,6 +21,10 @@
  *                          per handler and per control type
  *   am_mp rtt N            prints the mean AM round trip between ranks 0
  *                          and 1 ("rtt_us X")
+ *   am_mp flush            rank 0 sends to rank 1, calls am_flush and then
+ *                          computes for 3 s without polling; the message
+ *                          must reach rank 1 long before (coalescing would
+ *                          otherwise hold it until rank 0 polls again)
  *   am_mp coll             barrier, allreduce, gather
  *   am_mp kill VICTIM      PE VICTIM kills itself with SIGKILL mid-run; the
  *                          others must report it and exit (never return)
@@ -1100,6 +1104,37 @@ static int run_rtt(am_ctx_t *ctx, int n)
     return 0;
 }
 
+/* ---------------------------------------------------------------- flush */
+
+static int run_flush(am_ctx_t *ctx)
+{
+    am_register(ctx, H_PING, "ping", ping_handler, NULL);
+    am_register(ctx, H_PONG, "pong", pong_handler, NULL);
+    am_barrier(ctx);
+    if (am_rank(ctx) == 0) {
+        char payload[8] = "flush";
+        /* H_PONG: counted by rank 1, not answered. */
+        CHECK(am_send(ctx, 1, H_PONG, payload, sizeof payload) == 0, "send");
+        CHECK(am_flush(ctx) == 0, "am_flush");
+        double end = now_s() + 3.0;
+        while (now_s() < end)
+            ; /* a computation that does not poll */
+    } else if (am_rank(ctx) == 1) {
+        double t0 = now_s(), limit = t0 + 10;
+        while (pongs < 1 && now_s() < limit) {
+            am_poll(ctx);
+            if (pongs < 1)
+                am_idle(ctx, 0.1);
+        }
+        double took = now_s() - t0;
+        CHECK(pongs == 1 && took < 1.5,
+              "the flushed message took %.2f s (rank 0 computed 3 s)", took);
+        printf("flush: the message arrived after %.3f s\n", took);
+    }
+    am_barrier(ctx);
+    return 0;
+}
+
 /* ----------------------------------------------------------------- coll */
 
 static void coll_thread(am_ctx_t *ctx, void *arg)
@@ -1498,6 +1533,8 @@ int main(int argc, char **argv)
         rc = run_counts(ctx);
     else if (!strcmp(mode, "rtt"))
         rc = run_rtt(ctx, arg1 > 0 ? arg1 : 50);
+    else if (!strcmp(mode, "flush"))
+        rc = run_flush(ctx);
     else if (!strcmp(mode, "coll"))
         rc = run_coll(ctx);
     else if (!strcmp(mode, "kill"))
@@ -1515,7 +1552,7 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "zap") && argc > 3)
         rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
-        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
+        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|flush|coll|kill|"
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }
