@@ -16,22 +16,21 @@
  * pipes and the send queue hold at most a window of them per peer.
  * ZMQ_LINGER is bounded (2 s) so a dead peer cannot hold up exit.
  *
- * Send coalescing: while the PE runs, a frame to another PE is not handed
- * to ZeroMQ at once but waits in the peer's send queue until the next
- * flush point, a place where the PE would wait anyway or goes back to the
- * network (am_poll, before am_idle blocks, the end of each round of
- * am_run_until_done, am_flush, the finalize and failure paths; see
- * am_loop.c); then the frames queued for each peer go
+ * Send coalescing: while the PE runs, a basic frame (user AM, RPC) to
+ * another PE is not handed to ZeroMQ at once but waits in the peer's send
+ * queue until the next flush point, a place where the PE would wait
+ * anyway or goes back to the network (am_poll, before am_idle blocks, the
+ * end of each round of am_run_until_done, am_flush, the finalize and
+ * failure paths; see am_loop.c); then the frames queued for each peer go
  * out as bundles, several frames back to back in one ZeroMQ message
  * (CONTROL.md, "Bundles"). Every ZeroMQ message costs a wake-up of its
  * I/O thread when that thread sleeps, its system calls, and the same on
  * the receiving side; measured on the 2-PE refinement, bundling carries
  * about 2.3 frames per message and halves the I/O threads' CPU and the
- * job's context switches (bench/runtime.md). The
- * Control frames other than RPC's go at once and flush every queue (they
- * mark synchronisation points, after which a PE may compute). The
- * receiver cuts a bundle into frames and takes each as it takes a lone
- * frame: validation, sequence numbers, statistics, termination counts,
+ * job's context switches (bench/runtime.md). Other control frames go at
+ * once and flush every queue: they mark synchronisation points, after
+ * which a PE may compute without polling. The receiver cuts a bundle into
+ * frames and takes each as it takes a lone frame: validation, sequence numbers, statistics, termination counts,
  * credits and injected latency all stay per frame. Frames larger than
  * AM__BUNDLE_FRAME_MAX go alone (no copy); a queue that reaches
  * AM__BUNDLE_MAX bytes is flushed at once. AM_COALESCE=0 turns it off.
