@@ -1415,7 +1415,7 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
     if (r == 0) {
         const char *ep = am_endpoint(ctx, 1);
         void *zctx = zmq_ctx_new();
-        uint8_t f[64];
+        uint8_t f[96]; /* room for the three-frame bundle of case 8 */
         uint8_t bad_id[5] = {'P', 99, 0, 0, 0}; /* rank 99: not in the job */
         uint8_t other_id[2] = {'X', 'A'};
         /* 1: truncated */
