@@ -169,6 +169,10 @@ typedef struct am_stats {
     double send_wait_s;   /* time they waited */
     uint64_t held_sends;  /* callback sends queued for a full window */
     uint64_t credits_recv;/* window credits received from the peers */
+    uint64_t bundles_sent;/* ZeroMQ messages that carried several frames
+                             (send coalescing) */
+    uint64_t bundled_sent;/* frames sent in them */
+    uint64_t bundles_recv, bundled_recv; /* the same, received */
 } am_stats_t;
 
 /* -------------------------------------------------------- callback types */
@@ -314,7 +318,18 @@ AM_EXPORT int am_register(am_ctx_t *ctx, unsigned id, const char *name,
  * wait; this cannot deadlock, because handlers never wait and every PE
  * keeps receiving while its threads wait. The same applies to
  * am_send_zc, am_send_buf, am_call (requests) and am_reply/am_reply_to
- * (replies). */
+ * (replies).
+ *
+ * Coalescing. A message to another PE is handed to the network at the
+ * PE's next flush point: am_poll, am_idle before it blocks, the end of each
+ * round of am_run_until_done, am_flush, any blocking call (they drive the
+ * loop), any collective (its messages take the waiting ones along),
+ * am_finalize. Messages
+ * to the same PE that wait together travel in one network message
+ * (runtime/CONTROL.md, "Bundles"), which costs the system calls and
+ * thread wake-ups of one. A program that sends and then computes for long
+ * without polling calls am_flush first. AM_COALESCE=0 sends every message
+ * at once, alone. */
 AM_EXPORT int am_send(am_ctx_t *ctx, int pe, unsigned id, const void *data,
                       size_t len);
 
@@ -338,6 +353,12 @@ AM_EXPORT void am_buf_free(void *payload);
  * payload on success only. */
 AM_EXPORT int am_send_buf(am_ctx_t *ctx, int pe, unsigned id, void *payload,
                           size_t len);
+
+/* Hands every message waiting for a flush point (see am_send,
+ * "Coalescing") to the network now, bundled per destination. Never
+ * blocks; callable from anywhere, callbacks and threads included. Returns
+ * 0 or the context's failure code. */
+AM_EXPORT int am_flush(am_ctx_t *ctx);
 
 /* --------------------------------------------------------------- the loop */
 

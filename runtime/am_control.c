@@ -240,3 +240,18 @@ int am__credit_get(pr_reader *r, uint64_t *bytes)
         return pr_reader_fail(r, PR_ERANGE);
     return pr_reader_finish(r);
 }
+
+/* ---------------------------------------------------------------- bundles */
+
+size_t am__bundle_next(const uint8_t *msg, size_t len)
+{
+    if (len < PR_HEADER_SIZE)
+        return 0;
+    /* The payload length is the u32 at offset 12 (PROTOCOL.md, "Frame
+     * header"); compared against what is left before any addition, so
+     * that no length can wrap. */
+    uint32_t payload = pr_load_u32(msg + 12);
+    if (payload > len - PR_HEADER_SIZE)
+        return 0;
+    return PR_HEADER_SIZE + (size_t)payload;
+}

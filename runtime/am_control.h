@@ -148,4 +148,23 @@ int am__credit_get(pr_reader *r, uint64_t *bytes);
 /* BYE and PING have empty bodies. */
 int am__empty_get(pr_reader *r);
 
+/* ---------------------------------------------------------------- bundles */
+
+/* A ZeroMQ message between PEs carries one frame or a bundle: several
+ * frames to the same PE back to back, in the order they were sent
+ * (CONTROL.md, "Bundles"). A sender bundles only frames of at most
+ * AM__BUNDLE_FRAME_MAX bytes (larger ones go alone, without a copy), and
+ * at most AM__BUNDLE_MAX bytes in all; a receiver takes any bundle that
+ * fits ZeroMQ's message size limit, and checks each frame as it checks a
+ * lone one. */
+#define AM__BUNDLE_FRAME_MAX 8192
+#define AM__BUNDLE_MAX 65536
+
+/* The length of the frame at the start of msg[0..len): the header size
+ * plus the payload length its header states, if a whole header is there
+ * and the frame ends within len; 0 otherwise. Reads the length field only
+ * (the frame is validated whole afterwards, like a lone frame), so that a
+ * receiver can cut a bundle into frames. */
+size_t am__bundle_next(const uint8_t *msg, size_t len);
+
 #endif /* AM_CONTROL_H */

@@ -414,6 +414,14 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
 
     ctx->poll_budget = o->poll_budget ? o->poll_budget : DEFAULT_POLL_BUDGET;
 
+    /* Send coalescing (am_transport.c): on unless AM_COALESCE=0, which
+     * hands every frame to ZeroMQ at once, alone, as before it existed
+     * (kept for measuring the difference). */
+    long coalesce = 1;
+    if ((v = am__env(ctx, "AM_COALESCE")) && parse_long(v, 0, 1, &coalesce))
+        return bad_option(ctx, "AM_COALESCE", v, "1 (on) or 0 (off)");
+    ctx->coalesce = (int)coalesce;
+
     long hwm = 0;
     if ((v = am__env(ctx, "AM_HWM")) && parse_long(v, 0, 1 << 30, &hwm))
         return bad_option(ctx, "AM_HWM", v, "a message count, 0 = unlimited");
@@ -569,6 +577,7 @@ static void destroy(am_ctx_t *ctx)
     if (ctx->peers)
         for (int pe = 0; pe < ctx->size; pe++)
             am__fifo_clear(&ctx->peers[pe].sendq);
+    pr_free(ctx->sendq_peers);
     am__transport_close(ctx);
     am__sched_free(ctx);
     am__loop_free(ctx);
@@ -615,6 +624,9 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
     if (!rc)
         rc = resolve_options(ctx, opts);
     if (!rc && !(ctx->peers = pr_calloc((size_t)ctx->size, sizeof *ctx->peers)))
+        rc = AM_ENOMEM;
+    if (!rc && !(ctx->sendq_peers = pr_calloc((size_t)ctx->size,
+                                              sizeof *ctx->sendq_peers)))
         rc = AM_ENOMEM;
     for (int pe = 0; !rc && pe < ctx->size; pe++)
         ctx->peers[pe].ctx = ctx;

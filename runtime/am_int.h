@@ -80,6 +80,8 @@ typedef struct am__frame {
     pr_header hdr;  /* decoded header */
     int src;        /* sender rank */
     double due;     /* latency queue: delivery time (am__now clock) */
+    int refused;    /* send queue: ZeroMQ refused it once (counted in
+                       queued_sends) */
 } am__frame;
 
 typedef struct am__fifo {
@@ -106,7 +108,11 @@ void am__frame_free(am__frame *f);
  * peer, recv_seq the one expected next from it (frames arrive in order on
  * one ZeroMQ pipe; a lower number is a duplicate and is refused). While
  * sendq is not empty every new frame to the peer is appended to it, so
- * frames never overtake each other. delayq is ordered by due time, which
+ * frames never overtake each other. sendq holds the frames ZeroMQ could
+ * not take yet and, while the PE runs with coalescing on, the frames sent
+ * since the last flush (am__flush_sendq), which leave bundled; sendq_bytes
+ * is their size, and in_sendq_peers says the peer is listed in the
+ * context's sendq_peers. delayq is ordered by due time, which
  * never decreases along the queue (per-sender order is kept under random
  * latency); delay_ev is armed for the head whenever delayq is not empty.
  *
@@ -125,7 +131,9 @@ typedef struct am__peer {
     char *endpoint;         /* where it listens; owned */
     uint64_t send_seq;      /* next outgoing sequence number */
     uint64_t recv_seq;      /* next expected incoming sequence number */
-    am__fifo sendq;         /* frames ZeroMQ could not take yet */
+    am__fifo sendq;         /* frames not yet handed to ZeroMQ */
+    size_t sendq_bytes;     /* their size */
+    int in_sendq_peers;     /* listed in ctx->sendq_peers */
     am__fifo delayq;        /* latency injection: not yet delivered */
     struct event *delay_ev; /* timer for delayq's head */
     int delay_armed;
@@ -444,6 +452,12 @@ struct am_ctx_s {
     int aborting;          /* telling peers about a failure */
     am__peer *peers;       /* size entries */
     size_t sendq_total;    /* frames in all send queues */
+    int *sendq_peers;      /* the peers whose send queue may hold frames
+                              (size entries, nsendq_peers used), so that a
+                              flush does not scan every peer of a big job */
+    int nsendq_peers;
+    int coalesce;          /* AM_COALESCE: frames wait in the send queues
+                              until the next flush and leave bundled */
     size_t held_total;     /* frames in all heldq (flow control) */
     am__fifo loopback;     /* frames sent to this PE */
     am__fifo early;        /* non-boot frames received while booting */
@@ -570,7 +584,11 @@ void am__ctl_begin(pr_buf *body);
 int am__recv_some(am_ctx_t *ctx, unsigned budget);
 /* 1 if ZeroMQ says a frame is waiting (re-reads ZMQ_EVENTS). */
 int am__socket_readable(am_ctx_t *ctx);
-/* Flushes send queues; returns 0 or a fatal code. */
+/* Hands every peer's queued frames to ZeroMQ (bundled, with coalescing
+ * on) until ZeroMQ would block; returns 0 or a fatal code. The flush
+ * points of send coalescing: am_poll, each round of am_run_until_done, and
+ * every path on which the PE may wait (am_idle, am_flush, finalize, the
+ * failure exit; the blocking calls drive the loop). */
 int am__flush_sendq(am_ctx_t *ctx);
 /* Reads socket monitor events and probes suspected peers. */
 void am__check_peers(am_ctx_t *ctx);

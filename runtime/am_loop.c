@@ -11,6 +11,17 @@
  * libevent return to the scheduler after each wake-up even while a flood
  * of frames keeps arriving, so threads are never starved by the network.
  *
+ * Flush points of send coalescing (am_transport.c): frames sent since the
+ * last one leave when am_poll starts (before new frames are handled) and
+ * ends (the handlers' answers), before am_idle blocks, and at the end of
+ * every round of am_run_until_done (the threads' and the work function's
+ * frames), so that a frame waits at most for the rest of the round in
+ * which it was sent, and never while the PE sleeps. Flushing only at
+ * polls would let frames wait through the rounds that skip the poll
+ * (POLL_GAP) for a few more bundles: on the 2-PE refinement 2.7 frames
+ * per ZeroMQ message instead of 2.3, at up to 20 us more per frame. A PE
+ * with queued frames is not passive (am_quiescent).
+ *
  * Accounting: am_poll's own time (minus the handlers it runs) is poll
  * time, and polls that delivered nothing are excess poll time; time spent
  * blocked in libevent is idle time. Two clock reads per poll.
@@ -158,6 +169,8 @@ int am_poll(am_ctx_t *ctx)
     double t0 = am__now();
     double h0 = ctx->st.handler_s;
     uint64_t d0 = ctx->delivered;
+    if (ctx->sendq_total)
+        am__flush_sendq(ctx);
     poll_local(ctx);
     if (ctx->sock)
         am__recv_some(ctx, ctx->poll_budget);
@@ -190,6 +203,10 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
         return rc;
     if (am__has_ready_work(ctx))
         return 0;
+    /* Nothing may wait for a flush while the PE sleeps. Before the edge
+     * check: a send may eat the edge. */
+    if (ctx->sendq_total)
+        am__flush_sendq(ctx);
     /* The edge rule: a send since the socket was last seen empty may have
      * consumed the ZMQ_FD edge of frames that are already waiting; then
      * ZMQ_EVENTS must be read again (a system call, so only then). */
@@ -273,6 +290,9 @@ int am_run_until_done(am_ctx_t *ctx, am_work_fn work, void *arg)
             if (started < 0)
                 return started;
         }
+        /* The round's frames leave before the PE reports passivity. */
+        if (ctx->sendq_total && (rc = am__flush_sendq(ctx)) < 0)
+            return rc;
         rc = am_quiescent(ctx, started == 0);
         if (rc < 0)
             return rc;

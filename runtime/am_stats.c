@@ -140,7 +140,9 @@ static void write_json(am_ctx_t *ctx, FILE *f)
             "%llu, \"ctl_recv\": %llu,\n    \"queued_sends\": %llu, "
             "\"threads_spawned\": %llu, \"thread_switches\": %llu,\n    "
             "\"send_waits\": %llu, \"send_wait_s\": %.9g, \"held_sends\": "
-            "%llu, \"credits_recv\": %llu},\n",
+            "%llu, \"credits_recv\": %llu,\n    \"bundles_sent\": %llu, "
+            "\"bundled_sent\": %llu, \"bundles_recv\": %llu, "
+            "\"bundled_recv\": %llu},\n",
             st.poll_s, st.poll_excess_s, st.idle_s, st.handler_s,
             (unsigned long long)st.polls, (unsigned long long)st.polls_empty,
             (unsigned long long)st.msgs_sent, (unsigned long long)st.bytes_sent,
@@ -151,7 +153,11 @@ static void write_json(am_ctx_t *ctx, FILE *f)
             (unsigned long long)st.thread_switches,
             (unsigned long long)st.send_waits, st.send_wait_s,
             (unsigned long long)st.held_sends,
-            (unsigned long long)st.credits_recv);
+            (unsigned long long)st.credits_recv,
+            (unsigned long long)st.bundles_sent,
+            (unsigned long long)st.bundled_sent,
+            (unsigned long long)st.bundles_recv,
+            (unsigned long long)st.bundled_recv);
     static const char *const reasons[AM__REJ_COUNT] = {
 #define AM__REJ_NAME(name, msg) #name,
         AM__REJECT_MAP(AM__REJ_NAME)

@@ -7,7 +7,7 @@
 
 job 60 "$AMRUN" -n 2 -- "$MP" malformed
 expect_ok "malformed"
-expect_line "^malformed: PE 1 rejected 8 malformed frames and lives" "malformed"
+expect_line "^malformed: PE 1 rejected 9 malformed frames and lives" "malformed"
 expect_line "it speaks wire protocol version 9, this PE speaks version 1" "malformed"
 
 # Rank 0 of a two-PE job meets a "PE 1" that speaks version 2.
@@ -24,7 +24,7 @@ no_leftovers
 
 job 60 "$AMRUN" -n 2 -t tcp --no-curve -- "$MP" stranger
 expect_ok "stranger without CURVE"
-expect_line "^stranger: PE 1 counted 8 frames" "stranger --no-curve"
+expect_line "^stranger: PE 1 counted 9 frames" "stranger --no-curve"
 job 60 "$AMRUN" -n 2 -t tcp -- "$MP" stranger
 expect_ok "stranger with CURVE"
 if grep -q "curve off" "$work/out"; then

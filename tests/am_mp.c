@@ -21,6 +21,10 @@
  *                          per handler and per control type
  *   am_mp rtt N            prints the mean AM round trip between ranks 0
  *                          and 1 ("rtt_us X")
+ *   am_mp flush            rank 0 sends to rank 1, calls am_flush and then
+ *                          computes for 3 s without polling; the message
+ *                          must reach rank 1 long before (coalescing would
+ *                          otherwise hold it until rank 0 polls again)
  *   am_mp coll             barrier, allreduce, gather
  *   am_mp kill VICTIM      PE VICTIM kills itself with SIGKILL mid-run; the
  *                          others must report it and exit (never return)
@@ -1100,6 +1104,37 @@ static int run_rtt(am_ctx_t *ctx, int n)
     return 0;
 }
 
+/* ---------------------------------------------------------------- flush */
+
+static int run_flush(am_ctx_t *ctx)
+{
+    am_register(ctx, H_PING, "ping", ping_handler, NULL);
+    am_register(ctx, H_PONG, "pong", pong_handler, NULL);
+    am_barrier(ctx);
+    if (am_rank(ctx) == 0) {
+        char payload[8] = "flush";
+        /* H_PONG: counted by rank 1, not answered. */
+        CHECK(am_send(ctx, 1, H_PONG, payload, sizeof payload) == 0, "send");
+        CHECK(am_flush(ctx) == 0, "am_flush");
+        double end = now_s() + 3.0;
+        while (now_s() < end)
+            ; /* a computation that does not poll */
+    } else if (am_rank(ctx) == 1) {
+        double t0 = now_s(), limit = t0 + 10;
+        while (pongs < 1 && now_s() < limit) {
+            am_poll(ctx);
+            if (pongs < 1)
+                am_idle(ctx, 0.1);
+        }
+        double took = now_s() - t0;
+        CHECK(pongs == 1 && took < 1.5,
+              "the flushed message took %.2f s (rank 0 computed 3 s)", took);
+        printf("flush: the message arrived after %.3f s\n", took);
+    }
+    am_barrier(ctx);
+    return 0;
+}
+
 /* ----------------------------------------------------------------- coll */
 
 static void coll_thread(am_ctx_t *ctx, void *arg)
@@ -1380,7 +1415,7 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
     if (r == 0) {
         const char *ep = am_endpoint(ctx, 1);
         void *zctx = zmq_ctx_new();
-        uint8_t f[64];
+        uint8_t f[96]; /* room for the three-frame bundle of case 8 */
         uint8_t bad_id[5] = {'P', 99, 0, 0, 0}; /* rank 99: not in the job */
         uint8_t other_id[2] = {'X', 'A'};
         /* 1: truncated */
@@ -1403,10 +1438,17 @@ static int run_malformed(am_ctx_t *ctx, int stranger)
         raw_send(zctx, ep, other_id, 2, f, 24, 1);
         /* 7: two parts */
         raw_send(zctx, ep, bad_id, 5, f, 24, 2);
+        /* 8: a bundle of two frames and a cut-off third: its first frame
+         * is rejected (the routing id), and the rest goes with it, so it
+         * counts once */
+        frame_header(f, 1, 0, 99, 0);
+        frame_header(f + 24, 1, 0, 99, 0);
+        frame_header(f + 48, 1, 0, 99, 8);
+        raw_send(zctx, ep, bad_id, 5, f, 60, 1);
         zmq_ctx_term(zctx);
     }
     if (r == 1) {
-        expected = 8;
+        expected = 9;
         am_stats_t st;
         double limit = now_s() + 10;
         do {
@@ -1491,6 +1533,8 @@ int main(int argc, char **argv)
         rc = run_counts(ctx);
     else if (!strcmp(mode, "rtt"))
         rc = run_rtt(ctx, arg1 > 0 ? arg1 : 50);
+    else if (!strcmp(mode, "flush"))
+        rc = run_flush(ctx);
     else if (!strcmp(mode, "coll"))
         rc = run_coll(ctx);
     else if (!strcmp(mode, "kill"))
@@ -1508,7 +1552,7 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "zap") && argc > 3)
         rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
-        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|coll|kill|"
+        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|flush|coll|kill|"
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }

@@ -63,6 +63,7 @@ FUZZ_REPLAY = \
 	tests/fuzz/replay_stl \
 	tests/fuzz/replay_node \
 	tests/fuzz/replay_control \
+	tests/fuzz/replay_bundle \
 	tests/fuzz/replay_cli \
 	tests/fuzz/replay_reply
 check_PROGRAMS += $(FUZZ_REPLAY)
@@ -82,6 +83,9 @@ tests_fuzz_replay_node_LDADD = $(FUZZ_MESH_LIBS)
 tests_fuzz_replay_control_SOURCES = tests/fuzz/fuzz_control.c tests/fuzz/replay_input.c
 tests_fuzz_replay_control_LDADD = libam.la libpdrproto.la $(ZMQ_LIBS) $(EVENT_LIBS) -lm
 tests_fuzz_replay_control_LDFLAGS = $(AM_LDFLAGS) -static
+tests_fuzz_replay_bundle_SOURCES = tests/fuzz/fuzz_bundle.c tests/fuzz/replay_input.c
+tests_fuzz_replay_bundle_LDADD = libam.la libpdrproto.la $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_bundle_LDFLAGS = $(AM_LDFLAGS) -static
 tests_fuzz_replay_cli_SOURCES = tests/fuzz/fuzz_cli.c tests/fuzz/replay_input.c \
 	mesher/cli/cli_util.c mesher/cli/cmd_check.c mesher/cli/cmd_delaunay.c \
 	mesher/cli/cmd_domain.c mesher/cli/cmd_mesh.c mesher/cli/mesh_par.c \

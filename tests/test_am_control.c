@@ -475,6 +475,30 @@ START_TEST(frame_check_names_each_reason)
 }
 END_TEST
 
+/* A bundle is cut at each header's stated length; a tail that is not a
+ * whole frame is not cut (the receiver checks it as one frame). */
+START_TEST(bundle_cuts_at_each_frame)
+{
+    uint8_t b[256];
+    size_t n1 = frame(b, 0, 2, 8, 0);
+    size_t n2 = frame(b + n1, PR_FLAG_CONTROL, 2, 0, 1);
+    size_t n3 = frame(b + n1 + n2, 0, 2, 100, 2);
+    size_t len = n1 + n2 + n3;
+    ck_assert_uint_eq(am__bundle_next(b, len), n1);
+    ck_assert_uint_eq(am__bundle_next(b + n1, len - n1), n2);
+    ck_assert_uint_eq(am__bundle_next(b + n1 + n2, n3), n3);
+    /* A lone frame is its own length. */
+    ck_assert_uint_eq(am__bundle_next(b, n1), n1);
+    /* Tails: shorter than a header, or a length past the end. */
+    ck_assert_uint_eq(am__bundle_next(b + n1 + n2, PR_HEADER_SIZE - 1), 0);
+    ck_assert_uint_eq(am__bundle_next(b + n1 + n2, n3 - 1), 0);
+    ck_assert_uint_eq(am__bundle_next(b, 0), 0);
+    /* The largest length cannot wrap the arithmetic. */
+    pr_store_u32(b + 12, UINT32_MAX);
+    ck_assert_uint_eq(am__bundle_next(b, len), 0);
+}
+END_TEST
+
 static Suite *control_suite(void)
 {
     Suite *s = suite_create("am_control");
@@ -492,6 +516,7 @@ static Suite *control_suite(void)
     tc = tcase_create("dispatch");
     tcase_add_test(tc, dispatch_table_is_complete);
     tcase_add_test(tc, dispatch_goes_through_the_table);
+    tcase_add_test(tc, bundle_cuts_at_each_frame);
     suite_add_tcase(s, tc);
     tc = tcase_create("frames");
     tcase_add_test(tc, frame_check_names_each_reason);

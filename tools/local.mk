@@ -7,6 +7,8 @@ tools_am_bench_SOURCES = tools/am_bench.c
 tools_am_bench_CFLAGS = $(AM_CFLAGS) $(ZMQ_CFLAGS)
 tools_am_bench_LDADD = libam.la $(ZMQ_LIBS)
 dist_noinst_SCRIPTS += tools/bench-runtime
+# Send coalescing on and off (bench/runtime.md, "Send coalescing").
+dist_noinst_SCRIPTS += tools/bench-coalesce
 dist_noinst_SCRIPTS += tools/bench-delaunay
 EXTRA_DIST += bench/README.md bench/kernel.md bench/runtime.md bench/proto.md
 dist_noinst_SCRIPTS += tools/bench-mesh
