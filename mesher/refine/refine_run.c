@@ -1183,11 +1183,44 @@ static int split_tet(ref_mesher *r, uint32_t t)
     return queue_new_tets(r);
 }
 
+void ref_bound_recovery(ref_mesher *r)
+{
+    r->recovery_from = r->st.missing_recovered;
+    r->recovery_limit = r->st.missing_recovered + REF_RECOVERY_PER_VERTEX * r->p->nv +
+                        REF_RECOVERY_BASE;
+    r->recovery_stuck = 0;
+}
+
+size_t ref_recovery_splits(const ref_mesher *r)
+{
+    return r->st.missing_recovered - r->recovery_from;
+}
+
+/* Before the split of a missing piece with vertices v[0..nv-1]: PDR_ELIMIT
+ * (r->recovery_stuck, r->stop_at its centroid) once the refinement has
+ * split r->recovery_limit of them, else 0. */
+static int recovery_bound(ref_mesher *r, const uint32_t *v, int nv)
+{
+    if (!r->recovery_limit || r->st.missing_recovered < r->recovery_limit)
+        return 0;
+    for (int k = 0; k < 3; k++) {
+        double x = 0;
+        for (int i = 0; i < nv; i++)
+            x += X(&r->m, v[i])[k];
+        r->stop_at[k] = x / nv;
+    }
+    r->recovery_stuck = 1;
+    r->stopped_below = 0;
+    return PDR_ELIMIT;
+}
+
 static int process_seg(ref_mesher *r, uint32_t id, float rmin)
 {
     bd_subseg *s = &r->bd.segs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 2))
+        return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int res;
     return split_subseg(r, id, rmin, 1, &res);
@@ -1198,6 +1231,8 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
     bd_subfac *s = &r->bd.facs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 3))
+        return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int outcome;
     int rc = split_subfac(r, id, rmin, &outcome);
@@ -1407,6 +1442,7 @@ int ref_queue_all_tets(ref_mesher *r)
 
 int ref_refine(ref_mesher *r)
 {
+    ref_bound_recovery(r);
     int rc = ref_queue_all_tets(r);
     if (!rc)
         rc = ref_run(r, 1);
