@@ -223,6 +223,9 @@ typedef struct ref_stats {
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
     size_t missing_recovered; /* missing subsegments/subfacets split */
+    size_t deflected;    /* conforming: subfacet splits that would have
+                            deleted a subfacet of an oblique facet, made
+                            there instead (split_subfac in refine_run.c) */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t edge_star_splits; /* constrained: subsegment splits made in the
                             tetrahedra around the edge (its constrained
@@ -393,6 +396,8 @@ typedef struct ref_mesher {
     uint32_t stop_feat;
     size_t recovery_capped; /* the constrained recovery stopped at its own
                                bound on points (im_build), this one */
+    int deflecting;    /* split_subfac is splitting an oblique facet's
+                          subfacet instead of its own (one level only) */
     size_t recovery_limit; /* the refinement stops (PDR_ELIMIT,
                               recovery_stuck) before splitting a missing
                               piece once st.missing_recovered reaches this
