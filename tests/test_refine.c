@@ -660,6 +660,55 @@ START_TEST(mesh_rotated_cube)
 }
 END_TEST
 
+/* The bound on splits of missing pieces (ref_bound_recovery): once the
+ * refinement has split as many as the bound allows, the next missing piece
+ * stops the run with PDR_ELIMIT, recovery_stuck and the piece's centroid
+ * in stop_at, instead of going on (such splits cascading into each other
+ * ran a parallel run of example.poly for ever). */
+START_TEST(missing_piece_bound_stops)
+{
+    plc p;
+    cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    ref_mesher r;
+    pdr_diag diag = {0};
+    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
+    im_opts io = {0, 0};
+    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    ck_assert_int_eq(ref_run(&r, 0), 0); /* what im_build left queued */
+    ref_bound_recovery(&r);
+    size_t bound = REF_RECOVERY_PER_VERTEX * p.nv + REF_RECOVERY_BASE;
+    ck_assert_uint_eq(r.recovery_limit, r.st.missing_recovered + bound);
+    ck_assert_uint_eq(ref_recovery_splits(&r), 0);
+    /* The bound spent: as many splits made as it allows. */
+    r.st.missing_recovered = r.recovery_limit;
+    ck_assert_uint_eq(ref_recovery_splits(&r), bound);
+    /* A subfacet taken for missing and queued. */
+    uint32_t g = 0;
+    while (r.bd.facs[g].flags & BD_F_DEAD)
+        g++;
+    uint32_t v[3];
+    memcpy(v, r.bd.facs[g].v, sizeof v);
+    r.bd.facs[g].flags |= BD_F_MISSING;
+    ck_assert_int_eq(ref_requeue(&r, REF_SUBFACET, g, 0.0f), 0);
+    uint32_t nv = r.m.nv;
+    ck_assert_int_eq(ref_run(&r, 0), PDR_ELIMIT);
+    ck_assert_int_eq(r.recovery_stuck, 1);
+    ck_assert_int_eq(r.stopped_below, 0);
+    ck_assert_uint_eq(r.m.nv, nv); /* stopped before the split */
+    for (int k = 0; k < 3; k++) {
+        double c = 0;
+        for (int i = 0; i < 3; i++)
+            c += r.m.xyz[3 * (size_t)v[i] + (size_t)k] / 3.0;
+        ck_assert_double_eq_tol(r.stop_at[k], c, 1e-12);
+    }
+    ref_free(&r);
+    plc_free(&p);
+    pdr_diag_free(&diag);
+}
+END_TEST
+
 START_TEST(small_angles_terminate)
 {
     /* a 20-degree bevel and mitre: far below what the algorithm can
@@ -900,6 +949,7 @@ static Suite *suite(void)
     tcase_add_test(t, busy_tetrahedra_wait);
     tcase_add_test(t, mesh_rotated_cube);
     tcase_add_test(t, small_angles_terminate);
+    tcase_add_test(t, missing_piece_bound_stops);
     tcase_add_test(t, check_each_step_passes);
     tcase_add_test(t, check_each_step_reports_broken_tables);
     suite_add_tcase(s, t);

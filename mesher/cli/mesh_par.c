@@ -517,6 +517,17 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     if (!rc)
         rc = par_run_refine(am, &s, &ro_run, &row);
+    if (rc && s.r.recovery_stuck) {
+        fprintf(stderr,
+                "pdr mesh: PE %d: the recovery of missing boundary pieces does not terminate: "
+                "after %zu splits of missing pieces (the bound: %d per input vertex and %d "
+                "more) a piece near (%.9g, %.9g, %.9g) is still missing; splits cascade where "
+                "facets meet at a small angle\n",
+                rank, ref_recovery_splits(&s.r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
+                s.r.stop_at[0], s.r.stop_at[1], s.r.stop_at[2]);
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL); /* as below */
+    }
     if (rc) {
         fprintf(stderr, "pdr mesh: PE %d: parallel refinement failed: %s\n", rank,
                 rc < 0 && rc > -100 ? pdr_strerror(rc) : am_strerror(rc));
@@ -697,7 +708,16 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         }
     }
     if (rc) {
-        if (c.r.stopped_below)
+        if (c.r.recovery_stuck)
+            fprintf(stderr,
+                    "pdr mesh: finishing the merged mesh at rank 0: the recovery of missing "
+                    "boundary pieces does not terminate: after %zu splits of missing pieces "
+                    "(the bound: %d per input vertex and %d more) a piece near (%.9g, %.9g, "
+                    "%.9g) is still missing; splits cascade where facets meet at a small "
+                    "angle; nothing written\n",
+                    ref_recovery_splits(&c.r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
+                    c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2]);
+        else if (c.r.stopped_below)
             fprintf(stderr,
                     "pdr mesh: finishing the merged mesh at rank 0: a missing boundary piece "
                     "near (%.9g, %.9g, %.9g) %s; nothing written\n",

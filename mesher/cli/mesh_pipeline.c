@@ -213,6 +213,16 @@ static int point_limit(mp_ctx *c)
                       r->recovery_capped, IM_RECOVERY_PER_VERTEX, IM_RECOVERY_BASE);
         return PDR_ELIMIT;
     }
+    if (r->recovery_stuck) {
+        pdr_cli_error(MP_CMD,
+                      "the recovery of missing boundary pieces does not terminate: after %zu "
+                      "splits of missing pieces (the bound: %d per input vertex and %d more) "
+                      "a piece near (%.17g, %.17g, %.17g) is still missing; splits cascade "
+                      "where facets meet at a small angle (nothing written)",
+                      ref_recovery_splits(r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
+                      r->stop_at[0], r->stop_at[1], r->stop_at[2]);
+        return PDR_ELIMIT;
+    }
     if (r->stopped_below) {
         pdr_cli_error(MP_CMD,
                       "the boundary recovery does not terminate: after %zu points a missing "

@@ -445,6 +445,9 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
      * without, and the refinement 20% faster than oldest first. */
     int order = s->r.o.order;
     s->r.o.order = o->order;
+    /* The refinement's bound on splits of missing pieces, from now on
+     * this PE (refine.h, REF_RECOVERY_PER_VERTEX). */
+    ref_bound_recovery(&s->r);
 
     am_stats_t a0, a1;
     /* Every PE has its handlers before anyone sends. */

@@ -223,6 +223,9 @@ typedef struct ref_stats {
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
     size_t missing_recovered; /* missing subsegments/subfacets split */
+    size_t deflected;    /* conforming: subfacet splits that would have
+                            deleted a subfacet of an oblique facet, made
+                            there instead (split_subfac in refine_run.c) */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t edge_star_splits; /* constrained: subsegment splits made in the
                             tetrahedra around the edge (its constrained
@@ -398,6 +401,16 @@ typedef struct ref_mesher {
     uint32_t stop_feat;
     size_t recovery_capped; /* the constrained recovery stopped at its own
                                bound on points (im_build), this one */
+    int deflecting;    /* split_subfac is splitting an oblique facet's
+                          subfacet instead of its own (one level only) */
+    size_t recovery_limit; /* the refinement stops (PDR_ELIMIT,
+                              recovery_stuck) before splitting a missing
+                              piece once st.missing_recovered reaches this
+                              (0: no bound; set by ref_refine and the
+                              parallel refinement, see
+                              REF_RECOVERY_PER_VERTEX) */
+    size_t recovery_from; /* st.missing_recovered when the bound was set */
+    int recovery_stuck; /* a run stopped there, near stop_at */
     double stop_at[3];
     flip_out flipped;  /* constrained: the last insertion's flips */
     uint32_t *miss;    /* new subfacets missing from T */
@@ -417,6 +430,23 @@ typedef struct ref_mesher {
 #define REF_LIMIT_PER_INPUT 200.0
 #define REF_LIMIT_PER_SIZE 20.0
 size_t ref_point_limit(const plc *p, const ref_opts *o);
+
+/* The bound on the splits of missing pieces in one refinement
+ * (ref_mesher.recovery_limit): this many per input vertex and
+ * REF_RECOVERY_BASE more, as the constrained recovery's bound
+ * (IM_RECOVERY_PER_VERTEX). Splits of missing pieces have no floor (the
+ * mesh must conform), so nothing else stops them where facets meet at a
+ * small angle and each split makes a piece of the other facet missing:
+ * only --max-points, hours away. A refinement that terminates splits
+ * few missing pieces, mostly none; the cascade on TetGen's example.poly
+ * (fixed, see split_subfac) passed 2,000 in about two seconds. */
+#define REF_RECOVERY_PER_VERTEX 5
+#define REF_RECOVERY_BASE 2000
+
+/* Sets r->recovery_limit for a refinement starting now. */
+void ref_bound_recovery(ref_mesher *r);
+/* The splits of missing pieces since ref_bound_recovery. */
+size_t ref_recovery_splits(const ref_mesher *r);
 
 /* Sets *o to the defaults: ratio 2, smallest dihedral angle 10 degrees,
  * no size bound, rho 1/(2 sqrt 2), regional volume bounds on, LIFO

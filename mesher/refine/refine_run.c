@@ -769,6 +769,54 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
     return rc;
 }
 
+/* 1 if the planes of facets f and g meet at an angle strictly between 0
+ * and 90 degrees (up to rounding): neither parallel nor perpendicular. */
+static int oblique_facets(const plc *p, uint32_t f, uint32_t g)
+{
+    double c = fabs(v3_dot(p->facets[f].normal, p->facets[g].normal));
+    return c > 1e-9 && c < 1.0 - 1e-9;
+}
+
+/* 1 if some facet of the input is oblique to facet f (a linear scan: only
+ * asked when a split would delete a subfacet of another facet, which is
+ * rare). */
+static int oblique_to_any(const plc *p, uint32_t f)
+{
+    for (uint32_t g = 0; g < p->nfacet; g++)
+        if (oblique_facets(p, f, g))
+            return 1;
+    return 0;
+}
+
+/* The largest present subfacet of another facet than facet that the
+ * pending cavity deletes (its marks, after ref_decide), where one of the
+ * two facets is oblique to some facet of the input (oblique_to_any), or
+ * BD_NONE. */
+static uint32_t deleted_elsewhere(const ref_mesher *r, uint32_t facet)
+{
+    uint32_t best = BD_NONE;
+    double best_r2 = -1.0;
+    int own = -1; /* oblique_to_any(facet), once asked */
+    for (size_t k = 0; k < r->marks.n; k++) {
+        const ref_mark *mk = &r->marks.m[k];
+        if (mk->nv != 3 || !mk->deleted || mk->facet < 0 || (size_t)mk->facet >= r->p->nfacet ||
+            (uint32_t)mk->facet == facet)
+            continue;
+        if (own < 0)
+            own = oblique_to_any(r->p, facet);
+        if (!own && !oblique_to_any(r->p, (uint32_t)mk->facet))
+            continue;
+        uint32_t g = bd_find_subfac(&r->bd, mk->v[0], mk->v[1], mk->v[2]);
+        double cc[3], r2;
+        if (g == BD_NONE || (r->bd.facs[g].flags & BD_F_MISSING) ||
+            ref__tri_circumcentre(mk->x[0], mk->x[1], mk->x[2], cc, &r2) || !(r2 > best_r2))
+            continue;
+        best = g;
+        best_r2 = r2;
+    }
+    return best;
+}
+
 /* Splits subfacet id at its circumcentre; when that point encroaches
  * subsegments, splits them instead (SPLIT_DEFERRED: the subfacet is still
  * there). rmin as for split_subseg; SPLIT_REFUSED when nothing was
@@ -828,6 +876,45 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         *result = done ? SPLIT_DEFERRED : elsewhere ? SPLIT_ELSEWHERE : SPLIT_REFUSED;
         if (*result == SPLIT_REFUSED)
             r->bd.facs[id].flags |= BD_F_TOLERATED;
+        return rc;
+    }
+    uint32_t other = missing ? BD_NONE : deleted_elsewhere(r, G.facet);
+    if (other != BD_NONE) {
+        /* c would delete a subfacet of another facet, which would go
+         * missing, and the recovery of a missing piece has no floor.
+         * Where facets meet at less than 90 degrees (example.poly's
+         * inclined facet and the walls below it, at 63 degrees) its
+         * splits make pieces of the other facet missing in turn, closer
+         * and closer to the segment between them, without end (about one
+         * parallel run of example.poly in 350 met this, from a wall at 63
+         * degrees or from the perpendicular ones at the ends of that
+         * segment; a PE then ran on for ever). That subfacet is split
+         * instead, with this split's floor, as an encroached subsegment
+         * is; this one is tried again after. One level only: where that
+         * split would delete yet another facet's piece, both are refused
+         * and left encroached (TOLERATED). Inputs whose facets are all
+         * parallel or perpendicular (the paper's domains) keep
+         * Shewchuk's rule, whose termination proof covers angles of 90
+         * degrees and more, and their meshes as they were. */
+        dt_cavity_abandon(m, &r->cav);
+        int res = SPLIT_REFUSED;
+        if (!r->deflecting) {
+            r->deflecting = 1;
+            rc = split_subfac(r, other, rmin, &res);
+            r->deflecting = 0;
+            r->st.deflected += !rc && (res == SPLIT_DONE || res == SPLIT_DEFERRED);
+        }
+        *result = res == SPLIT_DONE || res == SPLIT_DEFERRED ? SPLIT_DEFERRED
+                  : res == SPLIT_ELSEWHERE                   ? SPLIT_ELSEWHERE
+                                                             : SPLIT_REFUSED;
+        if (!rc && *result == SPLIT_REFUSED) {
+            /* by its vertices: the split above may have moved the table */
+            uint32_t again = bd_find_subfac(&r->bd, G.v[0], G.v[1], G.v[2]);
+            if (again != BD_NONE) {
+                r->bd.facs[again].flags |= BD_F_TOLERATED;
+                r->st.tolerated++;
+            }
+        }
         return rc;
     }
     ref__list_clear(r);
@@ -1183,11 +1270,44 @@ static int split_tet(ref_mesher *r, uint32_t t)
     return queue_new_tets(r);
 }
 
+void ref_bound_recovery(ref_mesher *r)
+{
+    r->recovery_from = r->st.missing_recovered;
+    r->recovery_limit = r->st.missing_recovered + REF_RECOVERY_PER_VERTEX * r->p->nv +
+                        REF_RECOVERY_BASE;
+    r->recovery_stuck = 0;
+}
+
+size_t ref_recovery_splits(const ref_mesher *r)
+{
+    return r->st.missing_recovered - r->recovery_from;
+}
+
+/* Before the split of a missing piece with vertices v[0..nv-1]: PDR_ELIMIT
+ * (r->recovery_stuck, r->stop_at its centroid) once the refinement has
+ * split r->recovery_limit of them, else 0. */
+static int recovery_bound(ref_mesher *r, const uint32_t *v, int nv)
+{
+    if (!r->recovery_limit || r->st.missing_recovered < r->recovery_limit)
+        return 0;
+    for (int k = 0; k < 3; k++) {
+        double x = 0;
+        for (int i = 0; i < nv; i++)
+            x += X(&r->m, v[i])[k];
+        r->stop_at[k] = x / nv;
+    }
+    r->recovery_stuck = 1;
+    r->stopped_below = 0;
+    return PDR_ELIMIT;
+}
+
 static int process_seg(ref_mesher *r, uint32_t id, float rmin)
 {
     bd_subseg *s = &r->bd.segs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 2))
+        return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int res;
     return split_subseg(r, id, rmin, 1, &res);
@@ -1198,6 +1318,8 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
     bd_subfac *s = &r->bd.facs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 3))
+        return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int outcome;
     int rc = split_subfac(r, id, rmin, &outcome);
@@ -1410,6 +1532,7 @@ int ref_queue_all_tets(ref_mesher *r)
 
 int ref_refine(ref_mesher *r)
 {
+    ref_bound_recovery(r);
     int rc = ref_queue_all_tets(r);
     if (!rc)
         rc = ref_run(r, 1);
