@@ -283,6 +283,8 @@ static void refine_thread(am_ctx_t *am, void *arg)
                      pr->s->r.stop_hidden ? "its split has no valid constrained cavity here"
                                           : "its split would fall below the resolution floor here");
             pr->s->r.stopped_below = 0;
+            if (n != HMAP_NONE)
+                hmap_del(&pr->tries, key, n); /* the item is done here */
             break;
         }
         if (rc < 0) {
