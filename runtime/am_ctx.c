@@ -315,40 +315,47 @@ static int bad_option(const am_ctx_t *ctx, const char *name, const char *value,
     return AM_EINVAL;
 }
 
-/* Parses an AM_SCHED value: the policy and the priority it runs at. */
-int am__sched_policy_parse(const char *v, int *policy, int *prio)
+/* AM_SCHED: the operating system's scheduling policy of this PE, set
+ * before ZeroMQ starts its I/O thread, which inherits it (and by am-run
+ * --sched on the launcher itself). Where PEs outnumber the cores (the
+ * paper's latency experiment on one machine), 'fifo' lets each PE run
+ * until it waits for something instead of being preempted whenever a
+ * message wakes another PE: fewer task switches, and a woken PE runs as
+ * soon as the running one waits. */
+int am__sched_set(const char *v, const char **hint)
 {
     static const struct {
         const char *name;
         int policy;
     } tab[] = {{"other", SCHED_OTHER}, {"batch", SCHED_BATCH}, {"fifo", SCHED_FIFO},
                {"rr", SCHED_RR}};
-    for (size_t i = 0; i < sizeof tab / sizeof tab[0]; i++)
-        if (!strcmp(v, tab[i].name)) {
-            *policy = tab[i].policy;
-            /* The lowest real-time priority: above every ordinary
-             * process, below the kernel's own real-time threads. */
-            *prio = tab[i].policy == SCHED_FIFO || tab[i].policy == SCHED_RR ? 1 : 0;
+    *hint = "";
+    for (size_t i = 0; i < sizeof tab / sizeof tab[0]; i++) {
+        if (strcmp(v, tab[i].name))
+            continue;
+        int rt = tab[i].policy == SCHED_FIFO || tab[i].policy == SCHED_RR;
+        /* The lowest real-time priority: above every ordinary process,
+         * below the kernel's own real-time threads. */
+        struct sched_param sp = {.sched_priority = rt ? 1 : 0};
+        if (sched_setscheduler(0, tab[i].policy, &sp) == 0)
             return 0;
-        }
+        int err = errno;
+        if (err == EPERM)
+            *hint = " (fifo and rr need root or CAP_SYS_NICE)";
+        return err;
+    }
     return -1;
 }
 
-/* AM_SCHED: the operating system's scheduling policy of this PE, set
- * before ZeroMQ starts its I/O thread, which inherits it. Where PEs
- * outnumber the cores (the paper's latency experiment on one machine),
- * 'fifo' lets each PE run until it waits for something instead of being
- * preempted whenever a message wakes another PE: fewer task switches, and
- * a woken PE runs as soon as the running one waits. */
 static int set_os_sched(const am_ctx_t *ctx, const char *v)
 {
-    int policy, prio;
-    if (am__sched_policy_parse(v, &policy, &prio))
+    const char *hint;
+    int err = am__sched_set(v, &hint);
+    if (err < 0)
         return bad_option(ctx, "AM_SCHED", v, "other, batch, fifo or rr");
-    struct sched_param sp = {.sched_priority = prio};
-    if (sched_setscheduler(0, policy, &sp) != 0) {
-        am__warn(ctx, "AM_SCHED=%s: cannot set the scheduling policy: %s%s", v, strerror(errno),
-                 errno == EPERM ? " (fifo and rr need root or CAP_SYS_NICE)" : "");
+    if (err) {
+        am__warn(ctx, "AM_SCHED=%s: cannot set the scheduling policy: %s%s", v, strerror(err),
+                 hint);
         return AM_EINVAL;
     }
     return 0;

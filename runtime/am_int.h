@@ -697,9 +697,11 @@ int am__is_basic(const am_ctx_t *ctx, const pr_header *h);
 /* am_stats.c */
 void am__stats_free(am_ctx_t *ctx);
 
-/* am_ctx.c: AM_SCHED's values (other, batch, fifo, rr): 0, or -1 if v is
- * none of them. */
-int am__sched_policy_parse(const char *v, int *policy, int *prio);
+/* am_ctx.c: sets this process's scheduling policy to AM_SCHED's value v
+ * (other, batch, fifo, rr; fifo and rr at the lowest real-time priority).
+ * Returns 0, -1 if v is none of them, or sched_setscheduler's errno, with
+ * *hint a text to print after its strerror ("" unless it says why). */
+int am__sched_set(const char *v, const char **hint);
 
 /* am_latency.c */
 /* Parses "200us", "100us-2ms", "0": seconds in *lo, *hi. */

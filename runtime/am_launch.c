@@ -38,7 +38,6 @@
 #include "config.h"
 
 #include <errno.h>
-#include <sched.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -1139,20 +1138,19 @@ int am_launch_main(int argc, char **argv, const char *prog)
             L.bandwidth = optarg;
             break;
         case O_SCHED: {
-            int policy, prio;
-            if (am__sched_policy_parse(optarg, &policy, &prio)) {
-                lerr(&L, "--sched is other, batch, fifo or rr, not '%s'", optarg);
-                return EXIT_USAGE;
-            }
             /* The launcher too: real-time PEs that keep their cores would
              * otherwise leave it the throttled remainder, late to see a
              * PE fail. Refused here, before any PE starts, with the
              * reason. */
-            struct sched_param sp = {.sched_priority = prio};
-            if (sched_setscheduler(0, policy, &sp) != 0) {
+            const char *hint;
+            int err = am__sched_set(optarg, &hint);
+            if (err < 0) {
+                lerr(&L, "--sched is other, batch, fifo or rr, not '%s'", optarg);
+                return EXIT_USAGE;
+            }
+            if (err) {
                 lerr(&L, "--sched %s: cannot set the scheduling policy: %s%s", optarg,
-                     strerror(errno),
-                     errno == EPERM ? " (fifo and rr need root or CAP_SYS_NICE)" : "");
+                     strerror(err), hint);
                 return EXIT_USAGE;
             }
             L.sched = optarg;
