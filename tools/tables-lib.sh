@@ -1,5 +1,6 @@
 # tools/tables-lib.sh -- shell functions shared by tools/table1,
-# tools/table2 and tools/figures (sourced, not run). POSIX sh and awk.
+# tools/table2, tools/figures and tools/bench-parallel (sourced, not
+# run). POSIX sh and awk.
 #
 # The caller sets: pdr (the pdr program), work (a scratch directory),
 # run_timeout (seconds per pdr command), keep (yes: keep the meshes).
