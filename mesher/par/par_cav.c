@@ -3,7 +3,6 @@
 #include "config.h"
 
 #include <math.h>
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -62,28 +61,35 @@ static void part_clear(par_part *p)
     p->boxed = 0;
 }
 
+void par_box_empty(double lo[3], double hi[3])
+{
+    for (int k = 0; k < 3; k++) {
+        lo[k] = HUGE_VAL;
+        hi[k] = -HUGE_VAL;
+    }
+}
+
+void par_box_tet(const tm_mesh *m, uint32_t t, double lo[3], double hi[3])
+{
+    for (int i = 0; i < 4; i++) {
+        uint32_t v = m->tets[t].v[i];
+        if (v == TM_VINF || v >= m->nv)
+            continue;
+        const double *x = m->xyz + 3 * (size_t)v;
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], x[k]);
+            hi[k] = fmax(hi[k], x[k]);
+        }
+    }
+}
+
 void par_part_box(const tm_mesh *m, par_part *p)
 {
     if (p->boxed == 0)
-        for (int k = 0; k < 3; k++) {
-            p->lo[k] = HUGE_VAL;
-            p->hi[k] = -HUGE_VAL;
-        }
-    for (; p->boxed < p->held.n; p->boxed++) {
-        uint32_t t = p->held.a[p->boxed];
-        if (t >= m->nslots)
-            continue;
-        for (int i = 0; i < 4; i++) {
-            uint32_t v = m->tets[t].v[i];
-            if (v == TM_VINF || v >= m->nv)
-                continue;
-            const double *x = m->xyz + 3 * (size_t)v;
-            for (int k = 0; k < 3; k++) {
-                p->lo[k] = x[k] < p->lo[k] ? x[k] : p->lo[k];
-                p->hi[k] = x[k] > p->hi[k] ? x[k] : p->hi[k];
-            }
-        }
-    }
+        par_box_empty(p->lo, p->hi);
+    for (; p->boxed < p->held.n; p->boxed++)
+        if (p->held.a[p->boxed] < m->nslots)
+            par_box_tet(m, p->held.a[p->boxed], p->lo, p->hi);
 }
 
 static void unlock_held(tm_mesh *m, uint32_t owner, const u32list *held)

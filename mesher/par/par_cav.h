@@ -145,6 +145,11 @@ typedef struct par_cav {
                            UINT32_MAX */
 } par_cav;
 
+/* Bounding boxes: an empty one, and one grown over the finite vertices
+ * of tetrahedron t. */
+void par_box_empty(double lo[3], double hi[3]);
+void par_box_tet(const tm_mesh *m, uint32_t t, double lo[3], double hi[3]);
+
 /* Extends p's bounding box over the tetrahedra held since the last call
  * (held lists only grow until the part is cleared). */
 void par_part_box(const tm_mesh *m, par_part *p);

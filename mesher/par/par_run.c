@@ -188,17 +188,9 @@ static int hook_busy(void *arg, uint32_t t)
 {
     par_run *pr = arg;
     const tm_mesh *m = &pr->s->r.m;
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i < 4; i++) {
-        uint32_t v = m->tets[t].v[i];
-        if (v == TM_VINF)
-            continue;
-        const double *x = m->xyz + 3 * (size_t)v;
-        for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], x[k]);
-            hi[k] = fmax(hi[k], x[k]);
-        }
-    }
+    double lo[3], hi[3];
+    par_box_empty(lo, hi);
+    par_box_tet(m, t, lo, hi);
     double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     return par_cav_near_locks(&pr->cc, lo, hi, pr->o.busy_reach * ext);
 }
