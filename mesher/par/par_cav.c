@@ -77,8 +77,8 @@ void par_box_tet(const tm_mesh *m, uint32_t t, double lo[3], double hi[3])
             continue;
         const double *x = m->xyz + 3 * (size_t)v;
         for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], x[k]);
-            hi[k] = fmax(hi[k], x[k]);
+            lo[k] = x[k] < lo[k] ? x[k] : lo[k];
+            hi[k] = x[k] > hi[k] ? x[k] : hi[k];
         }
     }
 }
