@@ -1233,6 +1233,83 @@ START_TEST(merge_reclassifies)
 }
 END_TEST
 
+/* The merge of subs with the options o (a smaller volume bound than
+ * theirs makes their tetrahedra bad); with mark, n interior tetrahedra
+ * get the mark of one a PE left for the merge (TM_F_QUEUED, no queue). */
+static void merge_marked(const par_sub *subs, uint32_t P, const plc *p, const ref_opts *o,
+                         size_t n, ref_mesher *mg)
+{
+    pr_buf b[8];
+    const void *msg[8];
+    size_t len[8];
+    for (uint32_t k = 0; k < P; k++) {
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
+        msg[k] = b[k].data;
+        len[k] = b[k].len;
+    }
+    par_merge_report rep;
+    ck_assert_int_eq(par_merge_build(msg, len, P, p, o, mg, &rep), 0);
+    for (uint32_t k = 0; k < P; k++)
+        pr_buf_free(&b[k]);
+    size_t marked = 0;
+    for (uint32_t t = 0; t < mg->m.nslots && marked < n; t += n > 10 ? 1 : 7)
+        if (ref_is_interior(&mg->m, t)) {
+            ck_assert(!(mg->m.flags[t] & TM_F_QUEUED));
+            mg->m.flags[t] |= TM_F_QUEUED;
+            marked++;
+        }
+    ck_assert_uint_eq(marked, n);
+}
+
+/* What the PEs left for a split on another PE is marked; rank 0 refines
+ * just that (par_merge_finish_left), and the full finish
+ * (par_merge_reclassify) does not skip marked tetrahedra. */
+START_TEST(merge_finishes_left)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 0.002;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    enum { P = 3 };
+    par_sub subs[P];
+    subs_of(&mo, P, subs);
+    ref_opts small = o;
+    small.maxvol = 0.0002;
+    ref_mesher mg;
+    size_t moved, added;
+    /* nothing marked: nothing to do, though every tetrahedron is bad */
+    merge_marked(subs, P, &p, &small, 0, &mg);
+    ck_assert_int_eq(par_merge_finish_left(&mg, &moved, &added), 0);
+    ck_assert_uint_eq(added, 0);
+    ref_free(&mg);
+    /* all marked, the full finish: every one is looked at */
+    merge_marked(subs, P, &p, &small, ref_interior_tets(&mo), &mg);
+    uint32_t nt = mg.m.nslots;
+    ck_assert_int_eq(par_merge_reclassify(&mg, 0, 1, &moved, &added), 0);
+    size_t added_all = added;
+    ck_assert_uint_gt(added_all, nt / 4);
+    ref_free(&mg);
+    /* three marked: they are split, and the work spreads from them only */
+    merge_marked(subs, P, &p, &small, 3, &mg);
+    ck_assert_int_eq(par_merge_finish_left(&mg, &moved, &added), 0);
+    ck_assert_uint_gt(added, 0);
+    ck_assert_uint_lt(added, added_all);
+    ck_assert_uint_eq(ref_consistency(&mg, stderr, 1), 0);
+    for (uint32_t t = 0; t < mg.m.nslots; t++)
+        ck_assert(tm_is_dead(&mg.m, t) || !(mg.m.flags[t] & TM_F_QUEUED));
+    ref_free(&mg);
+    for (uint32_t k = 0; k < P; k++)
+        par_sub_free(&subs[k]);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 START_TEST(merge_counts_mismatches)
 {
     plc p;
@@ -1597,6 +1674,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_counts_link_faults);
     tcase_add_test(t, merge_survives_corruption);
     tcase_add_test(t, merge_reclassifies);
+    tcase_add_test(t, merge_finishes_left);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

@@ -684,7 +684,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * outside tells, since the domain's boundary is marked. */
     if (!rc && !cdt && !doubts)
         doubts = ref_unmarked_bounds(&c.r);
-    if (!rc && (doubts || recovered || elsewhere || cdt))
+    if (!rc && !doubts && !recovered && !cdt && elsewhere)
+        rc = par_merge_finish_left(&c.r, &moved, &added);
+    else if (!rc && (doubts || recovered || elsewhere || cdt))
         rc = par_merge_reclassify(&c.r, recovered > 0, elsewhere > 0 || cdt, &moved, &added);
     if (!rc && (moved || recovered || elsewhere || added) && !c.o.quiet)
         printf("merge: %zu tetrahedra classified again (inside/outside or region), %zu "

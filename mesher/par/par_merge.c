@@ -811,6 +811,10 @@ int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, 
     *moved = *added = 0;
     size_t before = r->st.reclassified;
     int rc = 0;
+    /* The marks of what the PEs left (ref_refine_marked) would hide those
+     * tetrahedra from ref_refine's scan of them all. */
+    for (uint32_t t = 0; t < r->m.nslots; t++)
+        r->m.flags[t] &= (uint16_t)~TM_F_QUEUED;
     if (!missing) {
         /* Classified while nothing is missing: the flood fill is right. */
         rc = ref_classify(r, NULL, moved, NULL);
@@ -821,6 +825,16 @@ int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, 
     uint32_t nv0 = r->m.nv;
     r->region_doubts = 1; /* ref_refine classifies again after its run */
     rc = ref_refine(r);
+    *added = (size_t)(r->m.nv - nv0);
+    *moved = r->st.reclassified - before;
+    return rc;
+}
+
+int par_merge_finish_left(ref_mesher *r, size_t *moved, size_t *added)
+{
+    size_t before = r->st.reclassified;
+    uint32_t nv0 = r->m.nv;
+    int rc = ref_refine_marked(r);
     *added = (size_t)(r->m.nv - nv0);
     *moved = r->st.reclassified - before;
     return rc;

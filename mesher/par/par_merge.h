@@ -109,4 +109,10 @@ int par_merge_add_missing(ref_mesher *r, const void *data, size_t len, size_t *a
 int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved,
                          size_t *added);
 
+/* par_merge_reclassify's cheap case: nothing missing, no PE in doubt about
+ * a flag, and the only work left the tetrahedra that PEs left for a split
+ * on another PE (marked, see ref_refine_marked): refines just those, and
+ * classifies only if a step here meets a doubt. Same outputs. */
+int par_merge_finish_left(ref_mesher *r, size_t *moved, size_t *added);
+
 #endif /* PDR_PAR_MERGE_H */

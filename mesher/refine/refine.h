@@ -534,6 +534,13 @@ int ref_cdt_restore(ref_mesher *r);
  * then classifies again and resumes if that moved a tetrahedron. */
 int ref_refine(ref_mesher *r);
 
+/* ref_refine for a merged parallel mesh whose flags are right and whose
+ * only work is what the PEs left for the merge (ref_stats.left_elsewhere:
+ * tetrahedra marked TM_F_QUEUED that no queue holds): queues just those,
+ * not every tetrahedron, and classifies again only when a step met a
+ * doubt (ref_mesher.region_doubts). */
+int ref_refine_marked(ref_mesher *r);
+
 /* Queues every bad interior tetrahedron (after classification). */
 int ref_queue_all_tets(ref_mesher *r);
 

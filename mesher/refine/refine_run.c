@@ -111,6 +111,17 @@ static int queue_tet(ref_mesher *r, uint32_t t)
     return q_push(&r->tetq, t, 0.0f);
 }
 
+/* A bad tetrahedron whose split lies on another PE (parallel hooks):
+ * not given up, but left for rank 0 to finish in the merged mesh. It
+ * keeps TM_F_QUEUED though no queue holds it, which travels with it
+ * (PAR_WIRE_TFLAGS) and tells the merge which tetrahedra to refine
+ * (ref_refine_marked); meanwhile no step here queues it again. */
+static void leave_to_merge(ref_mesher *r, uint32_t t)
+{
+    r->m.flags[t] |= TM_F_QUEUED;
+    r->st.left_elsewhere++;
+}
+
 /* -------------------------------------------------------- tet quality */
 
 static double region_maxvol(const ref_mesher *r, uint32_t t)
@@ -1085,7 +1096,7 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
     if (outcome == SPLIT_REFUSED)
         give_up(r, t, 0);
     else if (outcome == SPLIT_ELSEWHERE)
-        r->st.left_elsewhere++; /* not given up: the merge finishes it */
+        leave_to_merge(r, t);
     else
         rc = queue_tet(r, t);
     return rc;
@@ -1168,8 +1179,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
                 rc = split_subfac(r, g, 0.0, &outcome);
         }
         if (!rc && outcome == SPLIT_ELSEWHERE) {
-            r->st.left_elsewhere++;
-            return 0; /* for the merge to finish */
+            leave_to_merge(r, t);
+            return 0;
         }
         if (rc || outcome != SPLIT_REFUSED) {
             if (!rc && !tm_is_dead(m, t))
@@ -1530,12 +1541,11 @@ int ref_queue_all_tets(ref_mesher *r)
     return 0;
 }
 
-int ref_refine(ref_mesher *r)
+/* Runs the queues empty, then classifies again while that moves a
+ * tetrahedron (see ref_refine). */
+static int run_and_reclassify(ref_mesher *r)
 {
-    ref_bound_recovery(r);
-    int rc = ref_queue_all_tets(r);
-    if (!rc)
-        rc = ref_run(r, 1);
+    int rc = ref_run(r, 1);
     /* Regions follow the tetrahedra through every insertion; a flat
      * tetrahedron on a facet that is not axis-aligned can pass on the
      * wrong one (see reclassify_new in refine_bound.c). When one was met,
@@ -1554,4 +1564,27 @@ int ref_refine(ref_mesher *r)
             rc = ref_run(r, 1);
     }
     return rc;
+}
+
+int ref_refine(ref_mesher *r)
+{
+    ref_bound_recovery(r);
+    int rc = ref_queue_all_tets(r);
+    return rc ? rc : run_and_reclassify(r);
+}
+
+int ref_refine_marked(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (!(m->flags[t] & TM_F_QUEUED) || tm_is_dead(m, t))
+            continue;
+        m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+        if (!ref_is_interior(m, t))
+            continue;
+        int rc = queue_tet(r, t);
+        if (rc)
+            return rc;
+    }
+    return run_and_reclassify(r);
 }
