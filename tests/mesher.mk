@@ -109,7 +109,7 @@ tests_test_refine_SOURCES = tests/test_refine.c
 tests_test_refine_CFLAGS = $(UNIT_CFLAGS)
 tests_test_refine_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
-	tests/mesh-output.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
+	tests/mesh-output.sh tests/mesh-threads.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
 	tests/mesh-tessellated.sh \
 	tests/mesh-cad.sh
 TESTS += $(REFINE_TESTS)

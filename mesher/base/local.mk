@@ -1,7 +1,8 @@
 # mesher/base: errors, small utilities, number formatting, text input,
 # atomic output, the 3-vector helpers, the hash map and the search for
-# repeated hashes. Uses nothing else.
+# repeated hashes, the fork-join of the output stages. Uses nothing else.
 noinst_HEADERS += \
+	mesher/base/fj.h \
 	mesher/base/hdup.h \
 	mesher/base/hmap.h \
 	mesher/base/nf.h \
@@ -11,6 +12,7 @@ noinst_HEADERS += \
 	mesher/base/textin.h \
 	mesher/base/v3.h
 libpdrmesh_la_SOURCES += \
+	mesher/base/fj.c \
 	mesher/base/hdup.c \
 	mesher/base/hmap.c \
 	mesher/base/nf.c \

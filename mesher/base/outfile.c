@@ -2,6 +2,8 @@
 #include "config.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -9,6 +11,7 @@
 
 #include "pr_alloc.h"
 #include "base/outfile.h"
+#include "base/pdr_util.h"
 
 static void outfile_release(outfile *of)
 {
@@ -40,12 +43,24 @@ int outfile_open_in(outfile *of, outset *set, const char *path, pdr_diag *diag)
         return PDR_ENOMEM;
     }
     memcpy(of->path, path, n + 1);
-    /* Same directory as the destination, so rename() stays atomic. */
-    snprintf(of->tmp, n + 16, "%s.tmp.XXXXXX", path);
-    int fd = mkstemp(of->tmp);
+    /* Same directory as the destination, so rename() stays atomic; a name
+     * nobody has (O_EXCL), made with mode 0666 for the umask to apply as
+     * to any file (mkstemp's 0600 would need the umask read back, which
+     * sets it, and output files may be opened by several threads). */
+    uint64_t x = ((uint64_t)(uintptr_t)of ^ (uint64_t)getpid() << 32 ^
+                  (uint64_t)(pdr_now() * 1e9)) | 1;
+    int fd = -1, err = EEXIST;
+    for (int attempt = 0; attempt < 100 && fd < 0 && err == EEXIST; attempt++) {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        snprintf(of->tmp, n + 16, "%s.tmp.%06x", path, (unsigned)(x & 0xFFFFFF));
+        fd = open(of->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        err = fd < 0 ? errno : 0;
+    }
     if (fd < 0 || !(of->f = fdopen(fd, "w"))) {
-        int err = errno;
         if (fd >= 0) {
+            err = errno;
             close(fd);
             unlink(of->tmp);
         }
@@ -53,10 +68,6 @@ int outfile_open_in(outfile *of, outset *set, const char *path, pdr_diag *diag)
         outfile_release(of);
         return PDR_EIO;
     }
-    /* mkstemp makes the file 0600; give it the usual umask-based mode. */
-    mode_t mask = umask(0);
-    umask(mask);
-    fchmod(fd, 0666 & ~mask);
     of->set = set;
     return 0;
 }
@@ -112,6 +123,20 @@ int outset_commit(outset *set, pdr_diag *diag)
     }
     set->n = 0;
     return rc;
+}
+
+int outset_move(outset *set, outset *from)
+{
+    if (set->n + from->n > OUTSET_MAX)
+        return PDR_ELIMIT;
+    for (size_t i = 0; i < from->n; i++) {
+        set->path[set->n] = from->path[i];
+        set->tmp[set->n] = from->tmp[i];
+        set->n++;
+        from->path[i] = from->tmp[i] = NULL;
+    }
+    from->n = 0;
+    return 0;
 }
 
 void outset_abort(outset *set)

@@ -56,6 +56,10 @@ void outfile_abort(outfile *of);
  * failed (diag says which): the temporaries not yet renamed are removed,
  * those already renamed stay. */
 int outset_commit(outset *set, pdr_diag *diag);
+/* Moves the temporaries waiting in from to the end of set, in order, and
+ * empties from (no memory needed). Returns 0, or PDR_ELIMIT (nothing
+ * moved) when set would hold more than OUTSET_MAX files. */
+int outset_move(outset *set, outset *from);
 /* Removes every waiting temporary and empties set; no destination is
  * touched. Safe on an empty set. */
 void outset_abort(outset *set);

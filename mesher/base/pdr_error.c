@@ -86,6 +86,34 @@ void pdr_diag_print_kept(const pdr_diag *d, void *f)
     diag_print(d, f, 0);
 }
 
+void pdr_diag_move(pdr_diag *d, pdr_diag *from)
+{
+    if (!d->ntotal) {
+        *d = *from; /* the common case: nothing to merge, no memory needed */
+        *from = (pdr_diag){0};
+        return;
+    }
+    size_t room = d->nkept < PDR_DIAG_KEEP ? PDR_DIAG_KEEP - d->nkept : 0;
+    size_t take = from->nkept < room ? from->nkept : room;
+    char **msgs = take ? pr_realloc(d->msgs, (d->nkept + take) * sizeof *msgs) : d->msgs;
+    if (!msgs) {
+        d->nlost += take; /* counted, so never silent */
+        take = 0;
+    } else {
+        d->msgs = msgs;
+    }
+    for (size_t i = 0; i < from->nkept; i++) {
+        if (i < take)
+            d->msgs[d->nkept++] = from->msgs[i];
+        else
+            pr_free(from->msgs[i]);
+    }
+    d->ntotal += from->ntotal;
+    d->nlost += from->nlost;
+    pr_free(from->msgs);
+    *from = (pdr_diag){0};
+}
+
 void pdr_diag_free(pdr_diag *d)
 {
     for (size_t i = 0; i < d->nkept; i++)

@@ -58,6 +58,10 @@ void pdr_diag_print(const pdr_diag *d, void *f);
 /* The same without the count of lost messages, for a caller that prints
  * "out of memory" itself. */
 void pdr_diag_print_kept(const pdr_diag *d, void *f);
+/* Appends the messages of from to d, in order, and empties from (its
+ * messages change owner; those beyond d's cap are only counted, and if d
+ * cannot grow they count as lost). */
+void pdr_diag_move(pdr_diag *d, pdr_diag *from);
 void pdr_diag_free(pdr_diag *d);
 
 #endif /* PDR_ERROR_H */

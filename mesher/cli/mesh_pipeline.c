@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/fj.h"
 #include "base/pdr_util.h"
 #include "cli/mesh_pipeline.h"
 #include "cli/pdr_cli.h"
@@ -448,42 +449,55 @@ int mp_export(mp_ctx *c)
 
 /* ------------------------------------------------------------ write */
 
-/* BASE.node, BASE.ele, BASE.face (1-based, region attributes). */
-static int write_tetgen(mp_ctx *c, outset *set)
+/* One output stage of mp_write: a file (or the quality measure), with
+ * its own set of finished temporaries and its own messages, so that the
+ * stages can run side by side (base/fj.h). */
+typedef struct mp_out_task {
+    mp_ctx *c;
+    int kind;       /* enum mp_out_kind */
+    outset set;     /* its file, until mp_write commits them all */
+    pdr_diag diag;  /* its messages */
+} mp_out_task;
+
+enum mp_out_kind { MP_OUT_NODE, MP_OUT_ELE, MP_OUT_FACE, MP_OUT_VTU, MP_OUT_MSH, MP_OUT_QUALITY };
+
+static const char *const mp_out_ext[] = {".node", ".ele", ".face", ".vtu", ".msh", NULL};
+
+/* Writes one file: BASE.node, .ele, .face (TetGen's, 1-based, region
+ * attributes), .vtu (binary, without the quality fields) or .msh (Gmsh
+ * 4.1); or measures the quality of the exported mesh into c->quality. */
+static int run_out_task(void *arg)
 {
-    const ref_output *o = &c->out;
+    mp_out_task *k = arg;
+    const ref_output *o = &k->c->out;
+    if (k->kind == MP_OUT_QUALITY) {
+        ref_quality_range(&o->view, &k->c->quality);
+        return 0;
+    }
+    char *path = pdr_path_join(k->c->base, mp_out_ext[k->kind]);
+    if (!path)
+        return PDR_ENOMEM; /* said once, by pdr_cli_fail */
+    int rc;
     tg_nodes nodes = {.n = o->view.nv, .first = 1, .xyz = (double *)o->xyz};
-    char *pn = pdr_path_join(c->base, ".node"), *pe = pdr_path_join(c->base, ".ele"),
-         *pf = pdr_path_join(c->base, ".face");
-    int rc = pn && pe && pf ? 0 : PDR_ENOMEM;
-    if (!rc)
-        rc = tg_write_node(pn, &nodes, set, &c->diag);
-    if (!rc)
-        rc = tg_write_ele_view(pe, &o->view, o->tet_attr, 1, set, &c->diag);
-    if (!rc)
-        rc = face_write(&o->view, pf, 1, set, &c->diag);
-    pr_free(pn);
-    pr_free(pe);
-    pr_free(pf);
-    return rc;
-}
-
-/* BASE.vtu, binary, without the quality fields. */
-static int write_vtu(mp_ctx *c, outset *set)
-{
-    char *p = pdr_path_join(c->base, ".vtu");
     vtu_opts vo = {0, 0};
-    int rc = p ? vtu_write(&c->out.view, p, &vo, set, &c->diag) : PDR_ENOMEM;
-    pr_free(p);
-    return rc;
-}
-
-/* BASE.msh, Gmsh 4.1. */
-static int write_msh(mp_ctx *c, outset *set)
-{
-    char *p = pdr_path_join(c->base, ".msh");
-    int rc = p ? msh_write(&c->out.view, p, set, &c->diag) : PDR_ENOMEM;
-    pr_free(p);
+    switch (k->kind) {
+    case MP_OUT_NODE:
+        rc = tg_write_node(path, &nodes, &k->set, &k->diag);
+        break;
+    case MP_OUT_ELE:
+        rc = tg_write_ele_view(path, &o->view, o->tet_attr, 1, &k->set, &k->diag);
+        break;
+    case MP_OUT_FACE:
+        rc = face_write(&o->view, path, 1, &k->set, &k->diag);
+        break;
+    case MP_OUT_VTU:
+        rc = vtu_write(&o->view, path, &vo, &k->set, &k->diag);
+        break;
+    default:
+        rc = msh_write(&o->view, path, &k->set, &k->diag);
+        break;
+    }
+    pr_free(path);
     return rc;
 }
 
@@ -501,24 +515,72 @@ static void print_written(const mp_ctx *c)
         printf("wrote %s.msh\n", b);
 }
 
+/* Below this many tetrahedra the files are written one after the other
+ * on the calling thread: threads would cost more than they save. */
+#define MP_WRITE_THREADS_FROM 50000
+
+/* Threads for the output stages: one per core, or PDR_THREADS (a
+ * positive count; 1 writes the files one after the other, as small
+ * meshes always are). */
+static unsigned write_threads(const mp_ctx *c)
+{
+    if (c->out.view.nt < MP_WRITE_THREADS_FROM)
+        return 1;
+    const char *e = getenv("PDR_THREADS");
+    if (e && *e) {
+        char *end;
+        long v = strtol(e, &end, 10);
+        if (!*end && v >= 1 && v <= 64)
+            return (unsigned)v;
+        fprintf(stderr, "pdr %s: PDR_THREADS='%s' is not a count from 1 to 64; ignored\n", MP_CMD,
+                e);
+    }
+    return fj_cores();
+}
+
 int mp_write(mp_ctx *c)
 {
     double t = pdr_now();
     unsigned f = c->o.formats;
-    /* Every format or none: the files wait in the set until the last one
-     * is written. */
-    outset set = OUTSET_INIT;
+    /* Every format or none: the files wait in the sets until the last one
+     * is written. The quality measure runs alongside them. */
+    mp_out_task k[6];
+    fj_task ft[6];
+    size_t n = 0;
+    static const struct {
+        unsigned fmt;
+        int kind;
+    } plan[] = {{MP_FMT_NODE, MP_OUT_NODE}, {MP_FMT_NODE, MP_OUT_ELE},
+                {MP_FMT_NODE, MP_OUT_FACE}, {MP_FMT_VTU, MP_OUT_VTU},
+                {MP_FMT_MSH, MP_OUT_MSH},   {0, MP_OUT_QUALITY}};
+    for (size_t i = 0; i < sizeof plan / sizeof plan[0]; i++) {
+        if (plan[i].fmt && !(f & plan[i].fmt))
+            continue;
+        k[n] = (mp_out_task){.c = c, .kind = plan[i].kind, .set = OUTSET_INIT};
+        ft[n] = (fj_task){.run = run_out_task, .arg = &k[n]};
+        n++;
+    }
+    fj_run(ft, n, write_threads(c));
+    /* The first failure in the order above is the one reported (later
+     * ones are often its echo, such as a second "out of memory"). */
     int rc = 0;
-    if (f & MP_FMT_NODE)
-        rc = write_tetgen(c, &set);
-    if (!rc && (f & MP_FMT_VTU))
-        rc = write_vtu(c, &set);
-    if (!rc && (f & MP_FMT_MSH))
-        rc = write_msh(c, &set);
-    if (rc)
-        outset_abort(&set);
-    else
-        rc = outset_commit(&set, &c->diag);
+    for (size_t i = 0; i < n; i++) {
+        if (k[i].kind == MP_OUT_QUALITY) {
+            c->have_quality = 1;
+            c->sec[MP_REPORT] = ft[i].seconds;
+        } else if (!rc && ft[i].rc) {
+            rc = ft[i].rc;
+            pdr_diag_move(&c->diag, &k[i].diag);
+        }
+    }
+    outset set = OUTSET_INIT;
+    for (size_t i = 0; i < n; i++) {
+        /* At most five files: the set has room for them. */
+        if (rc || outset_move(&set, &k[i].set))
+            outset_abort(&k[i].set);
+        pdr_diag_free(&k[i].diag);
+    }
+    rc = rc ? rc : outset_commit(&set, &c->diag);
     if (rc) {
         /* The writers name the file and the reason in diag; only a lack
          * of memory gets a further "pdr mesh:" line, since its message
@@ -590,10 +652,14 @@ static void print_times(const mp_ctx *c)
 
 int mp_report(mp_ctx *c)
 {
-    double t = pdr_now();
-    ref_quality q;
-    ref_quality_range(&c->out.view, &q);
-    c->sec[MP_REPORT] = pdr_now() - t;
+    /* Measured alongside the writing (mp_write), or here. */
+    if (!c->have_quality) {
+        double t = pdr_now();
+        ref_quality_range(&c->out.view, &c->quality);
+        c->have_quality = 1;
+        c->sec[MP_REPORT] = pdr_now() - t;
+    }
+    const ref_quality q = c->quality;
     if (!c->o.quiet)
         printf("quality: radius-edge %.4f .. %.4f, dihedral %.2f .. %.2f degrees\n", q.re_min,
                q.re_max, q.dih_min, q.dih_max);

@@ -102,7 +102,10 @@ typedef struct mp_ctx {
     double t_start;      /* pdr_now() at mp_init */
     double t_written;    /* pdr_now() when mp_write was done */
     double sec[MP_NSTAGE]; /* seconds spent in each stage (the report's
-                              is its quality measure) */
+                              is its quality measure, which mp_write
+                              runs alongside the files) */
+    ref_quality quality; /* of out, once have_quality */
+    int have_quality;
 } mp_ctx;
 
 /* Sets *o to the defaults of 'pdr mesh': ref_default_opts, the general
