@@ -1098,6 +1098,17 @@ END_TEST
 /* ------------------------------------------------- merge mismatches */
 
 /* Builds the submeshes of Mo (the unit cube refined a little) for P PEs. */
+/* The unit cube, meshed sequentially with a volume bound of 0.002 (the
+ * merge tests' mesh); *o gets the options. */
+static void refined_cube(plc *p, ref_opts *o, ref_mesher *mo)
+{
+    unit_cube_plc(p);
+    ref_default_opts(o);
+    o->maxvol = 0.002;
+    build_mo(p, o, 0, mo);
+    ck_assert_int_eq(ref_refine(mo), 0);
+}
+
 static void subs_of(const ref_mesher *mo, uint32_t P, par_sub *subs)
 {
     par_decomp d;
@@ -1107,18 +1118,27 @@ static void subs_of(const ref_mesher *mo, uint32_t P, par_sub *subs)
     par_decomp_free(&d);
 }
 
-static int merge_subs(const par_sub *subs, const uint32_t *order, uint32_t P, const plc *p,
-                      par_merge_report *rep)
+/* The PEs' merge messages of subs (in the given order, or their own),
+ * into b, msg and len (at most 8). */
+static void encode_subs(const par_sub *subs, const uint32_t *order, uint32_t P, pr_buf *b,
+                        const void **msg, size_t *len)
 {
-    pr_buf b[8];
-    const void *msg[8];
-    size_t len[8];
+    ck_assert_uint_le(P, 8);
     for (uint32_t k = 0; k < P; k++) {
         b[k] = (pr_buf)PR_BUF_INIT;
         ck_assert_int_eq(par_merge_encode(&b[k], &subs[order ? order[k] : k]), 0);
         msg[k] = b[k].data;
         len[k] = b[k].len;
     }
+}
+
+static int merge_subs(const par_sub *subs, const uint32_t *order, uint32_t P, const plc *p,
+                      par_merge_report *rep)
+{
+    pr_buf b[8];
+    const void *msg[8];
+    size_t len[8];
+    encode_subs(subs, order, P, b, msg, len);
     ref_mesher mg;
     int rc = par_merge_build(msg, len, P, p, NULL, &mg, rep);
     if (!rc)
@@ -1242,12 +1262,7 @@ static void merge_marked(const par_sub *subs, uint32_t P, const plc *p, const re
     pr_buf b[8];
     const void *msg[8];
     size_t len[8];
-    for (uint32_t k = 0; k < P; k++) {
-        b[k] = (pr_buf)PR_BUF_INIT;
-        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
-        msg[k] = b[k].data;
-        len[k] = b[k].len;
-    }
+    encode_subs(subs, NULL, P, b, msg, len);
     par_merge_report rep;
     ck_assert_int_eq(par_merge_build(msg, len, P, p, o, mg, &rep), 0);
     for (uint32_t k = 0; k < P; k++)
@@ -1268,13 +1283,9 @@ static void merge_marked(const par_sub *subs, uint32_t P, const plc *p, const re
 START_TEST(merge_finishes_left)
 {
     plc p;
-    unit_cube_plc(&p);
     ref_opts o;
-    ref_default_opts(&o);
-    o.maxvol = 0.002;
     ref_mesher mo;
-    build_mo(&p, &o, 0, &mo);
-    ck_assert_int_eq(ref_refine(&mo), 0);
+    refined_cube(&p, &o, &mo);
     enum { P = 3 };
     par_sub subs[P];
     subs_of(&mo, P, subs);
@@ -1313,13 +1324,9 @@ END_TEST
 START_TEST(merge_counts_mismatches)
 {
     plc p;
-    unit_cube_plc(&p);
     ref_opts o;
-    ref_default_opts(&o);
-    o.maxvol = 0.002;
     ref_mesher mo;
-    build_mo(&p, &o, 0, &mo);
-    ck_assert_int_eq(ref_refine(&mo), 0);
+    refined_cube(&p, &o, &mo);
     par_sub subs[3];
     par_merge_report rep;
 
@@ -1422,13 +1429,9 @@ static int has_face(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c)
 START_TEST(merge_counts_link_faults)
 {
     plc p;
-    unit_cube_plc(&p);
     ref_opts o;
-    ref_default_opts(&o);
-    o.maxvol = 0.002;
     ref_mesher mo;
-    build_mo(&p, &o, 0, &mo);
-    ck_assert_int_eq(ref_refine(&mo), 0);
+    refined_cube(&p, &o, &mo);
     par_sub subs[3];
     subs_of(&mo, 3, subs);
     pr_buf b[3];
