@@ -2,6 +2,7 @@
 #include "config.h"
 
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <unistd.h>
 
@@ -52,6 +53,12 @@ void fj_run(fj_task *t, size_t n, unsigned nthreads)
 
 unsigned fj_cores(void)
 {
+#ifdef CPU_COUNT
+    /* The processors this process may run on (taskset, cgroups). */
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
+        return (unsigned)CPU_COUNT(&set);
+#endif
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     return n > 0 ? (unsigned)n : 1u;
 }

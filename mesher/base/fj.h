@@ -31,7 +31,8 @@ typedef struct fj_task {
  * thread can be started, the caller runs them all itself, in order. */
 void fj_run(fj_task *t, size_t n, unsigned nthreads);
 
-/* The processors online (at least 1). */
+/* The processors this process may run on (its affinity mask, else those
+ * online; at least 1). */
 unsigned fj_cores(void);
 
 #endif /* PDR_FJ_H */

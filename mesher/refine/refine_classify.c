@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/fj.h"
 #include "base/pdr_util.h"
 #include "mesh/vf.h"
 #include "refine/refine_int.h"
@@ -388,14 +389,21 @@ static int cmp_u64(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-void ref_count_bad(ref_mesher *r)
+/* One share of ref_count_bad's slots, counted on its own (base/fj.h). */
+typedef struct count_share {
+    const ref_mesher *r;
+    uint32_t lo, hi;          /* slots [lo, hi) */
+    size_t ratio, angle, degenerate, size, sliver;
+    uint64_t *keys;           /* (kind, feature) of each left at an angle */
+    size_t nkeys, cap;
+} count_share;
+
+static int count_share_run(void *arg)
 {
+    count_share *c = arg;
+    const ref_mesher *r = c->r;
     const tm_mesh *m = &r->m;
-    r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
-    r->st.left_size = r->st.left_sliver = 0;
-    uint64_t *keys = NULL;
-    size_t nkeys = 0, cap = 0;
-    for (uint32_t t = 0; t < m->nslots; t++) {
+    for (uint32_t t = c->lo; t < c->hi; t++) {
         if (!ref_is_interior(m, t))
             continue;
         double cc[3], q;
@@ -403,29 +411,71 @@ void ref_count_bad(ref_mesher *r)
         if (!why)
             continue;
         if (r->b2 > 0 && q >= r->b2) {
-            r->st.left_ratio++;
+            c->ratio++;
             if (m->flags[t] & REF_F_GIVEUP) {
                 if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0])) {
-                    r->st.left_ratio_degenerate++;
+                    c->degenerate++;
                 } else {
-                    r->st.left_ratio_angle++;
+                    c->angle++;
                     int kind;
                     uint32_t f;
                     left_site(r, t, &kind, &f);
                     /* no memory for the tally: the counts stay right */
-                    if (!pdr_grow((void **)&keys, &cap, nkeys + 1, sizeof *keys))
-                        keys[nkeys++] = (uint64_t)kind << 32 | f;
+                    if (!pdr_grow((void **)&c->keys, &c->cap, c->nkeys + 1, sizeof *c->keys))
+                        c->keys[c->nkeys++] = (uint64_t)kind << 32 | f;
                 }
             }
         } else if (why == 2) {
-            r->st.left_sliver++;
+            c->sliver++;
         } else {
-            r->st.left_size++;
+            c->size++;
         }
     }
-    if (nkeys)
-        qsort(keys, nkeys, sizeof *keys, cmp_u64);
-    tally_sites(r, keys, nkeys);
+    return 0;
+}
+
+/* Below this many slots one share does it all, on the calling thread. */
+#define COUNT_SHARES_FROM 400000
+#define COUNT_MAX_SHARES 8
+
+void ref_count_bad(ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    unsigned n = m->nslots >= COUNT_SHARES_FROM ? fj_cores() : 1;
+    if (n > COUNT_MAX_SHARES)
+        n = COUNT_MAX_SHARES;
+    count_share sh[COUNT_MAX_SHARES];
+    fj_task ft[COUNT_MAX_SHARES];
+    for (unsigned i = 0; i < n; i++) {
+        sh[i] = (count_share){.r = r,
+                              .lo = (uint32_t)((uint64_t)m->nslots * i / n),
+                              .hi = (uint32_t)((uint64_t)m->nslots * (i + 1) / n)};
+        ft[i] = (fj_task){.run = count_share_run, .arg = &sh[i]};
+    }
+    fj_run(ft, n, n);
+    r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
+    r->st.left_size = r->st.left_sliver = 0;
+    for (unsigned i = 0; i < n; i++) {
+        r->st.left_ratio += sh[i].ratio;
+        r->st.left_ratio_angle += sh[i].angle;
+        r->st.left_ratio_degenerate += sh[i].degenerate;
+        r->st.left_size += sh[i].size;
+        r->st.left_sliver += sh[i].sliver;
+    }
+    /* The shares' sites in one list (the first share's list, grown; no
+     * memory for it: the tally keeps what fits). */
+    uint64_t *keys = sh[0].keys;
+    size_t have = sh[0].nkeys, cap = sh[0].cap;
+    for (unsigned i = 1; i < n; i++) {
+        if (sh[i].nkeys && !pdr_grow((void **)&keys, &cap, have + sh[i].nkeys, sizeof *keys)) {
+            memcpy(keys + have, sh[i].keys, sh[i].nkeys * sizeof *keys);
+            have += sh[i].nkeys;
+        }
+        pr_free(sh[i].keys);
+    }
+    if (have)
+        qsort(keys, have, sizeof *keys, cmp_u64);
+    tally_sites(r, keys, have);
     pr_free(keys);
 }
 
