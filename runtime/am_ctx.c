@@ -361,6 +361,56 @@ static int set_os_sched(const am_ctx_t *ctx, const char *v)
     return 0;
 }
 
+/* AM_CPU_BIND: whether this PE is bound to one processor. 'core' binds
+ * it, with every thread it starts later (ZeroMQ's I/O thread among them),
+ * to the AM_CPU_SLOT-th processor (mod their number) of those it may run
+ * on; 'none' leaves it; 'auto' (am-run's default) binds when the
+ * AM_CPU_SLOTS PEs of its host fit on those processors one each and the
+ * policy is not fifo or rr (a real-time PE would starve its own I/O
+ * thread on a shared processor). AM_CPU_SLOT and AM_CPU_SLOTS (am-run
+ * sets them) are the PE's index among the PEs of its host and their
+ * number.
+ *
+ * Why: with two PEs on two cores and the default policy, each PE's
+ * messages wake ZeroMQ's I/O threads, and the kernel moves the four
+ * threads between the cores; bound, a PE and its I/O thread take turns
+ * on one core, warm in its caches (bench/parallel.md, run 10). */
+static int set_cpu_bind(const am_ctx_t *ctx, const char *v, const char *sched)
+{
+    int core = !strcmp(v, "core"), autob = !strcmp(v, "auto");
+    if (!core && !autob && strcmp(v, "none"))
+        return bad_option(ctx, "AM_CPU_BIND", v, "auto, core or none");
+    if (!core && !autob)
+        return 0;
+    const char *sv = am__env(ctx, "AM_CPU_SLOT"), *nv = am__env(ctx, "AM_CPU_SLOTS");
+    long slot = ctx->rank, slots = ctx->size;
+    if (sv && parse_long(sv, 0, AM__PE_MAX, &slot))
+        return bad_option(ctx, "AM_CPU_SLOT", sv, "a PE index");
+    if (nv && parse_long(nv, 1, AM__PE_MAX, &slots))
+        return bad_option(ctx, "AM_CPU_SLOTS", nv, "a count of PEs");
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) != 0)
+        return 0; /* nothing known to bind to: left as it is */
+    int ncpu = CPU_COUNT(&set);
+    if (ncpu <= 1)
+        return 0;
+    if (autob && (slots > ncpu || (sched && (!strcmp(sched, "fifo") || !strcmp(sched, "rr")))))
+        return 0;
+    long want = slot % ncpu;
+    for (int cpu = 0; cpu < CPU_SETSIZE; cpu++) {
+        if (!CPU_ISSET(cpu, &set) || want--)
+            continue;
+        cpu_set_t one;
+        CPU_ZERO(&one);
+        CPU_SET(cpu, &one);
+        if (sched_setaffinity(0, sizeof one, &one) != 0)
+            am__warn(ctx, "AM_CPU_BIND=%s: cannot bind to processor %d: %s", v, cpu,
+                     strerror(errno));
+        break;
+    }
+    return 0;
+}
+
 static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
 {
     static const am_opts_t none = AM_OPTS_INIT;
@@ -509,6 +559,12 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
     const char *sched = am__env(ctx, "AM_SCHED");
     if (sched) {
         int rc = set_os_sched(ctx, sched);
+        if (rc)
+            return rc;
+    }
+    const char *bind = am__env(ctx, "AM_CPU_BIND");
+    if (bind) {
+        int rc = set_cpu_bind(ctx, bind, sched);
         if (rc)
             return rc;
     }

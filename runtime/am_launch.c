@@ -75,6 +75,7 @@ typedef struct launch {
     const char *bind;
     const char *latency, *bandwidth;
     const char *sched;      /* --sched: AM_SCHED of every PE */
+    const char *cpu_bind;   /* --cpu-bind: AM_CPU_BIND of every PE */
     const char *hostfile;
     const char *rdv_host;
     const char *ssh;
@@ -141,6 +142,12 @@ static void usage(const launch *L, FILE *out)
             "CAP_SYS_NICE; with\n"
             "                          more PEs than cores, fifo lets a PE run "
             "until it waits)\n"
+            "      --cpu-bind MODE     auto (default): bind each PE, with its "
+            "threads, to a core of\n"
+            "                          its own when its host's PEs fit one per "
+            "core (not under\n"
+            "                          fifo or rr); core: always (round robin); "
+            "none: never\n"
             "      --hostfile FILE     start ranks on these hosts over ssh "
             "(lines: HOST [slots=N])\n"
             "      --rendezvous HOST   address the hosts reach this machine at "
@@ -393,7 +400,7 @@ static int shquote(char **buf, size_t *len, size_t *cap, const char *s)
     return 0;
 }
 
-enum { NENV = 16 };
+enum { NENV = 24 };
 
 /* The AM_* variables of rank r as "NAME=VALUE" strings in env[]. */
 static int make_env(launch *L, int r, char env[NENV][1200])
@@ -416,6 +423,16 @@ static int make_env(launch *L, int r, char env[NENV][1200])
         snprintf(env[n++], 1200, "AM_BANDWIDTH=%s", L->bandwidth);
     if (L->sched)
         snprintf(env[n++], 1200, "AM_SCHED=%s", L->sched);
+    /* The PE's index among the PEs of its host, and their number. */
+    int slot = 0, slots = 0;
+    for (int q = 0; q < L->np; q++)
+        if (!L->hosts || !strcmp(L->hosts[q], L->hosts[r])) {
+            slot += q < r;
+            slots++;
+        }
+    snprintf(env[n++], 1200, "AM_CPU_BIND=%s", L->cpu_bind ? L->cpu_bind : "auto");
+    snprintf(env[n++], 1200, "AM_CPU_SLOT=%d", slot);
+    snprintf(env[n++], 1200, "AM_CPU_SLOTS=%d", slots);
     if (L->stats_dir)
         snprintf(env[n++], 1200, "AM_STATS_DIR=%s", L->stats_dir);
     if (!L->hosts && L->report_wr >= 0)
@@ -499,6 +516,7 @@ static pid_t start_local(launch *L, int r)
     /* Nothing of an enclosing job may leak into this one. */
     static const char *const stale[] = {
         "AM_ROOT", "AM_RENDEZVOUS", "AM_IPC_DIR", "AM_BIND", "AM_LATENCY",
+        "AM_CPU_BIND", "AM_CPU_SLOT", "AM_CPU_SLOTS",
         "AM_BANDWIDTH", "AM_STATS_DIR", "AM_CURVE_KEYS",
         "AM_CURVE_SERVER_PUBLIC", "AM_CURVE_SERVER_SECRET", "AM_REPORT_FD"};
     for (size_t i = 0; i < sizeof stale / sizeof stale[0]; i++)
@@ -1077,7 +1095,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
     L.ssh = getenv("AM_SSH") && *getenv("AM_SSH") ? getenv("AM_SSH") : "ssh";
     const char *stats = NULL, *write_keys = NULL;
     enum { O_BIND = 256, O_HOSTFILE, O_RDV, O_SSH, O_STATS, O_NOCURVE,
-           O_TIMEOUT, O_GRACE, O_WRITE_KEYS, O_SCHED };
+           O_TIMEOUT, O_GRACE, O_WRITE_KEYS, O_SCHED, O_CPU_BIND };
     static const struct option opts[] = {
         {"np", required_argument, NULL, 'n'},
         {"transport", required_argument, NULL, 't'},
@@ -1093,6 +1111,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
         {"grace", required_argument, NULL, O_GRACE},
         {"write-keys", required_argument, NULL, O_WRITE_KEYS},
         {"sched", required_argument, NULL, O_SCHED},
+        {"cpu-bind", required_argument, NULL, O_CPU_BIND},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int c;
@@ -1156,6 +1175,13 @@ int am_launch_main(int argc, char **argv, const char *prog)
             L.sched = optarg;
             break;
         }
+        case O_CPU_BIND:
+            if (strcmp(optarg, "auto") && strcmp(optarg, "core") && strcmp(optarg, "none")) {
+                lerr(&L, "--cpu-bind is auto, core or none, not '%s'", optarg);
+                return EXIT_USAGE;
+            }
+            L.cpu_bind = optarg;
+            break;
         case O_HOSTFILE:
             L.hostfile = optarg;
             break;

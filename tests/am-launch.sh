@@ -13,7 +13,7 @@ expect_line "^Usage: am-run -n P" "am-run --help"
 expect_line "-n P is required" "am-run"
 for bad in "-n 0 true" "-n x true" "-n 2 --latency fast true" \
     "-n 2 --bandwidth 9 true" "-n 2 -t udp true" "-n 2" "--bogus" \
-    "-n 2 --sched idle true"; do
+    "-n 2 --sched idle true" "-n 2 --cpu-bind all true"; do
     # shellcheck disable=SC2086
     "$AMRUN" $bad >"$work/out" 2>&1
     [ $? -eq 2 ] || fail "am-run $bad should be a usage error (2)"
@@ -76,6 +76,40 @@ if [ "$(id -u)" -eq 0 ] && command -v setpriv >/dev/null 2>&1 &&
 else
     echo "--sched fifo not tried: needs root, setpriv, and an am-run user nobody can run"
 fi
+
+# --- --cpu-bind: where the PEs of a host fit one per processor, auto (the
+# default) binds each PE, all its threads, to a processor of its own; none
+# leaves them; core binds round robin whatever their number; AM_CPU_BIND
+# set by hand is checked by am_init.
+ncpu=$(taskset -pc $$ 2>/dev/null | sed 's/.*: //' | tr ',' '\n' |
+    awk -F- '{n += (NF == 2 ? $2 - $1 + 1 : 1)} END {print n + 0}')
+if [ "${ncpu:-0}" -ge 2 ]; then
+    job 30 "$AMRUN" -n 2 -- "$MP" affinity
+    expect_ok "--cpu-bind auto, 2 PEs"
+    a=$(sed -n 's/^PE 0 cpus \([^ ]*\) threads.*/\1/p' "$work/out")
+    b=$(sed -n 's/^PE 1 cpus \([^ ]*\) threads.*/\1/p' "$work/out")
+    case "$a$b" in *[-,]*|*mixed*|"") fail "--cpu-bind auto: PEs on '$a' and '$b', not one processor each" ;; esac
+    [ "$a" != "$b" ] || fail "--cpu-bind auto: both PEs on processor $a"
+    job 30 "$AMRUN" -n 2 --cpu-bind none -- "$MP" affinity
+    expect_ok "--cpu-bind none"
+    grep -q '^PE 0 cpus [0-9]*[-,]' "$work/out" || fail "--cpu-bind none: PE 0 was bound"
+    job 30 "$AMRUN" -n $((ncpu + 1)) -- "$MP" affinity
+    expect_ok "--cpu-bind auto, more PEs than processors"
+    grep '^PE ' "$work/out" | grep -qv 'cpus [0-9]*[-,]' &&
+        fail "--cpu-bind auto with more PEs than processors bound a PE"
+    job 30 "$AMRUN" -n $((ncpu + 1)) --cpu-bind core -- "$MP" affinity
+    expect_ok "--cpu-bind core, more PEs than processors"
+    [ "$(grep -c '^PE [0-9]* cpus [0-9]* threads' "$work/out")" -eq $((ncpu + 1)) ] ||
+        fail "--cpu-bind core: not every PE bound to one processor"
+    job 60 "$PDR" run -n 2 -- "$MP" affinity
+    expect_ok "pdr run: --cpu-bind auto"
+    grep '^PE ' "$work/out" | grep -q 'cpus [0-9]* threads' || fail "pdr run: no PE bound"
+else
+    echo "--cpu-bind not tried: fewer than 2 processors"
+fi
+job 30 env AM_CPU_BIND=all AM_RANK=0 AM_SIZE=1 "$MP" idle
+[ "$rc" -ne 0 ] || fail "AM_CPU_BIND=all should make am_init fail"
+expect_line "bad AM_CPU_BIND 'all' (expected auto, core or none)" "AM_CPU_BIND=all"
 
 # --- foreign launchers: rank and size from their variables, rank 0's
 # endpoint through a rendezvous file, tcp on loopback.

@@ -26,6 +26,10 @@
  *                          must reach rank 1 long before (coalescing would
  *                          otherwise hold it until rank 0 polls again)
  *   am_mp coll             barrier, allreduce, gather
+ *   am_mp affinity         prints "PE R cpus LIST threads N" (LIST: the
+ *                          processors every thread of the PE may run on,
+ *                          "mixed" if its threads differ), for the
+ *                          --cpu-bind tests
  *   am_mp kill VICTIM      PE VICTIM kills itself with SIGKILL mid-run; the
  *                          others must report it and exit (never return)
  *   am_mp busy DIR SECONDS every PE writes its pid to DIR/pid-RANK, then
@@ -64,6 +68,9 @@
  * find leftover processes).
  */
 #include "config.h"
+
+#include <dirent.h>
+#include <errno.h>
 
 #include <signal.h>
 #include <stdio.h>
@@ -1495,6 +1502,45 @@ static int fake_peer(const char *endpoint, int version)
     return rc == (int)sizeof f ? 0 : 1;
 }
 
+/* The processors each thread of this process may run on, from
+ * /proc/self/task/ * /status ("Cpus_allowed_list:"); the same for all:
+ * that list, else "mixed". */
+static int run_affinity(am_ctx_t *ctx)
+{
+    char first[256] = "", line[512];
+    int nthreads = 0, mixed = 0;
+    DIR *d = opendir("/proc/self/task");
+    if (!d) {
+        fprintf(stderr, "am_mp: PE %d: /proc/self/task: %s\n", g_rank, strerror(errno));
+        return 1;
+    }
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.')
+            continue;
+        char path[300];
+        snprintf(path, sizeof path, "/proc/self/task/%s/status", e->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;
+        while (fgets(line, sizeof line, f))
+            if (!strncmp(line, "Cpus_allowed_list:", 18)) {
+                char cpus[256];
+                if (sscanf(line + 18, " %255s", cpus) == 1) {
+                    if (!nthreads++)
+                        snprintf(first, sizeof first, "%s", cpus);
+                    else if (strcmp(first, cpus))
+                        mixed = 1;
+                }
+            }
+        fclose(f);
+    }
+    closedir(d);
+    printf("PE %d cpus %s threads %d\n", g_rank, mixed ? "mixed" : first, nthreads);
+    fflush(stdout);
+    return am_barrier(ctx) ? 1 : 0;
+}
+
 /* ----------------------------------------------------------------- main */
 
 int main(int argc, char **argv)
@@ -1537,6 +1583,8 @@ int main(int argc, char **argv)
         rc = run_flush(ctx);
     else if (!strcmp(mode, "coll"))
         rc = run_coll(ctx);
+    else if (!strcmp(mode, "affinity"))
+        rc = run_affinity(ctx);
     else if (!strcmp(mode, "kill"))
         rc = run_kill(ctx, arg1);
     else if (!strcmp(mode, "busy") && argc > 3)
@@ -1552,7 +1600,7 @@ int main(int argc, char **argv)
     else if (!strcmp(mode, "zap") && argc > 3)
         rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
-        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|flush|coll|kill|"
+        fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|flush|coll|affinity|kill|"
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }

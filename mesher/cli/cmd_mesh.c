@@ -107,6 +107,8 @@ static void usage(FILE *f)
             "                       batch, fifo or rr (fifo, rr: root or CAP_SYS_NICE);\n"
             "                       with more PEs than cores fifo lets a PE run until it\n"
             "                       waits, as on a machine of its own\n"
+            "      --cpu-bind MODE  with -n: auto (default: each PE on a core of its own\n"
+            "                       when they fit, not under fifo or rr), core or none\n"
             "      --stats DIR      every PE writes DIR/table1-RANK.json (and, with -n,\n"
             "                       the runtime's DIR/stats-RANK.json)\n"
             "      --submeshes      every PE also writes its part as BASE.pRANK.node/.ele\n"
@@ -172,7 +174,7 @@ static int parse_double(const char *s, double *out)
 /* Long options without a short letter. */
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
-    O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_SCHED, O_STATS, O_SUBMESHES,
+    O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_SCHED, O_CPU_BIND, O_STATS, O_SUBMESHES,
     O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK
 };
 
@@ -200,6 +202,7 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"latency", required_argument, NULL, O_LATENCY},
                                           {"bandwidth", required_argument, NULL, O_BANDWIDTH},
                                           {"sched", required_argument, NULL, O_SCHED},
+                                          {"cpu-bind", required_argument, NULL, O_CPU_BIND},
                                           {"stats", required_argument, NULL, O_STATS},
                                           {"submeshes", no_argument, NULL, O_SUBMESHES},
                                           {"merge-angle", required_argument, NULL, O_MERGE},
@@ -458,6 +461,9 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
         case O_SCHED:
             po->sched = optarg;
             break;
+        case O_CPU_BIND:
+            po->cpu_bind = optarg;
+            break;
         case O_STATS:
             po->stats = optarg;
             break;
@@ -526,9 +532,9 @@ int pdr_cmd_mesh(int argc, char **argv)
         pdr_cli_error("mesh", "--parts %u is fewer than the %d PEs", po.parts, po.nprocs);
         return PDR_EXIT_USAGE;
     }
-    if ((po.latency || po.bandwidth || po.sched) && !po.nprocs) {
-        pdr_cli_error("mesh", "--latency, --bandwidth and --sched go with -n (the launcher "
-                              "applies them)");
+    if ((po.latency || po.bandwidth || po.sched || po.cpu_bind) && !po.nprocs) {
+        pdr_cli_error("mesh", "--latency, --bandwidth, --sched and --cpu-bind go with -n (the "
+                              "launcher applies them)");
         return PDR_EXIT_USAGE;
     }
     if (pdr_cli_parse_only)

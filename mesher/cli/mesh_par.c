@@ -769,7 +769,8 @@ done:
 
 int mpar_launch(int argc, char **argv, const mpar_opts *po)
 {
-    /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--sched S] [--stats D]
+    /* am-run's argv: NAME -n P [--latency L] [--bandwidth B] [--sched S] [--cpu-bind M]
+     * [--stats D]
      * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
      * options). */
     char **av = pr_calloc((size_t)argc + 16, sizeof *av);
@@ -795,6 +796,10 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
         av[n++] = (char *)"--sched";
         av[n++] = (char *)po->sched;
     }
+    if (po->cpu_bind) {
+        av[n++] = (char *)"--cpu-bind";
+        av[n++] = (char *)po->cpu_bind;
+    }
     if (po->stats) {
         av[n++] = (char *)"--stats";
         av[n++] = (char *)po->stats;
@@ -806,12 +811,13 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-n") || !strcmp(a, "--latency") || !strcmp(a, "--bandwidth") ||
-            !strcmp(a, "--sched")) {
+            !strcmp(a, "--sched") || !strcmp(a, "--cpu-bind")) {
             i++;
             continue;
         }
         if (!strncmp(a, "-n", 2) || !strncmp(a, "--latency=", 10) ||
-            !strncmp(a, "--bandwidth=", 12) || !strncmp(a, "--sched=", 8))
+            !strncmp(a, "--bandwidth=", 12) || !strncmp(a, "--sched=", 8) ||
+            !strncmp(a, "--cpu-bind=", 11))
             continue;
         av[n++] = argv[i];
     }

@@ -39,6 +39,7 @@ typedef struct mpar_opts {
     const char *latency;  /* --latency (launcher) */
     const char *bandwidth;/* --bandwidth (launcher) */
     const char *sched;    /* --sched (launcher) */
+    const char *cpu_bind; /* --cpu-bind (launcher) */
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
     int work_clock;       /* --work-clock: enum mpar_clock */
@@ -60,7 +61,8 @@ void mpar_default_opts(mpar_opts *o);
 int mpar_run(const mp_opts *mo, const mpar_opts *po);
 
 /* 'pdr mesh -n P': starts P PEs running argv with --parallel added and
- * the launcher's own options (-n, --latency, --bandwidth, --sched, --stats) given
+ * the launcher's own options (-n, --latency, --bandwidth, --sched, --cpu-bind,
+ * --stats) given
  * to the launcher. Returns the exit status. */
 int mpar_launch(int argc, char **argv, const mpar_opts *po);
 
