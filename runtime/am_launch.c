@@ -361,6 +361,10 @@ static void rdv_serve(launch *L, pending **waiting, int ms)
                     p->idlen = (size_t)idn;
                     p->next = *waiting;
                     *waiting = p;
+                } else {
+                    /* The PE would wait for an answer that never comes:
+                     * it is told, and says so. */
+                    rdv_reply(L, id, (size_t)idn, "ERR no memory");
                 }
             }
         } else {
