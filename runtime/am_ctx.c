@@ -365,9 +365,10 @@ static int set_os_sched(const am_ctx_t *ctx, const char *v)
  * it, with every thread it starts later (ZeroMQ's I/O thread among them),
  * to the AM_CPU_SLOT-th processor (mod their number) of those it may run
  * on; 'none' leaves it; 'auto' (am-run's default) binds when the
- * AM_CPU_SLOTS PEs of its host fit on those processors one each and the
- * policy is not fifo or rr (a real-time PE would starve its own I/O
- * thread on a shared processor). AM_CPU_SLOT and AM_CPU_SLOTS (am-run
+ * AM_CPU_SLOTS PEs of its host are exactly as many as those processors
+ * (fewer: other jobs may want the rest, and two jobs bound alike would
+ * share processors while others idle) and the policy is not fifo or rr
+ * (a real-time PE would starve its own I/O thread on its processor). AM_CPU_SLOT and AM_CPU_SLOTS (am-run
  * sets them) are the PE's index among the PEs of its host and their
  * number.
  *
@@ -394,7 +395,7 @@ static int set_cpu_bind(const am_ctx_t *ctx, const char *v, const char *sched)
     int ncpu = CPU_COUNT(&set);
     if (ncpu <= 1)
         return 0;
-    if (autob && (slots > ncpu || (sched && (!strcmp(sched, "fifo") || !strcmp(sched, "rr")))))
+    if (autob && (slots != ncpu || (sched && (!strcmp(sched, "fifo") || !strcmp(sched, "rr")))))
         return 0;
     long want = slot % ncpu;
     for (int cpu = 0; cpu < CPU_SETSIZE; cpu++) {
