@@ -9,6 +9,8 @@
  * fit. */
 #include "config.h"
 
+#include <sched.h>
+
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -1426,6 +1428,85 @@ static int has_face(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c)
 
 /* Links sent by a PE that do not fit, and a tetrahedron or a face too
  * many across PEs: each counted, and nothing else. */
+/* Merges b[0..P) with this process allowed on its first processor only
+ * (the merge's step 4 then runs in one pass) or on all it had. */
+static int merge_bufs_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
+                         int one_cpu)
+{
+    cpu_set_t all, one;
+    ck_assert_int_eq(sched_getaffinity(0, sizeof all, &all), 0);
+    if (one_cpu) {
+        CPU_ZERO(&one);
+        for (int c = 0; c < CPU_SETSIZE; c++)
+            if (CPU_ISSET(c, &all)) {
+                CPU_SET(c, &one);
+                break;
+            }
+        ck_assert_int_eq(sched_setaffinity(0, sizeof one, &one), 0);
+    }
+    int rc = merge_bufs(b, P, p, rep);
+    ck_assert_int_eq(sched_setaffinity(0, sizeof all, &all), 0);
+    return rc;
+}
+
+/* Step 4 of the merge shares a large mesh's slots among the processors
+ * (par_merge.c, check_links_shared): it finds what one pass finds, on a
+ * mesh that fits and on one with a link that does not come back and two
+ * pairs linked across the wrong faces. */
+START_TEST(merge_shares_agree)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 4e-6;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    ck_assert_uint_ge(mo.m.nlive, 420000); /* above LINK_SHARES_FROM */
+    par_sub subs[3];
+    subs_of(&mo, 3, subs);
+    pr_buf b[3];
+    const void *msg[3];
+    size_t len[3];
+    encode_subs(subs, NULL, 3, b, msg, len);
+    par_merge_report one, all;
+    ck_assert_int_eq(merge_bufs_on(b, 3, &p, &one, 1), 0);
+    ck_assert_int_eq(merge_bufs_on(b, 3, &p, &all, 0), 0);
+    ck_assert(!memcmp(&one, &all, sizeof one));
+    /* faults: x links to y, which links elsewhere; a and c cross-linked */
+    uint8_t *keep = b[1].data;
+    uint32_t nt;
+    link_offset(keep, b[1].len, &nt);
+    uint32_t x = UINT32_MAX, a = 0, y = UINT32_MAX, c = 0;
+    for (uint32_t f = 0; f < 4 * nt && y == UINT32_MAX; f++) {
+        uint32_t l = link_of(keep, b[1].len, f);
+        if (l >= PAR_WIRE_LINK_IFACE || l < f)
+            continue;
+        if (x == UINT32_MAX)
+            x = f, a = l;
+        else if (f / 4 != x / 4 && f / 4 != a / 4 && l / 4 != x / 4 && l / 4 != a / 4)
+            y = f, c = l;
+    }
+    ck_assert_uint_ne(y, UINT32_MAX);
+    uint8_t *t1 = with_link(keep, b[1].len, x, y);
+    b[1].data = with_link(t1, b[1].len, a, c);
+    free(t1);
+    ck_assert_int_eq(merge_bufs_on(b, 3, &p, &one, 1), PDR_ETOPOLOGY);
+    ck_assert_int_eq(merge_bufs_on(b, 3, &p, &all, 0), PDR_ETOPOLOGY);
+    ck_assert_uint_ge(one.bad_links + one.misoriented, 1);
+    ck_assert(!memcmp(&one, &all, sizeof one));
+    free(b[1].data);
+    b[1].data = keep;
+    for (uint32_t k = 0; k < 3; k++) {
+        pr_buf_free(&b[k]);
+        par_sub_free(&subs[k]);
+    }
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 START_TEST(merge_counts_link_faults)
 {
     plc p;
@@ -1678,6 +1759,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_survives_corruption);
     tcase_add_test(t, merge_reclassifies);
     tcase_add_test(t, merge_finishes_left);
+    tcase_add_test(t, merge_shares_agree);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

@@ -36,6 +36,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/fj.h"
 #include "base/hdup.h"
 #include "base/pdr_util.h"
 #include "base/v3.h"
@@ -464,6 +465,144 @@ static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
         rep->marker_mismatch++;
 }
 
+/* What the checks of step 4 count, for one pass or one share of it. */
+typedef struct link_tally {
+    size_t up, down, bad_links, misoriented, marker_mismatch;
+    int suspect;
+} link_tally;
+
+static void prefetch_ahead(const tm_mesh *m, uint32_t t)
+{
+    if (t + PREFETCH_AHEAD >= m->nslots)
+        return;
+    for (int i = 0; i < 4; i++) {
+        tm_link l = m->tets[t + PREFETCH_AHEAD].n[i];
+        if (!tm_is_special(l) && tm_ltet(l) > t + PREFETCH_AHEAD) {
+            /* both ends: a tm_tet may straddle two lines */
+            PREFETCH(&m->tets[tm_ltet(l)].v[0]);
+            PREFETCH(&m->tets[tm_ltet(l)].n[3]);
+            PREFETCH(&m->flags[tm_ltet(l)]);
+        }
+    }
+}
+
+/* The checks of link l of face i of t, towards u = tm_ltet(l) > t: it
+ * comes back, the two sides are one triangle, with one marker. Returns
+ * the face's hash for step 6. */
+static uint64_t check_up(const merge *g, const tm_mesh *m, uint32_t t, int i, tm_link l,
+                         link_tally *k)
+{
+    const tm_tet *T = &m->tets[t];
+    uint32_t u = tm_ltet(l);
+    int j = tm_lface(l);
+    const tm_tet *U = &m->tets[u];
+    k->up++;
+    if (U->n[j] != tm_mklink(t, i))
+        k->bad_links++;
+    uint32_t x[3], y[3];
+    face_of(m, t, i, x);
+    face_of(m, u, j, y);
+    /* y must be x reversed, in one of its three rotations: tested
+     * without branches, as the rotation is anyone's guess */
+    int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
+                  ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
+                  ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+    k->misoriented += (size_t)!opposed;
+    /* the flags first: a small array, and markers are rare */
+    k->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, u, j);
+    k->suspect |= U->v[j] == T->v[i];
+    return face_hash(g->vk, x[0], x[1], x[2]);
+}
+
+static void tally_into(merge *g, par_merge_report *rep, const link_tally *k)
+{
+    rep->bad_links += k->bad_links;
+    rep->misoriented += k->misoriented;
+    rep->marker_mismatch += k->marker_mismatch;
+    g->suspect |= k->suspect;
+}
+
+/* One share of step 4 on the threads of base/fj: slots [lo, hi) of a
+ * mesh without dropped copies (nothing written to it), its hashes into
+ * out[] (room counted beforehand). */
+typedef struct link_share {
+    const merge *g;
+    const tm_mesh *m;
+    uint32_t lo, hi;
+    uint64_t *out; /* NULL: only count the links up into k.up */
+    link_tally k;
+} link_share;
+
+static int link_share_run(void *arg)
+{
+    link_share *sh = arg;
+    const tm_mesh *m = sh->m;
+    size_t n = 0;
+    for (uint32_t t = sh->lo; t < sh->hi; t++) {
+        if (sh->out)
+            prefetch_ahead(m, t);
+        const tm_tet *T = &m->tets[t];
+        for (int i = 0; i < 4; i++) {
+            tm_link l = T->n[i];
+            if (l == TM_LINK_UNSET)
+                continue; /* loose: step 5 */
+            if (tm_ltet(l) < t) {
+                sh->k.down += sh->out != NULL; /* checked from the other side */
+                continue;
+            }
+            if (!sh->out)
+                sh->k.up++;
+            else
+                sh->out[n++] = check_up(sh->g, m, t, i, l, &sh->k);
+        }
+    }
+    return 0;
+}
+
+/* Below this many slots, or with copies dropped, step 4 runs on the
+ * calling thread alone. */
+#define LINK_SHARES_FROM 400000
+#define LINK_MAX_SHARES 8
+
+/* Step 4 in shares on the machine's cores: the links up counted per
+ * share, then each share checks its slots and writes its hashes after
+ * those of the shares before it. The same counts and hashes as one pass
+ * (in the same order). */
+static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsigned n)
+{
+    link_share sh[LINK_MAX_SHARES];
+    fj_task ft[LINK_MAX_SHARES];
+    for (unsigned i = 0; i < n; i++) {
+        sh[i] = (link_share){.g = g,
+                             .m = m,
+                             .lo = (uint32_t)((uint64_t)m->nslots * i / n),
+                             .hi = (uint32_t)((uint64_t)m->nslots * (i + 1) / n)};
+        ft[i] = (fj_task){.run = link_share_run, .arg = &sh[i]};
+    }
+    fj_run(ft, n, n);
+    size_t total = 0;
+    for (unsigned i = 0; i < n; i++)
+        total += sh[i].k.up;
+    if (pdr_grow((void **)&g->hash, &g->caphash, total + g->nlf + 1, sizeof *g->hash))
+        return PDR_ENOMEM;
+    size_t at = 0;
+    for (unsigned i = 0; i < n; i++) {
+        sh[i].out = g->hash + at;
+        at += sh[i].k.up;
+        sh[i].k.up = 0;
+    }
+    fj_run(ft, n, n);
+    link_tally sum = {0};
+    for (unsigned i = 0; i < n; i++) {
+        sum.up += sh[i].k.up;
+        sum.down += sh[i].k.down;
+        tally_into(g, rep, &sh[i].k);
+    }
+    g->nhash = total;
+    rep->bad_links += sum.up > sum.down ? sum.up - sum.down : sum.down - sum.up;
+    return 0;
+}
+
 /* Every pair linked within a message, checked once from its lower side:
  * it comes back, joins one triangle seen from its two sides, with one
  * marker; and its face hashed for step 6. A link into a dropped copy
@@ -482,23 +621,17 @@ static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
  * hash of each side, in slot order, took as long in hashing. */
 static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
 {
-    /* about two linked pairs per tetrahedron, plus the groups of step 5 */
     g->nhash = 0;
+    unsigned shares = !g->drop && m->nslots >= LINK_SHARES_FROM ? fj_cores() : 1;
+    if (shares > 1)
+        return check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES);
+    /* about two linked pairs per tetrahedron, plus the groups of step 5 */
     size_t want = 2 * (size_t)m->nslots + g->nlf + 1;
     if (pdr_grow((void **)&g->hash, &g->caphash, want, sizeof *g->hash))
         return PDR_ENOMEM;
-    size_t up = 0, down = 0;
+    link_tally k = {0};
     for (uint32_t t = 0; t < m->nslots; t++) {
-        if (t + PREFETCH_AHEAD < m->nslots)
-            for (int i = 0; i < 4; i++) {
-                tm_link l = m->tets[t + PREFETCH_AHEAD].n[i];
-                if (!tm_is_special(l) && tm_ltet(l) > t + PREFETCH_AHEAD) {
-                    /* both ends: a tm_tet may straddle two lines */
-                    PREFETCH(&m->tets[tm_ltet(l)].v[0]);
-                    PREFETCH(&m->tets[tm_ltet(l)].n[3]);
-                    PREFETCH(&m->flags[tm_ltet(l)]);
-                }
-            }
+        prefetch_ahead(m, t);
         if (dropped(g, t))
             continue;
         tm_tet *T = &m->tets[t];
@@ -515,33 +648,16 @@ static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
                 continue;
             }
             if (u < t) {
-                down++; /* checked from u */
+                k.down++; /* checked from u */
                 continue;
             }
-            up++;
-            int j = tm_lface(l);
-            const tm_tet *U = &m->tets[u];
-            if (U->n[j] != tm_mklink(t, i))
-                rep->bad_links++;
-            uint32_t x[3], y[3];
-            face_of(m, t, i, x);
-            face_of(m, u, j, y);
-            /* y must be x reversed, in one of its three rotations: tested
-             * without branches, as the rotation is anyone's guess */
-            int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
-                          ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
-                          ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
-            rep->misoriented += (size_t)!opposed;
-            /* the flags first: a small array, and markers are rare */
-            rep->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, u, j);
-            g->suspect |= U->v[j] == T->v[i];
-            uint64_t h = face_hash(g->vk, x[0], x[1], x[2]);
-            int rc = add_hash(&g->hash, &g->nhash, &g->caphash, h);
+            int rc = add_hash(&g->hash, &g->nhash, &g->caphash, check_up(g, m, t, i, l, &k));
             if (rc)
                 return rc;
         }
     }
-    rep->bad_links += up > down ? up - down : down - up;
+    tally_into(g, rep, &k);
+    rep->bad_links += k.up > k.down ? k.up - k.down : k.down - k.up;
     return 0;
 }
 
