@@ -400,7 +400,11 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         cap = 0; /* no bound of its own */
     if (cap)
         r->o.max_points = r->st.seg_points + r->st.fac_points + r->st.tet_points + cap;
-    rc = ref_queue_boundary(r);
+    /* The constrained recovery: segments first, while no facet is a
+     * constraint (refine_segrec.c), then the facets. */
+    rc = r->o.constrained && !(o && o->paper) ? ref_recover_segments(r) : 0;
+    if (!rc)
+        rc = ref_queue_boundary(r);
     if (!rc)
         rc = ref_run(r, 0);
     r->o.seg_maxlen = save_len;

@@ -226,6 +226,9 @@ typedef struct ref_stats {
     size_t deflected;    /* conforming: subfacet splits that would have
                             deleted a subfacet of an oblique facet, made
                             there instead (split_subfac in refine_run.c) */
+    size_t segrec_points; /* constrained: points of the segment recovery
+                            (ref_recover_segments), before any facet is
+                            a constraint */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t edge_star_splits; /* constrained: subsegment splits made in the
                             tetrahedra around the edge (its constrained
@@ -463,6 +466,13 @@ void ref_free(ref_mesher *r);
  * is good for ref_count_bad, ref_consistency, ref_export and ref_free
  * only. */
 void ref_release_work(ref_mesher *r);
+
+/* The constrained recovery's first phase (refine_segrec.c): every missing
+ * subsegment of the initial Delaunay tetrahedralization split until all
+ * are edges of the mesh, with no facet a constraint yet. Returns 0, or
+ * PDR_ELIMIT (the bound o.max_points, or r->stopped_below and r->stop_at
+ * when a piece cannot be split), PDR_ENOMEM, PDR_ETOPOLOGY. */
+int ref_recover_segments(ref_mesher *r);
 
 /* Splits queued subsegments and subfacets (recovery and encroachment)
  * until none is queued; with tets != 0 and the mesh classified, also bad
