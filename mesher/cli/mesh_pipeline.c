@@ -284,6 +284,22 @@ int mp_initial_mesh(mp_ctx *c)
         return fail(c, rc);
     c->have_r = 1;
     rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
+    if (rc == PDR_ELIMIT && c->r.stopped_below && c->r.stop_hidden && c->o.ref.constrained &&
+        !c->o.mo.paper) {
+        /* A split of the constrained recovery had no valid cavity (CAD
+         * tessellations: RECOVERY.md): built again from the start with
+         * the segments recovered first (refine/refine_segrec.c). Only
+         * then, so that every input that meshes the first way keeps its
+         * output. */
+        ref_free(&c->r);
+        c->have_r = 0;
+        pdr_diag_free(&c->diag);
+        if ((rc = ref_init(&c->r, &c->p, &c->o.ref)))
+            return fail(c, rc);
+        c->have_r = 1;
+        c->o.mo.segments_first = 1;
+        rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
+    }
     /* Warnings (a region point outside the domain) are shown even when
      * Mo was built. */
     if (c->diag.ntotal) {

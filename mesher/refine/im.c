@@ -402,15 +402,18 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         r->o.max_points = r->st.seg_points + r->st.fac_points + r->st.tet_points + cap;
     /* The constrained recovery: segments first, while no facet is a
      * constraint (refine_segrec.c), then the facets. */
-    rc = r->o.constrained && !(o && o->paper) ? ref_recover_segments(r) : 0;
+    r->narrow_recovery = r->o.constrained && o && !o->paper && o->segments_first;
+    rc = r->narrow_recovery ? ref_recover_segments(r) : 0;
     if (!rc)
         rc = ref_queue_boundary(r);
     if (!rc)
         rc = ref_run(r, 0);
     r->o.seg_maxlen = save_len;
     r->o.fac_maxrad = save_rad;
-    if (rc)
+    if (rc) {
+        r->narrow_recovery = 0;
         return recovery_end(r, rc, cap, save_max);
+    }
     s.seg_points = r->st.seg_points - seg0;
     s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
@@ -426,6 +429,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     if (!rc && r->o.constrained)
         rc = ref_run(r, 0);
     rc = recovery_end(r, rc, cap, save_max);
+    r->narrow_recovery = 0;
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

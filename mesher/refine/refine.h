@@ -226,6 +226,9 @@ typedef struct ref_stats {
     size_t deflected;    /* conforming: subfacet splits that would have
                             deleted a subfacet of an oblique facet, made
                             there instead (split_subfac in refine_run.c) */
+    size_t forced_cavities; /* constrained recovery: splits whose cavity
+                            kept subfacets of their 2D cavity (unmarked,
+                            their replacements recovered in turn) */
     size_t segrec_points; /* constrained: points of the segment recovery
                             (ref_recover_segments), before any facet is
                             a constraint */
@@ -402,6 +405,9 @@ typedef struct ref_mesher {
                           stop_vkind (BD_V_SEGMENT, BD_V_FACET) */
     int stop_vkind;
     uint32_t stop_feat;
+    int narrow_recovery; /* im_build with segments_first, while the
+                            recovery runs: narrowed_cavity in
+                            refine_cdt.c may replace a refused split */
     size_t recovery_capped; /* the constrained recovery stopped at its own
                                bound on points (im_build), this one */
     int deflecting;    /* split_subfac is splitting an oblique facet's
