@@ -618,6 +618,11 @@ int mp_write(mp_ctx *c)
 static void print_left(const mp_ctx *c)
 {
     const ref_stats *st = &c->st;
+    if (st->left_stuck)
+        printf("left not locally Delaunay: %zu faces next to thin input triangles (the "
+               "recovery with segments first could not make the mesh a constrained "
+               "Delaunay tetrahedralization there)\n",
+               st->left_stuck);
     if (!st->left_ratio && !st->left_size && !st->left_sliver && c->o.quiet)
         return;
     printf("left above the bound: %zu tetrahedra with radius-edge >= %g", st->left_ratio,

@@ -67,6 +67,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -600,11 +601,14 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     if (!rc)
         rc = flip_restore(m, seed, nseed, &fh, &r->flipped, 0);
     /* A face no flip mends lies against a subsegment that is not strongly
-     * Delaunay (a CDT with it may not exist): it is split, under the same
+     * Delaunay (a CDT with it may not exist): it is split (unless
+     * r->keep_stuck: after the recovery with segments first, on CAD
+     * tessellations, those splits cascade next to the thin triangles and
+     * never end; the face is then left and counted), under the same
      * floor as a split some vertex's encroachment asks for (none lets the
      * splits cascade into acute input vertices), in the tetrahedra around
      * it if its constrained cavity is no star. */
-    for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
+    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck; i++) {
         tm_link l = r->flipped.stuck_faces[i];
         uint32_t t = tm_ltet(l);
         if (tm_is_dead(m, t))
@@ -638,6 +642,30 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     r->flipped.flips23 = r->flipped.flips32 = r->flipped.flips22 = r->flipped.stuck = 0;
     r->flipped.blocked = 0;
     return rc;
+}
+
+size_t ref__count_stuck(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+            continue;
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            if ((m->flags[t] & TM_F_FACEMARK(f)) || tm_is_special(l) || tm_ltet(l) < t)
+                continue;
+            uint32_t u = tm_ltet(l);
+            if (tm_is_ghost(m, u) || (m->flags[u] & REF_F_EXTERIOR))
+                continue;
+            const double *apex = X(m, m->tets[u].v[tm_lface(l)]);
+            if (pred_insphere(X(m, T->v[0]), X(m, T->v[1]), X(m, T->v[2]), X(m, T->v[3]),
+                              apex) > 0)
+                n++;
+        }
+    }
+    return n;
 }
 
 int ref__cdt_remove_flat(ref_mesher *r, uint32_t t)
@@ -688,7 +716,11 @@ int ref_cdt_restore(ref_mesher *r)
     for (uint32_t t = 0; t < m->nslots; t++)
         if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
             all[n++] = t;
+    size_t f23 = r->st.flips23, f32 = r->st.flips32, st0 = r->st.flips_stuck;
     rc = ref__cdt_flip(r, all, n);
+    if (r->o.trace)
+        fprintf(r->o.trace, "cdt restore: %zu 2-3 flips, %zu 3-2 flips, %zu faces stuck\n",
+                r->st.flips23 - f23, r->st.flips32 - f32, r->st.flips_stuck - st0);
     pr_free(all);
     return rc;
 }

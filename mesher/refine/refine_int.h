@@ -107,6 +107,10 @@ void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 /* may_cross of a constrained boundary split: a face whose subfacet is in
  * the split's 2D cavities (BD_F_VISIT). */
 int ref__cross_visited(void *arg, const tm_mesh *m, uint32_t t, int f);
+/* Faces between two interior tetrahedra, on no facet, that are not
+ * locally Delaunay (the far apex strictly inside the circumsphere, as
+ * pdr check tests). */
+size_t ref__count_stuck(const ref_mesher *r);
 /* The dt_cavity_search flags of the constrained mode. */
 unsigned ref__cdt_flags(const ref_mesher *r);
 /* The constrained cavity of point p splitting piece ab (edge) or abc
