@@ -198,8 +198,8 @@ static int point_limit(mp_ctx *c)
                       "the boundary recovery cannot recover a missing piece of the boundary%s: "
                       "after %zu points, the split at (%.17g, %.17g, %.17g) has no valid "
                       "constrained cavity (facets around it, long thin triangles nearly in the "
-                      "plane of their neighbours, hide part of what it must replace; a "
-                      "recovery by cavity retriangulation, as TetGen's, is not implemented) "
+                      "plane of their neighbours, hide part of what it must replace; the "
+                      "recovery by cavity retriangulation, tried first, left it missing) "
                       "(nothing written)",
                       where, n, r->stop_at[0], r->stop_at[1], r->stop_at[2]);
         return PDR_ELIMIT;
@@ -208,8 +208,8 @@ static int point_limit(mp_ctx *c)
         pdr_cli_error(MP_CMD,
                       "the boundary recovery does not terminate: after %zu points (its bound: "
                       "%d per input vertex and %d more) pieces of the boundary are still "
-                      "missing; splits cascade next to small angles of the input, where a "
-                      "recovery by cavity retriangulation, as TetGen's, is not implemented "
+                      "missing; splits cascade next to small angles of the input, where "
+                      "the recovery by cavity retriangulation left pieces missing "
                       "(nothing written)",
                       r->recovery_capped, IM_RECOVERY_PER_VERTEX, IM_RECOVERY_BASE);
         return PDR_ELIMIT;

@@ -127,6 +127,11 @@ typedef struct facrec {
     uint32_t *miss; /* faces the Delaunay fill lacks (indices in bf) */
     size_t capmiss;
     size_t cones; /* sides filled by a cone */
+    struct fr_dedge *de; /* adopt(): directed edges */
+    size_t capde;
+    uint32_t *tris; /* adopt(): its triangles, 3 vertices each */
+    size_t captris;
+    size_t adopted; /* subfacets replaced by coplanar faces of the mesh */
     size_t recovered, regions;
     int last; /* the reason of the last give-up */
     size_t why[12]; /* regions left, by reason (FR_W_*), for the trace */
@@ -948,6 +953,133 @@ static int commit(facrec *s)
     return ref_region_room(r);
 }
 
+/* ------------------------------------------------ coplanar regions */
+
+/* A directed edge of the retriangulation and how often it is used. */
+typedef struct fr_dedge {
+    uint32_t a, b;
+    int boundary; /* an edge of the region's boundary, region on its left */
+    int used;     /* triangles having it (a to b) */
+} fr_dedge;
+
+static long dedge_find(const fr_dedge *e, size_t n, uint32_t a, uint32_t b)
+{
+    for (size_t i = 0; i < n; i++)
+        if (e[i].a == a && e[i].b == b)
+            return (long)i;
+    return -1;
+}
+
+static int dedge_add(facrec *s, size_t *n, uint32_t a, uint32_t b, int boundary)
+{
+    if (pdr_grow((void **)&s->de, &s->capde, *n + 1, sizeof *s->de))
+        return PDR_ENOMEM;
+    s->de[*n] = (fr_dedge){a, b, boundary, 0};
+    (*n)++;
+    return 0;
+}
+
+/* A region that no tetrahedron crosses lies in one plane, covered by
+ * faces of the mesh that triangulate it otherwise (cocircular vertices:
+ * the mesh took the other diagonals). Those faces are found from the
+ * region's boundary inwards (the face on the region's side of each edge,
+ * in the plane, with a corner of the region) and, if they triangulate
+ * the region exactly (every boundary edge used once, every inner edge
+ * once each way, all turning as the region's triangles do), they replace
+ * its subfacets in the facet's triangulation. Returns 0 (replaced), 1
+ * (not so) or a negative code. */
+static int adopt(facrec *s)
+{
+    ref_mesher *r = s->r;
+    tm_mesh *m = &r->m;
+    bd_set *bd = &r->bd;
+    const uint32_t *t0 = bd->facs[s->reg[0]].v;
+    uint32_t f = bd->facs[s->reg[0]].facet;
+    const double *p0 = X(m, t0[0]), *p1 = X(m, t0[1]), *p2 = X(m, t0[2]);
+    int turn = ref__orient_facet(r->p, f, p0, p1, p2);
+    if (!turn)
+        return 1;
+    size_t nde = 0;
+    int rc;
+    for (size_t i = 0; i < s->nreg; i++) {
+        const uint32_t *v = bd->facs[s->reg[i]].v;
+        for (int k = 0; k < 3; k++)
+            if (pred_orient3d(p0, p1, p2, X(m, v[k])) != 0)
+                return 1; /* not one plane */
+        for (int k = 0; k < 3; k++)
+            if ((rc = dedge_add(s, &nde, v[k], v[(k + 1) % 3], 1)))
+                return rc;
+    }
+    /* Boundary: directed edges whose reverse is no edge of the region. */
+    size_t nb = nde;
+    for (size_t i = 0; i < nb; i++)
+        s->de[i].boundary = dedge_find(s->de, nb, s->de[i].b, s->de[i].a) < 0;
+    size_t n = 0;
+    for (size_t i = 0; i < nb; i++)
+        if (s->de[i].boundary)
+            s->de[n++] = s->de[i];
+    nde = n;
+    size_t ntri = 0, maxtri = 4 * s->nreg + 16;
+    for (size_t i = 0; i < nde; i++) {
+        fr_dedge e = s->de[i];
+        if (e.used)
+            continue;
+        uint32_t t;
+        if (!ref__find_in_star(m, e.a, e.b, TM_NONE, &t))
+            return 1;
+        s->nring = 0;
+        if (ref_around_edge(m, t, e.a, e.b, gather, s) != 0)
+            return 1;
+        uint32_t x = TM_NONE;
+        for (size_t j = 0; j < s->nring && x == TM_NONE; j++) {
+            const uint32_t *tv = m->tets[s->ring[j]].v;
+            for (int k = 0; k < 4; k++) {
+                uint32_t c = tv[k];
+                if (c == e.a || c == e.b || c == TM_VINF || s->vside[c] != FR_V_FLOOR)
+                    continue;
+                if (pred_orient3d(p0, p1, p2, X(m, c)) != 0 ||
+                    ref__orient_facet(r->p, f, X(m, e.a), X(m, e.b), X(m, c)) != turn)
+                    continue;
+                x = c;
+                break;
+            }
+        }
+        if (x == TM_NONE || ntri == maxtri)
+            return 1;
+        uint32_t tri[3] = {e.a, e.b, x};
+        if (pdr_grow((void **)&s->tris, &s->captris, 3 * (ntri + 1), sizeof *s->tris))
+            return PDR_ENOMEM;
+        memcpy(s->tris + 3 * ntri++, tri, sizeof tri);
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = tri[k], b = tri[(k + 1) % 3];
+            long j = dedge_find(s->de, nde, a, b);
+            if (j < 0) {
+                if ((rc = dedge_add(s, &nde, a, b, 0)))
+                    return rc;
+                j = (long)nde - 1;
+            }
+            if (++s->de[j].used > 1)
+                return 1;
+            /* An inner edge needs the triangle on its other side. */
+            if (!s->de[j].boundary && dedge_find(s->de, nde, b, a) < 0 &&
+                (rc = dedge_add(s, &nde, b, a, 0)))
+                return rc;
+        }
+    }
+    for (size_t i = 0; i < nde; i++)
+        if (s->de[i].used != 1)
+            return 1;
+    for (size_t i = 0; i < s->nreg; i++)
+        bd_kill_subfac(bd, s->reg[i]);
+    for (size_t i = 0; i < ntri; i++) {
+        const uint32_t *tri = s->tris + 3 * i;
+        if ((rc = bd_add_subfac(bd, tri[0], tri[1], tri[2], f, NULL)))
+            return rc;
+    }
+    s->adopted += s->nreg;
+    return 0;
+}
+
 /* Recovers the region of missing subfacet id: 0 done, 1 left, or a
  * negative code. */
 static int recover_one(facrec *s, uint32_t id)
@@ -958,6 +1090,13 @@ static int recover_one(facrec *s, uint32_t id)
     if (!rc) {
         s->last = FR_W_COLLECT;
         rc = collect(s);
+        if (rc == 1 && !s->ncav) {
+            rc = adopt(s);
+            if (rc <= 0) {
+                vside_clear(s);
+                return rc < 0 ? rc : 2;
+            }
+        }
     }
     for (int round = 0; !rc && round < FR_GROW_MAX; round++) {
         rc = boundary(s);
@@ -1001,9 +1140,10 @@ int ref_recover_facets(ref_mesher *r)
     int rc = 0;
     const bd_set *bd = &r->bd;
     /* tried[i]: subfacet i was in a region that failed in this pass. */
-    uint8_t *tried = pr_calloc(bd->nfacs ? bd->nfacs : 1, 1);
+    uint8_t *tried = NULL;
+    size_t captried = 0;
     s.vside = pr_calloc(r->m.nv, 1);
-    if (!tried || !s.vside)
+    if (!s.vside)
         rc = PDR_ENOMEM;
     for (int k = 0; k < 2 && !rc; k++) {
         s.vloc[k] = pr_calloc(r->m.nv, sizeof *s.vloc[k]);
@@ -1013,18 +1153,29 @@ int ref_recover_facets(ref_mesher *r)
             rc = tm_init(&s.sub[k], 0);
     }
     for (int pass = 0; pass < FR_PASSES && !rc; pass++) {
-        size_t done = 0;
-        memset(tried, 0, bd->nfacs);
+        size_t progress = 0;
         for (uint32_t i = 0; i < bd->nfacs && !rc; i++) {
+            if (i == 0 || captried < bd->nfacs) {
+                size_t old = i == 0 ? 0 : captried;
+                if (pdr_grow((void **)&tried, &captried, bd->nfacs, 1)) {
+                    rc = PDR_ENOMEM;
+                    break;
+                }
+                memset(tried + old, 0, captried - old);
+            }
             const bd_subfac *F = &bd->facs[i];
             uint32_t t;
             if ((F->flags & BD_F_DEAD) || tried[i] ||
                 ref__find_in_star(&r->m, F->v[0], F->v[1], F->v[2], &t))
                 continue;
             rc = recover_one(&s, i);
-            if (rc == 0) {
-                done += s.nreg;
+            if (rc == 2) {
+                progress++; /* retriangulated in its facet (adopt) */
+                rc = 0;
+            } else if (rc == 0) {
+                s.recovered += s.nreg;
                 s.regions++;
+                progress++;
             } else if (rc == 1) {
                 rc = 0;
                 for (size_t j = 0; j < s.nreg; j++)
@@ -1032,21 +1183,23 @@ int ref_recover_facets(ref_mesher *r)
                 tried[i] = 1;
             }
         }
-        s.recovered += done;
-        if (!done)
+        if (!progress)
             break;
     }
     pr_free(tried);
     r->st.facrec_faces += s.recovered;
     if (r->o.trace)
         fprintf(r->o.trace,
-                "facet recovery: %zu subfacets in %zu regions recovered (%zu sides by a cone); regions left: "
+                "facet recovery: %zu subfacets in %zu regions recovered (%zu sides by a cone), %zu "
+                "retriangulated in their facet; regions left: "
                 "%zu region, %zu collect, %zu sides, %zu fill, %zu floor, %zu open, "
                 "%zu grow, %zu keep\n",
-                s.recovered, s.regions, s.cones, s.why[FR_W_REGION], s.why[FR_W_COLLECT],
+                s.recovered, s.regions, s.cones, s.adopted, s.why[FR_W_REGION], s.why[FR_W_COLLECT],
                 s.why[FR_W_SIDES], s.why[FR_W_FILL], s.why[FR_W_FLOOR], s.why[FR_W_OPEN],
                 s.why[FR_W_GROW], s.why[FR_W_KEEP]);
     pr_free(s.cav);
+    pr_free(s.de);
+    pr_free(s.tris);
     pr_free(s.miss);
     pr_free(s.reg);
     pr_free(s.vside);
