@@ -91,9 +91,11 @@ typedef struct fr_face {
 } fr_face;
 
 /* Side of a mesh vertex (facrec.vside): not looked at yet, a vertex of the
- * region (on the floor), strictly above or below every triangle of the
- * region, or neither (near the floor's plane, not on it: no cavity). */
-enum { FR_V_UNKNOWN = 0, FR_V_FLOOR, FR_V_UP, FR_V_DOWN, FR_V_NONE };
+ * region (on the floor), above or below the region (strictly for at least
+ * one of its triangles, on no side of any other), in the plane of every
+ * one of them (outside the region), or above some and below others (near
+ * a bent region: no cavity). */
+enum { FR_V_UNKNOWN = 0, FR_V_FLOOR, FR_V_UP, FR_V_DOWN, FR_V_PLANE, FR_V_NONE };
 
 typedef struct facrec {
     ref_mesher *r;
@@ -130,7 +132,7 @@ typedef struct facrec {
     struct fr_dedge *de; /* adopt(): directed edges */
     size_t capde;
     uint32_t *tris; /* adopt(): its triangles, 3 vertices each */
-    size_t captris;
+    size_t ntris, captris;
     size_t adopted; /* subfacets replaced by coplanar faces of the mesh */
     size_t recovered, regions;
     int last; /* the reason of the last give-up */
@@ -171,10 +173,10 @@ static int vside(facrec *s, uint32_t v)
     const double *p = X(&s->r->m, v);
     for (size_t i = 0; i < s->nreg; i++) {
         int o = pred_orient3d(tri_x(s, i, 0), tri_x(s, i, 1), tri_x(s, i, 2), p);
-        pos |= o >= 0;
-        neg |= o <= 0;
+        pos |= o > 0;
+        neg |= o < 0;
     }
-    s->vside[v] = pos && neg ? FR_V_NONE : pos ? FR_V_UP : FR_V_DOWN;
+    s->vside[v] = pos && neg ? FR_V_NONE : pos ? FR_V_UP : neg ? FR_V_DOWN : FR_V_PLANE;
     return s->vside[v];
 }
 
@@ -1020,6 +1022,7 @@ static int adopt(facrec *s)
             s->de[n++] = s->de[i];
     nde = n;
     size_t ntri = 0, maxtri = 4 * s->nreg + 16;
+    s->ntris = 0;
     for (size_t i = 0; i < nde; i++) {
         fr_dedge e = s->de[i];
         if (e.used)
@@ -1050,6 +1053,7 @@ static int adopt(facrec *s)
         if (pdr_grow((void **)&s->tris, &s->captris, 3 * (ntri + 1), sizeof *s->tris))
             return PDR_ENOMEM;
         memcpy(s->tris + 3 * ntri++, tri, sizeof tri);
+        s->ntris = ntri;
         for (int k = 0; k < 3; k++) {
             uint32_t a = tri[k], b = tri[(k + 1) % 3];
             long j = dedge_find(s->de, nde, a, b);
@@ -1132,26 +1136,102 @@ static int recover_one(facrec *s, uint32_t id)
     return rc < 0 ? rc : rc > 0 ? 1 : 0;
 }
 
+/* The scratch of a recovery for r's mesh. Returns 0 or PDR_ENOMEM. */
+static int fr_open(facrec *s, ref_mesher *r)
+{
+    memset(s, 0, sizeof *s);
+    s->r = r;
+    s->vside = pr_calloc(r->m.nv ? r->m.nv : 1, 1);
+    if (!s->vside)
+        return PDR_ENOMEM;
+    for (int k = 0; k < 2; k++) {
+        s->vloc[k] = pr_calloc(r->m.nv ? r->m.nv : 1, sizeof *s->vloc[k]);
+        if (!s->vloc[k])
+            return PDR_ENOMEM;
+        int rc = tm_init(&s->sub[k], 0);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+static void fr_close(facrec *s)
+{
+    pr_free(s->cav);
+    pr_free(s->de);
+    pr_free(s->tris);
+    pr_free(s->miss);
+    pr_free(s->reg);
+    pr_free(s->vside);
+    pr_free(s->touched);
+    pr_free(s->bf);
+    pr_free(s->keep);
+    pr_free(s->keepf);
+    pr_free(s->order);
+    for (int k = 0; k < 2; k++) {
+        pr_free(s->pts[k]);
+        pr_free(s->vloc[k]);
+        tm_free(&s->sub[k]);
+        pr_free(s->fill[k]);
+        pr_free(s->fidx[k]);
+        pr_free(s->map[k]);
+    }
+}
+
+/* Marks the face of the mesh that subfacet i is (present): 0, or 1 if it
+ * is no face. */
+static int mark_subfac(ref_mesher *r, uint32_t i)
+{
+    bd_subfac *F = &r->bd.facs[i];
+    uint32_t t;
+    if (!ref__find_in_star(&r->m, F->v[0], F->v[1], F->v[2], &t))
+        return 1;
+    const tm_tet *T = &r->m.tets[t];
+    int k = 6 - ref__slot_in(T, F->v[0]) - ref__slot_in(T, F->v[1]) - ref__slot_in(T, F->v[2]);
+    tm_mark_face(&r->m, t, k, (int32_t)F->facet + 1);
+    F->flags &= (uint16_t)~(BD_F_MISSING | BD_F_QUEUED);
+    return 0;
+}
+
+int ref__recover_region(ref_mesher *r, uint32_t id)
+{
+    facrec s;
+    int rc = fr_open(&s, r);
+    if (!rc)
+        rc = recover_one(&s, id);
+    if (rc == 0) {
+        /* The region's subfacets are faces now, and the subfacets inside
+         * the cavity are faces again: their marks. */
+        for (size_t i = 0; i < s.nreg; i++)
+            mark_subfac(r, s.reg[i]);
+        for (size_t i = 0; i < s.nkeepf; i += 3) {
+            uint32_t f = bd_find_subfac(&r->bd, s.keepf[i], s.keepf[i + 1], s.keepf[i + 2]);
+            if (f != BD_NONE)
+                mark_subfac(r, f);
+        }
+        r->st.facrec_faces += s.nreg;
+    } else if (rc == 2) {
+        /* Retriangulated in its facet: the new subfacets are faces. */
+        for (size_t i = 0; i < s.ntris; i++) {
+            const uint32_t *t = s.tris + 3 * i;
+            uint32_t f = bd_find_subfac(&r->bd, t[0], t[1], t[2]);
+            if (f != BD_NONE)
+                mark_subfac(r, f);
+        }
+        rc = 0;
+    }
+    fr_close(&s);
+    return rc;
+}
+
 int ref_recover_facets(ref_mesher *r)
 {
     facrec s;
-    memset(&s, 0, sizeof s);
-    s.r = r;
-    int rc = 0;
+    int rc = fr_open(&s, r);
     const bd_set *bd = &r->bd;
     /* tried[i]: subfacet i was in a region that failed in this pass. */
     uint8_t *tried = NULL;
     size_t captried = 0;
-    s.vside = pr_calloc(r->m.nv, 1);
-    if (!s.vside)
-        rc = PDR_ENOMEM;
-    for (int k = 0; k < 2 && !rc; k++) {
-        s.vloc[k] = pr_calloc(r->m.nv, sizeof *s.vloc[k]);
-        if (!s.vloc[k])
-            rc = PDR_ENOMEM;
-        else
-            rc = tm_init(&s.sub[k], 0);
-    }
     for (int pass = 0; pass < FR_PASSES && !rc; pass++) {
         size_t progress = 0;
         for (uint32_t i = 0; i < bd->nfacs && !rc; i++) {
@@ -1197,24 +1277,6 @@ int ref_recover_facets(ref_mesher *r)
                 s.recovered, s.regions, s.cones, s.adopted, s.why[FR_W_REGION], s.why[FR_W_COLLECT],
                 s.why[FR_W_SIDES], s.why[FR_W_FILL], s.why[FR_W_FLOOR], s.why[FR_W_OPEN],
                 s.why[FR_W_GROW], s.why[FR_W_KEEP]);
-    pr_free(s.cav);
-    pr_free(s.de);
-    pr_free(s.tris);
-    pr_free(s.miss);
-    pr_free(s.reg);
-    pr_free(s.vside);
-    pr_free(s.touched);
-    pr_free(s.bf);
-    pr_free(s.keep);
-    pr_free(s.keepf);
-    pr_free(s.order);
-    for (int k = 0; k < 2; k++) {
-        pr_free(s.pts[k]);
-        pr_free(s.vloc[k]);
-        tm_free(&s.sub[k]);
-        pr_free(s.fill[k]);
-        pr_free(s.fidx[k]);
-        pr_free(s.map[k]);
-    }
+    fr_close(&s);
     return rc;
 }

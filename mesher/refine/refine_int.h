@@ -102,6 +102,15 @@ int ref__needle_facet(const ref_mesher *r, uint32_t f);
 /* The point that splits subsegment ab (tests/test_refine.c checks it). */
 void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
+/* --------------------------------------------------- refine_facrec.c */
+
+/* Recovers missing subfacet id with its region as ref_recover_facets
+ * does, in a mesh whose present subfacets are marked: on success the
+ * region's subfacets (or the facet's new ones, when the mesh triangulates
+ * a coplanar region otherwise) are marked faces, no longer missing or
+ * queued. Returns 0 (recovered), 1 (left as it was) or a negative code. */
+int ref__recover_region(ref_mesher *r, uint32_t id);
+
 /* ------------------------------------------------------ refine_cdt.c */
 
 /* may_cross of a constrained boundary split: a face whose subfacet is in

@@ -1329,6 +1329,24 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
     bd_subfac *s = &r->bd.facs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if (r->narrow_recovery && !r->carved) {
+        /* The recovery with segments first: a missing subfacet is first
+         * recovered with its region by cavity retriangulation, now that
+         * its neighbours are constraints (refine_facrec.c); one that was,
+         * with another's region, is no longer queued. */
+        if (!(s->flags & BD_F_QUEUED))
+            return 0;
+        if (s->flags & BD_F_MISSING) {
+            s->flags &= (uint16_t)~BD_F_QUEUED;
+            int rc = ref__recover_region(r, id);
+            if (rc <= 0)
+                return rc;
+            s = &r->bd.facs[id];
+            if (s->flags & BD_F_DEAD)
+                return 0;
+            s->flags |= BD_F_QUEUED;
+        }
+    }
     if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 3))
         return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
