@@ -42,7 +42,9 @@
  *    tetrahedron is left (counted near small angles).
  *  - The initial mesh: the Delaunay tetrahedralization of the input
  *    vertices, then missing subsegments and missing subfacets are split
- *    until every piece is present (present pieces are constraints from the
+ *    (or, in the second attempt, segments first and missing facet regions
+ *    retriangulated first: mesher/refine/RECOVERY.md) until every piece
+ *    is present (present pieces are constraints from the
  *    start, so none is ever lost again; encroachment is not repaired
  *    there); then the exterior and the holes are classified, and CARVED:
  *    their tetrahedra are deleted and every boundary face gets a ghost
@@ -54,7 +56,11 @@
  *
  * What it guarantees, and where: the mesh is a constrained Delaunay
  * tetrahedralization (every face that is not on an input facet is locally
- * Delaunay), every input facet is exactly covered by subfacets, and
+ * Delaunay), except after the second attempt of the recovery (segments
+ * first, then facets by cavity retriangulation: refine_segrec.c,
+ * refine_facrec.c), where a face no flip mends is left and counted
+ * (ref_mesher.keep_stuck) because the splits next to it cascade on those
+ * inputs; every input facet is exactly covered by subfacets, and
  * every interior tetrahedron has radius-edge ratio below the bound except
  * those whose split was refused next to a small input angle (counted by
  * ref_count_bad as left near small angles) or that are degenerate.

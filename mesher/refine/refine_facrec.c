@@ -1,10 +1,10 @@
 /*
  * refine/refine_facrec.c -- the second phase of the constrained recovery
  * (ref_opts.constrained with segments first, refine_segrec.c): every
- * missing subfacet whose three edges are edges of the tetrahedralization
- * made a face of it by retriangulating the tetrahedra it crosses, with no
- * new vertex (Si 2015, TetGen's facet recovery; Shewchuk 2002), before the
- * subfacets become constraints.
+ * missing facet region (missing subfacets of one facet, bounded by edges
+ * of the tetrahedralization) made faces of it by retriangulating the
+ * tetrahedra it crosses, with no new vertex (Si 2015, TetGen's facet
+ * recovery; Shewchuk 2002), before the subfacets become constraints.
  *
  * Why. After the segment recovery every subsegment is an edge, but on CAD
  * tessellations (long thin triangles nearly in the plane of their
@@ -16,41 +16,59 @@
  * RECOVERY.md). A missing triangle whose edges are present needs no new
  * vertex in most cases: the tetrahedra it crosses form a cavity that the
  * triangle cuts in two, and each half can usually be tetrahedralized with
- * the triangle as a face.
+ * the triangle as a face. The segment splits add edges inside the facets
+ * (from a split point to the opposite corner) that may be missing too:
+ * so the unit is a region of missing triangles joined across such edges.
  *
- * How, for one missing subfacet T = abc (its edges present):
- *   1. The cavity C: the tetrahedra whose interior meets the open triangle,
- *      found from the tetrahedra around T's edges and across their faces.
- *      Because T's edges are edges of the mesh and no vertex lies inside
- *      T, the part of a tetrahedron in T's plane H is either inside T or
- *      outside it, and one edge crossing H decides which (crosses()).
- *   2. Every boundary face of C then lies on one side of H (touching it
- *      at most at vertices): the UPPER faces and the LOWER faces. With T
- *      they bound two polyhedra, the upper and the lower cavity.
+ * How, for one missing subfacet:
+ *   0. Its region: the missing subfacets of its facet reached across
+ *      edges that are not edges of the mesh (region()). The region's
+ *      vertices are the floor; every other vertex is above or below all
+ *      of its triangles, in their plane, or neither (vside()).
+ *   1. The cavity C: the tetrahedra whose interior meets a triangle of the
+ *      region (an exact separating-axis test, crosses_tri()), found from
+ *      the tetrahedra around the region's present edges and across their
+ *      faces. No tetrahedron crosses a region that lies in one plane and
+ *      that the mesh triangulates otherwise (cocircular vertices): its
+ *      subfacets are then replaced by those faces of the mesh when they
+ *      triangulate it exactly (adopt()).
+ *   2. Every boundary face of C lies above or below the region (touching
+ *      it at most at floor vertices): the UPPER faces and the LOWER
+ *      faces. With the region's triangles they bound two polyhedra, the
+ *      upper and the lower cavity.
  *   3. Each cavity is tetrahedralized by the Delaunay tetrahedralization
- *      of its vertices (a scratch tm_mesh, mesh/dt.c) restricted to it:
- *      if every boundary face of the cavity, T included, is a face of that
- *      tetrahedralization (seen from the right side), the tetrahedra
- *      reached from those faces without crossing them fill the cavity
- *      exactly. Where a boundary face is missing, the tetrahedron outside
- *      it (on the same side of H) joins C and the step is tried again, a
- *      few times (TetGen grows its cavities the same way).
+ *      of its vertices (a scratch tm_mesh, mesh/dt.c), or else by the cone
+ *      from one of its vertices that sees every other face strictly from
+ *      inside, restricted to it: if every boundary face of the cavity,
+ *      floor included, is a face of that tetrahedralization (seen from
+ *      the right side), the tetrahedra reached from those faces without
+ *      crossing them fill the cavity exactly. Where a boundary face is
+ *      missing from the Delaunay one and no cone does, the tetrahedron
+ *      outside it (on the same side) joins C and the step is tried again,
+ *      a few times (TetGen grows its cavities the same way).
  *   4. The two fills replace C: new tetrahedra linked to each other
- *      across T and to C's outside across its boundary faces, whose marks
- *      and subsegment bits they take.
+ *      across the floor and to C's outside across its boundary faces,
+ *      whose marks and subsegment bits they take.
  * It is done only when no subsegment edge and no subfacet face inside C
  * (a recovered neighbour) would be lost, and no vertex of C either. What
  * fails is left missing: ref_queue_boundary and ref_run split it as
- * before, with the subfacets this phase recovered already constraints.
+ * before, with the subfacets this phase recovered already constraints;
+ * ref_run first tries the region again (ref__recover_region), since its
+ * neighbours may have changed.
  *
  * What it guarantees: every commit replaces a set of tetrahedra by a
  * tetrahedralization of the same polyhedron with the same boundary faces
- * and vertices, so the mesh stays a valid tetrahedralization of the same
- * points (no longer Delaunay: ref_cdt_restore's flips after the carving
- * make it a constrained Delaunay one); every present subsegment and every
- * subfacet made present stays present; no point is inserted, so the phase
- * ends (each pass over the missing subfacets either recovers one or
- * stops).
+ * and vertices (all new tetrahedra positively oriented, their unshared
+ * faces exactly the old boundary faces seen from the same side: by the
+ * winding number they cover it once), so the mesh stays a valid
+ * tetrahedralization of the same points (no longer Delaunay: the flips of
+ * ref_cdt_restore after the carving mend what they can, and
+ * ref_mesher.keep_stuck leaves the rest, counted); every present
+ * subsegment and every subfacet made present stays present; no point is
+ * inserted, so the phase ends (passes repeat only while one recovers a
+ * region). It does not guarantee that a region is recovered: a cavity may
+ * need Steiner points (Schonhardt's polyhedron), and only the Delaunay
+ * fill and cones are tried.
  *
  * Ownership: works in place on r's mesh; all scratch is its own and freed
  * before returning.
@@ -97,6 +115,20 @@ typedef struct fr_face {
  * a bent region: no cavity). */
 enum { FR_V_UNKNOWN = 0, FR_V_FLOOR, FR_V_UP, FR_V_DOWN, FR_V_PLANE, FR_V_NONE };
 
+/* Why a region was left (facrec.why, the trace line). */
+enum {
+    FR_W_REGION,  /* a region edge on the facet's boundary is missing, or
+                     the region is too large */
+    FR_W_COLLECT, /* no crossing tetrahedron, or the cavity too large */
+    FR_W_SIDES,   /* a vertex or boundary face on no side */
+    FR_W_FILL,    /* no Delaunay tetrahedralization of a side's points */
+    FR_W_FLOOR,   /* a floor triangle missing from every fill */
+    FR_W_OPEN,    /* the faces found do not close a fill */
+    FR_W_GROW,    /* the cavity cannot grow across a missing face */
+    FR_W_KEEP,    /* a fill loses a kept edge, subfacet or vertex */
+    FR_W_N
+};
+
 typedef struct facrec {
     ref_mesher *r;
     uint32_t *reg; /* the region: missing subfacets of one facet */
@@ -136,21 +168,9 @@ typedef struct facrec {
     size_t adopted; /* subfacets replaced by coplanar faces of the mesh */
     size_t recovered, regions;
     int last; /* the reason of the last give-up */
-    size_t why[12]; /* regions left, by reason (FR_W_*), for the trace */
+    size_t why[FR_W_N]; /* regions left, by reason, for the trace */
 } facrec;
 
-enum {
-    FR_W_REGION,  /* a region edge on the facet's boundary is missing, or
-                     the region is too large */
-    FR_W_COLLECT, /* no crossing tetrahedron, or the cavity too large */
-    FR_W_SIDES,   /* a vertex or boundary face on no side */
-    FR_W_FILL,
-    FR_W_FLOOR,
-    FR_W_OPEN,
-    FR_W_GROW,
-    FR_W_KEEP,
-    FR_W_N
-};
 
 #define FR_REGION_MAX 64
 
@@ -624,7 +644,9 @@ static int build_cone(facrec *s, int k, size_t j)
     }
     if (!nf)
         return 2;
-    /* Every point must be a corner of a face (the apex excepted). */
+    /* Every point must be a corner of a face (the apex excepted): the top
+     * bit of vloc marks the points not seen yet (local numbers are far
+     * below it). */
     for (size_t i = 0; i < s->npts[k]; i++)
         s->vloc[k][s->pts[k][i]] |= 0x80000000u;
     for (size_t i = 0; i < s->nbf; i++)
