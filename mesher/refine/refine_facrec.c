@@ -373,6 +373,18 @@ static int region(facrec *s, uint32_t id)
     return 0;
 }
 
+/* Adds tetrahedron u to the cavity if it is not in it and crosses the
+ * region: 0, 1 (the cavity too large) or a negative code. */
+static int take_if_crossing(facrec *s, uint32_t u)
+{
+    if (s->r->m.flags[u] & TM_F_CAVITY)
+        return 0;
+    int c = crosses(s, u);
+    if (c < 0)
+        return PDR_ENOMEM;
+    return c > 0 ? cav_add(s, u) : 0;
+}
+
 /* Step 1: the tetrahedra crossing the region, from those around its
  * present edges. Returns 0, 1 (give up) or a negative code. */
 static int collect(facrec *s)
@@ -388,14 +400,9 @@ static int collect(facrec *s)
             if (ref_around_edge(m, t, a, b, gather, s) != 0)
                 return 1;
             for (size_t j = 0; j < s->nring; j++) {
-                uint32_t u = s->ring[j];
-                if (m->flags[u] & TM_F_CAVITY)
-                    continue;
-                int c = crosses(s, u);
-                if (c < 0)
-                    return PDR_ENOMEM;
-                if (c > 0 && (c = cav_add(s, u)))
-                    return c;
+                int rc = take_if_crossing(s, s->ring[j]);
+                if (rc)
+                    return rc;
             }
         }
     }
@@ -407,14 +414,9 @@ static int collect(facrec *s)
             tm_link l = T->n[f];
             if (tm_is_special(l))
                 return 1;
-            uint32_t u = tm_ltet(l);
-            if (m->flags[u] & TM_F_CAVITY)
-                continue;
-            int c = crosses(s, u);
-            if (c < 0)
-                return PDR_ENOMEM;
-            if (c > 0 && (c = cav_add(s, u)))
-                return c;
+            int rc = take_if_crossing(s, tm_ltet(l));
+            if (rc)
+                return rc;
         }
     }
     return 0;

@@ -386,14 +386,9 @@ static double insertion_radius(const ref_mesher *r)
     return sqrt(best);
 }
 
-struct root_arg {
-    ref_mesher *r;
-    int rc;
-};
-
-static int add_root(void *arg, uint32_t s)
+int ref__add_root(void *arg, uint32_t s)
 {
-    struct root_arg *a = arg;
+    struct ref_root_arg *a = arg;
     if (a->r->bd.facs[s].flags & BD_F_VISIT)
         return 0;
     if (ref__list_add(a->r, s)) {
@@ -519,12 +514,12 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         ref__split_point(r, S.v[0], S.v[1], p);
     }
     int setback = 0, rc = 0;
-    struct root_arg ra = {r, 0};
+    struct ref_root_arg ra = {r, 0};
     if (r->o.constrained) {
         /* The 2D cavities first: they say which subfacets the 3D cavity
          * crosses (refine_cdt.c). */
         ref__list_clear(r);
-        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], ref__add_root, &ra);
         uint32_t ea, eb;
         int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
         if (g > 0)
@@ -593,7 +588,7 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
     int g = rc;
     if (!rc && !r->o.constrained) {
         ref__list_clear(r);
-        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], ref__add_root, &ra);
         g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
     }
     if (g < 0) {

@@ -96,29 +96,12 @@ static int sr_push(segrec *s, uint32_t id)
     return 0;
 }
 
-static int set_bit(const tm_mesh *m, uint32_t t, void *arg)
-{
-    const uint32_t *ab = arg;
-    const tm_tet *T = &m->tets[t];
-    int sa = ref__slot_in(T, ab[0]), sb = ref__slot_in(T, ab[1]);
-    ((tm_mesh *)m)->flags[t] |= TM_F_SUBSEG(tm_edge_of[sa][sb]);
-    return 0;
-}
-
 /* Marks subsegment id's edge in the mesh if it is an edge: 1, else 0
  * (flagged missing). */
 static int attach(ref_mesher *r, uint32_t id)
 {
-    bd_subseg *s = &r->bd.segs[id];
     uint32_t t;
-    if (!ref__find_in_star(&r->m, s->v[0], s->v[1], TM_NONE, &t)) {
-        s->flags |= BD_F_MISSING;
-        return 0;
-    }
-    s->flags &= (uint16_t)~BD_F_MISSING;
-    uint32_t ab[2] = {s->v[0], s->v[1]};
-    ref_around_edge(&r->m, t, ab[0], ab[1], set_bit, ab);
-    return 1;
+    return ref__mark_subseg(r, id, &t);
 }
 
 static int gather_ring(const tm_mesh *m, uint32_t t, void *arg)
@@ -240,31 +223,14 @@ static int stop_hidden(ref_mesher *r, const double p[3], uint32_t seg)
     return PDR_ELIMIT;
 }
 
-struct root_arg {
-    ref_mesher *r;
-    int rc;
-};
-
-static int add_root(void *arg, uint32_t sf)
-{
-    struct root_arg *a = arg;
-    if (a->r->bd.facs[sf].flags & BD_F_VISIT)
-        return 0;
-    if (ref__list_add(a->r, sf)) {
-        a->rc = PDR_ENOMEM;
-        return 1;
-    }
-    return 0;
-}
-
 /* The facet triangulations through subsegment a-b after the split at
  * vertex v: its 2D cavity (r->list) replaced by the fan of v. */
 static int split_facets(ref_mesher *r, uint32_t a, uint32_t b, uint32_t v)
 {
     const double *p = X(&r->m, v);
-    struct root_arg ra = {r, 0};
+    struct ref_root_arg ra = {r, 0};
     ref__list_clear(r);
-    bd_subfacs_on_edge(&r->bd, a, b, add_root, &ra);
+    bd_subfacs_on_edge(&r->bd, a, b, ref__add_root, &ra);
     uint32_t ea, eb;
     int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, a, b, &ea, &eb);
     if (g > 0) {
