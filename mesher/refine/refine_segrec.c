@@ -223,11 +223,11 @@ static int stop_hidden(ref_mesher *r, const double p[3], uint32_t seg)
     return PDR_ELIMIT;
 }
 
-/* The facet triangulations through subsegment a-b after the split at
- * vertex v: its 2D cavity (r->list) replaced by the fan of v. */
-static int split_facets(ref_mesher *r, uint32_t a, uint32_t b, uint32_t v)
+/* The 2D cavity of point p on subsegment a-b in the facets through it
+ * (r->list, r->bedge): 0, 1 when there is none (p, rounded, outside a thin
+ * subfacet on the edge), or a negative code. */
+static int facets_cavity(ref_mesher *r, uint32_t a, uint32_t b, const double *p)
 {
-    const double *p = X(&r->m, v);
     struct ref_root_arg ra = {r, 0};
     ref__list_clear(r);
     bd_subfacs_on_edge(&r->bd, a, b, ref__add_root, &ra);
@@ -243,6 +243,13 @@ static int split_facets(ref_mesher *r, uint32_t a, uint32_t b, uint32_t v)
         ref__list_clear(r);
         return g < 0 ? g : 1;
     }
+    return 0;
+}
+
+/* The facet triangulations after the split at vertex v: the 2D cavity
+ * (facets_cavity) replaced by the fan of v. */
+static int split_facets(ref_mesher *r, uint32_t v)
+{
     for (size_t i = 0; i < r->nlist; i++)
         bd_kill_subfac(&r->bd, r->list[i]);
     r->nlist = 0;
@@ -255,6 +262,8 @@ static int split_facets(ref_mesher *r, uint32_t a, uint32_t b, uint32_t v)
     return rc;
 }
 
+static int place(segrec *s, uint32_t id, const double p[3]);
+
 /* Splits missing subsegment id. Returns 0 or a negative code (PDR_ELIMIT
  * with r->stopped_below when it cannot be split). */
 static int split_one(segrec *s, uint32_t id)
@@ -263,7 +272,47 @@ static int split_one(segrec *s, uint32_t id)
     tm_mesh *m = &r->m;
     bd_subseg S = r->bd.segs[id];
     double p[3];
-    ref__split_point(r, S.v[0], S.v[1], p);
+    /* The split point, and its 2D cavity first: where the rounded point
+     * falls outside a thin subfacet on the segment, other points of it. */
+    static const double at[] = {0.0, 0.375, 0.625, 0.25, 0.75};
+    int rc = 1;
+    for (size_t k = 0; k < sizeof at / sizeof at[0] && rc > 0; k++) {
+        const double *pa = X(m, S.v[0]), *pb = X(m, S.v[1]);
+        if (k == 0)
+            ref__split_point(r, S.v[0], S.v[1], p);
+        else
+            for (int j = 0; j < 3; j++)
+                p[j] = pa[j] + at[k] * (pb[j] - pa[j]);
+        rc = facets_cavity(r, S.v[0], S.v[1], p);
+    }
+    if (rc)
+        return rc < 0 ? rc : stop_hidden(r, p, S.seg);
+    rc = place(s, id, p);
+    if (rc) {
+        ref__list_clear(r);
+        return rc;
+    }
+    if ((rc = split_facets(r, r->last_v)))
+        return rc;
+    bd_kill_subseg(&r->bd, id);
+    for (int k = 0; k < 2 && !rc; k++) {
+        uint32_t half;
+        rc = bd_add_subseg(&r->bd, S.v[k], r->last_v, S.seg, &half);
+        if (!rc && !attach(r, half))
+            rc = sr_push(s, half);
+    }
+    return rc;
+}
+
+/* Inserts the split point p of missing subsegment id (r->last_v the new
+ * vertex), with Lawson's flips. Returns 0 or a negative code (PDR_ELIMIT
+ * with r->stopped_below when it has no valid cavity or would go below the
+ * resolution floor). */
+static int place(segrec *s, uint32_t id, const double p[3])
+{
+    ref_mesher *r = s->r;
+    tm_mesh *m = &r->m;
+    bd_subseg S = r->bd.segs[id];
     uint32_t t = TM_NONE;
     tm_link exit_link;
     uint32_t h = ref__vertex_tet(m, S.v[0]);
@@ -345,18 +394,6 @@ static int split_one(segrec *s, uint32_t id)
     r->st.flips32 += r->flipped.flips32;
     r->flipped.flips23 = r->flipped.flips32 = r->flipped.flips22 = r->flipped.stuck = 0;
     r->flipped.blocked = 0;
-    if (rc)
-        return rc;
-    rc = split_facets(r, S.v[0], S.v[1], v);
-    if (rc)
-        return rc < 0 ? rc : stop_hidden(r, p, S.seg);
-    bd_kill_subseg(&r->bd, id);
-    for (int k = 0; k < 2 && !rc; k++) {
-        uint32_t half;
-        rc = bd_add_subseg(&r->bd, S.v[k], v, S.seg, &half);
-        if (!rc && !attach(r, half))
-            rc = sr_push(s, half);
-    }
     return rc;
 }
 
