@@ -410,6 +410,8 @@ typedef struct ref_mesher {
                           stop_vkind (BD_V_SEGMENT, BD_V_FACET) */
     int stop_vkind;
     uint32_t stop_feat;
+    int centroid_try;  /* split_subfac_cdt is trying a missing subfacet's
+                          centroid (keep_stuck only) */
     int keep_stuck;    /* the recovery with segments first ran (im_build):
                           a face no flip mends is left as it is, not
                           mended by splitting the pieces next to it

@@ -721,6 +721,18 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
             *result = SPLIT_ELSEWHERE;
             return 0;
         }
+        if (missing && r->keep_stuck && !r->centroid_try) {
+            /* The recovery with segments first: a missing subfacet whose
+             * circumcentre (of a thin triangle: far off, its 2D cavity
+             * wide) has no valid cavity is split at its centroid, once. */
+            double ctr[3];
+            for (int k = 0; k < 3; k++)
+                ctr[k] = (X(m, G.v[0])[k] + X(m, G.v[1])[k] + X(m, G.v[2])[k]) / 3.0;
+            r->centroid_try = 1;
+            rc = split_subfac_cdt(r, id, ctr, rmin, result);
+            r->centroid_try = 0;
+            return rc;
+        }
         if (missing)
             return hidden_piece(r, c, missing, &r->bd.facs[id].flags, BD_V_FACET, G.facet);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
