@@ -15,7 +15,8 @@
 #  - the summary says exactly how many faces were left not locally
 #    Delaunay (the faces no flip mends next to the thin triangles, which
 #    the recovery with segments first leaves: refine_cdt.c), and pdr check
-#    finds no more tetrahedra above ratio 2 than the summary reports left.
+#    finds no more tetrahedra above ratio 2 than the summary reports left;
+#  - 'pdr mesh -n 2' refuses such a part with a message, at once.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 tmp=$(pwd)/mesh-cad-public.$$
@@ -58,4 +59,15 @@ helmet 10887
 anchor 21716
 spool 9968
 EOF
+
+# The parallel refinement cannot refine such an initial mesh yet (its PEs
+# would split next to those faces without end): 'pdr mesh -n 2' says so
+# and fails at once, instead of running on.
+timeout 60 "$PDR" mesh -n 2 -o "$tmp/par" "$data/part.off" >"$tmp/par.out" 2>&1
+rc=$?
+[ "$rc" -ne 0 ] && [ "$rc" -ne 124 ] || { cat "$tmp/par.out"; fail "part -n 2: exit $rc"; }
+grep -q 'which the parallel refinement cannot refine yet; run without -n' "$tmp/par.out" ||
+    { cat "$tmp/par.out"; fail "part -n 2: no message"; }
+[ ! -e "$tmp/par.ele" ] || fail "part -n 2: a mesh was written"
+echo "part -n 2: refused"
 echo "ok"
