@@ -71,6 +71,13 @@ EXTRA_DIST += \
 	tests/data/plc/truncated.poly \
 	tests/data/plc/unknown.xyz \
 	tests/data/plc/zero-area.poly \
+	tests/data/cad/README.md \
+	tests/data/cad/anchor.off \
+	tests/data/cad/helmet.off \
+	tests/data/cad/joint.off \
+	tests/data/cad/oblong.off \
+	tests/data/cad/part.off \
+	tests/data/cad/spool.off \
 	tests/data/surf/bracket-0.2.off \
 	tests/data/surf/boxcylsph-0.2.off \
 	tests/data/surf/cone-0.2.off \
@@ -111,7 +118,7 @@ tests_test_refine_LDADD = libpdrmesh.la libpdrproto.la $(UNIT_LIBS) -lm
 REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/mesh-output.sh tests/mesh-threads.sh tests/mesh-surfaces.sh tests/check-damaged.sh \
 	tests/mesh-tessellated.sh \
-	tests/mesh-cad.sh
+	tests/mesh-cad.sh tests/mesh-cad-public.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
 

@@ -198,8 +198,8 @@ static int point_limit(mp_ctx *c)
                       "the boundary recovery cannot recover a missing piece of the boundary%s: "
                       "after %zu points, the split at (%.17g, %.17g, %.17g) has no valid "
                       "constrained cavity (facets around it, long thin triangles nearly in the "
-                      "plane of their neighbours, hide part of what it must replace; a "
-                      "recovery by cavity retriangulation, as TetGen's, is not implemented) "
+                      "plane of their neighbours, hide part of what it must replace; the "
+                      "recovery by cavity retriangulation, tried first, left it missing) "
                       "(nothing written)",
                       where, n, r->stop_at[0], r->stop_at[1], r->stop_at[2]);
         return PDR_ELIMIT;
@@ -208,8 +208,8 @@ static int point_limit(mp_ctx *c)
         pdr_cli_error(MP_CMD,
                       "the boundary recovery does not terminate: after %zu points (its bound: "
                       "%d per input vertex and %d more) pieces of the boundary are still "
-                      "missing; splits cascade next to small angles of the input, where a "
-                      "recovery by cavity retriangulation, as TetGen's, is not implemented "
+                      "missing; splits cascade next to small angles of the input, where "
+                      "the recovery by cavity retriangulation left pieces missing "
                       "(nothing written)",
                       r->recovery_capped, IM_RECOVERY_PER_VERTEX, IM_RECOVERY_BASE);
         return PDR_ELIMIT;
@@ -284,6 +284,22 @@ int mp_initial_mesh(mp_ctx *c)
         return fail(c, rc);
     c->have_r = 1;
     rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
+    if (rc == PDR_ELIMIT && c->r.stopped_below && c->r.stop_hidden && c->o.ref.constrained &&
+        !c->o.mo.paper) {
+        /* A split of the constrained recovery had no valid cavity (CAD
+         * tessellations: RECOVERY.md): built again from the start with
+         * the segments recovered first (refine/refine_segrec.c). Only
+         * then, so that every input that meshes the first way keeps its
+         * output. */
+        ref_free(&c->r);
+        c->have_r = 0;
+        pdr_diag_free(&c->diag);
+        if ((rc = ref_init(&c->r, &c->p, &c->o.ref)))
+            return fail(c, rc);
+        c->have_r = 1;
+        c->o.mo.segments_first = 1;
+        rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
+    }
     /* Warnings (a region point outside the domain) are shown even when
      * Mo was built. */
     if (c->diag.ntotal) {
@@ -303,6 +319,17 @@ int mp_initial_mesh(mp_ctx *c)
         c->is.tets = ref_interior_tets(&c->r);
     }
     c->sec[MP_MO] = pdr_now() - t;
+    if (c->o.parallel && c->r.keep_stuck && !c->o.mo_only) {
+        /* The PEs' refiners do not know keep_stuck (it is no option that
+         * travels to them): they split next to the faces no flip mends,
+         * and on these inputs that does not end (RECOVERY.md). */
+        pdr_cli_error(MP_CMD,
+                      "the initial mesh comes from the recovery with segments first (thin "
+                      "input triangles: faces that no flip makes locally Delaunay are left), "
+                      "which the parallel refinement cannot refine yet; run without -n "
+                      "(nothing written)");
+        return PDR_EINVAL;
+    }
     if (!c->o.quiet) {
         printf("initial mesh (%s): %zu tetrahedra, %zu points added on segments, %zu on "
                "facets",
@@ -602,6 +629,11 @@ int mp_write(mp_ctx *c)
 static void print_left(const mp_ctx *c)
 {
     const ref_stats *st = &c->st;
+    if (st->left_stuck)
+        printf("left not locally Delaunay: %zu faces next to thin input triangles (the "
+               "recovery with segments first could not make the mesh a constrained "
+               "Delaunay tetrahedralization there)\n",
+               st->left_stuck);
     if (!st->left_ratio && !st->left_size && !st->left_sliver && c->o.quiet)
         return;
     printf("left above the bound: %zu tetrahedra with radius-edge >= %g", st->left_ratio,

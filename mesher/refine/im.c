@@ -2,6 +2,7 @@
 #include "config.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -400,13 +401,31 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         cap = 0; /* no bound of its own */
     if (cap)
         r->o.max_points = r->st.seg_points + r->st.fac_points + r->st.tet_points + cap;
-    rc = ref_queue_boundary(r);
+    /* The constrained recovery: segments first, while no facet is a
+     * constraint (refine_segrec.c), then the facets by retriangulating
+     * the tetrahedra they cross (refine_facrec.c), then the rest by
+     * splits, the subfacets present being constraints. */
+    r->narrow_recovery = r->o.constrained && o && !o->paper && o->segments_first;
+    r->keep_stuck = r->narrow_recovery;
+    rc = r->narrow_recovery ? ref_recover_segments(r) : 0;
+    if (!rc && r->narrow_recovery)
+        rc = ref_recover_facets(r);
+    if (!rc)
+        rc = ref_queue_boundary(r);
+    if (!rc && r->narrow_recovery && r->o.trace) {
+        size_t ms, mf;
+        bd_count_missing(&r->bd, &ms, &mf);
+        fprintf(r->o.trace, "recovery: %zu subsegments and %zu subfacets missing before the splits\n",
+                ms, mf);
+    }
     if (!rc)
         rc = ref_run(r, 0);
     r->o.seg_maxlen = save_len;
     r->o.fac_maxrad = save_rad;
-    if (rc)
+    if (rc) {
+        r->narrow_recovery = 0;
         return recovery_end(r, rc, cap, save_max);
+    }
     s.seg_points = r->st.seg_points - seg0;
     s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
@@ -422,6 +441,7 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     if (!rc && r->o.constrained)
         rc = ref_run(r, 0);
     rc = recovery_end(r, rc, cap, save_max);
+    r->narrow_recovery = 0;
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)

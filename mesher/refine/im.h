@@ -45,6 +45,13 @@
 typedef struct im_opts {
     int paper; /* build the paper's Mo (sizes from d) */
     double d;  /* > 0: use this d instead of computing it */
+    /* The constrained mode: recover the segments first, while no facet is
+     * a constraint (refine/refine_segrec.c), and narrow the 2D cavity of a
+     * split whose constrained cavity cannot delete all of it
+     * (refine_cdt.c). Off by default: the CLI retries with it when the
+     * recovery stops on such a split (cli/mesh_pipeline.c), so that what
+     * meshes without it keeps its output. */
+    int segments_first;
 } im_opts;
 
 /* The bound on the points of the constrained recovery (im_build): this

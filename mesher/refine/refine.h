@@ -226,6 +226,15 @@ typedef struct ref_stats {
     size_t deflected;    /* conforming: subfacet splits that would have
                             deleted a subfacet of an oblique facet, made
                             there instead (split_subfac in refine_run.c) */
+    size_t forced_cavities; /* constrained recovery: splits whose cavity
+                            kept subfacets of their 2D cavity (unmarked,
+                            their replacements recovered in turn) */
+    size_t segrec_points; /* constrained: points of the segment recovery
+                            (ref_recover_segments), before any facet is
+                            a constraint */
+    size_t facrec_faces; /* constrained: missing subfacets made faces by
+                            retriangulating the tetrahedra they cross
+                            (ref_recover_facets), no point inserted */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t edge_star_splits; /* constrained: subsegment splits made in the
                             tetrahedra around the edge (its constrained
@@ -245,6 +254,8 @@ typedef struct ref_stats {
     size_t left_ratio_angle;  /* ... left because their split needed a
                                  boundary split the safety net refused */
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
+    size_t left_stuck;   /* keep_stuck: faces off the facets left not
+                            locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
     size_t left_sliver;  /* ... with a dihedral angle below the bound */
     /* Where the left_ratio_angle tetrahedra are: the input features they
@@ -399,6 +410,15 @@ typedef struct ref_mesher {
                           stop_vkind (BD_V_SEGMENT, BD_V_FACET) */
     int stop_vkind;
     uint32_t stop_feat;
+    int centroid_try;  /* split_subfac_cdt is trying a missing subfacet's
+                          centroid (keep_stuck only) */
+    int keep_stuck;    /* the recovery with segments first ran (im_build):
+                          a face no flip mends is left as it is, not
+                          mended by splitting the pieces next to it
+                          (ref__cdt_flip), and counted at the end */
+    int narrow_recovery; /* im_build with segments_first, while the
+                            recovery runs: narrowed_cavity in
+                            refine_cdt.c may replace a refused split */
     size_t recovery_capped; /* the constrained recovery stopped at its own
                                bound on points (im_build), this one */
     int deflecting;    /* split_subfac is splitting an oblique facet's
@@ -463,6 +483,22 @@ void ref_free(ref_mesher *r);
  * is good for ref_count_bad, ref_consistency, ref_export and ref_free
  * only. */
 void ref_release_work(ref_mesher *r);
+
+/* The constrained recovery's first phase (refine_segrec.c): every missing
+ * subsegment of the initial Delaunay tetrahedralization split until all
+ * are edges of the mesh, with no facet a constraint yet. Returns 0, or
+ * PDR_ELIMIT (the bound o.max_points, or r->stopped_below and r->stop_at
+ * when a piece cannot be split), PDR_ENOMEM, PDR_ETOPOLOGY. */
+int ref_recover_segments(ref_mesher *r);
+
+/* The constrained recovery's second phase (refine_facrec.c), after the
+ * first: every missing subfacet whose edges are edges of the mesh made a
+ * face by retriangulating the tetrahedra it crosses (a cavity on each
+ * side of it, each filled by the Delaunay tetrahedralization of its
+ * vertices when that has every boundary face), with no new vertex and no
+ * facet a constraint yet; what cannot be done so is left missing (counted
+ * in st.facrec_faces: those recovered). Returns 0 or PDR_ENOMEM. */
+int ref_recover_facets(ref_mesher *r);
 
 /* Splits queued subsegments and subfacets (recovery and encroachment)
  * until none is queued; with tets != 0 and the mesh classified, also bad

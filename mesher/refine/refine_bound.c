@@ -574,19 +574,26 @@ static int set_subseg_bit(const tm_mesh *m, uint32_t t, void *arg)
     return 0;
 }
 
-/* Marks existing subsegment id in the mesh if its edge exists; else flags
- * it missing. Returns 1 if present, 0 if missing, <0 on error. */
-static int attach_subseg(ref_mesher *r, uint32_t id)
+int ref__mark_subseg(ref_mesher *r, uint32_t id, uint32_t *t)
 {
     bd_subseg *s = &r->bd.segs[id];
-    uint32_t t;
-    if (!ref__find_in_star(&r->m, s->v[0], s->v[1], TM_NONE, &t)) {
+    if (!ref__find_in_star(&r->m, s->v[0], s->v[1], TM_NONE, t)) {
         s->flags |= BD_F_MISSING;
         return 0;
     }
     s->flags &= (uint16_t)~BD_F_MISSING;
     uint32_t ab[2] = {s->v[0], s->v[1]};
-    ref_around_edge(&r->m, t, ab[0], ab[1], set_subseg_bit, ab);
+    ref_around_edge(&r->m, *t, ab[0], ab[1], set_subseg_bit, ab);
+    return 1;
+}
+
+/* Marks existing subsegment id in the mesh if its edge exists; else flags
+ * it missing. Returns 1 if present, 0 if missing, <0 on error. */
+static int attach_subseg(ref_mesher *r, uint32_t id)
+{
+    uint32_t t;
+    if (!ref__mark_subseg(r, id, &t))
+        return 0;
     int rc = check_subseg(r, id, t);
     return rc < 0 ? rc : 1;
 }

@@ -42,7 +42,9 @@
  *    tetrahedron is left (counted near small angles).
  *  - The initial mesh: the Delaunay tetrahedralization of the input
  *    vertices, then missing subsegments and missing subfacets are split
- *    until every piece is present (present pieces are constraints from the
+ *    (or, in the second attempt, segments first and missing facet regions
+ *    retriangulated first: mesher/refine/RECOVERY.md) until every piece
+ *    is present (present pieces are constraints from the
  *    start, so none is ever lost again; encroachment is not repaired
  *    there); then the exterior and the holes are classified, and CARVED:
  *    their tetrahedra are deleted and every boundary face gets a ghost
@@ -54,7 +56,11 @@
  *
  * What it guarantees, and where: the mesh is a constrained Delaunay
  * tetrahedralization (every face that is not on an input facet is locally
- * Delaunay), every input facet is exactly covered by subfacets, and
+ * Delaunay), except after the second attempt of the recovery (segments
+ * first, then facets by cavity retriangulation: refine_segrec.c,
+ * refine_facrec.c), where a face no flip mends is left and counted
+ * (ref_mesher.keep_stuck) because the splits next to it cascade on those
+ * inputs; every input facet is exactly covered by subfacets, and
  * every interior tetrahedron has radius-edge ratio below the bound except
  * those whose split was refused next to a small input angle (counted by
  * ref_count_bad as left near small angles) or that are degenerate.
@@ -67,6 +73,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -263,6 +270,145 @@ static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32
     return 0;
 }
 
+/* keep of dt_cavity_shrink for a forced recovery cavity: a tetrahedron
+ * that holds the point (closed), r->cav.p, or the split subsegment. */
+static int holds_point(void *arg, uint32_t t)
+{
+    const ref_mesher *r = arg;
+    const tm_mesh *m = &r->m;
+    const tm_tet *T = &m->tets[t];
+    /* Around the subsegment split: its edge must go, even where the
+     * rounded p lies a hair off it. */
+    if (r->split_b != TM_NONE && ref__slot_in(T, r->split_a) >= 0 &&
+        ref__slot_in(T, r->split_b) >= 0)
+        return 1;
+    for (int f = 0; f < 4; f++) {
+        const uint8_t *fv = tm_face_vtx[f];
+        uint32_t x = T->v[fv[0]], y = T->v[fv[1]], z = T->v[fv[2]];
+        if (x == TM_VINF || y == TM_VINF || z == TM_VINF)
+            return 0;
+        if (pred_orient3d(X(m, x), X(m, y), X(m, z), r->cav.p) < 0)
+            return 0;
+    }
+    return 1;
+}
+
+/* 1 while the initial recovery runs (sequentially, before the exterior is
+ * classified): the only time pieces are missing. */
+static int recovering(const ref_mesher *r)
+{
+    return r->narrow_recovery && !r->classified && !r->carved && !r->hooks;
+}
+
+/* 1 if x-y is the subsegment being split (r->split_a, split_b). */
+static int is_split(const ref_mesher *r, uint32_t x, uint32_t y)
+{
+    return r->split_b != TM_NONE &&
+           ((x == r->split_a && y == r->split_b) || (x == r->split_b && y == r->split_a));
+}
+
+/* 1 if the pending cavity deletes subfacet id's face (both tetrahedra
+ * of it in the cavity), or id is missing (no face to keep). */
+static int cavity_takes(const ref_mesher *r, uint32_t id)
+{
+    const tm_mesh *m = &r->m;
+    const bd_subfac *S = &r->bd.facs[id];
+    if (S->flags & BD_F_MISSING)
+        return 1;
+    uint32_t t;
+    if (!ref__find_in_star(m, S->v[0], S->v[1], S->v[2], &t))
+        return 1;
+    const tm_tet *T = &m->tets[t];
+    int k = 6 - ref__slot_in(T, S->v[0]) - ref__slot_in(T, S->v[1]) - ref__slot_in(T, S->v[2]);
+    tm_link l = T->n[k];
+    return (m->flags[t] & TM_F_CAVITY) && !tm_is_special(l) &&
+           (m->flags[tm_ltet(l)] & TM_F_CAVITY);
+}
+
+/* The recovery's cavity of p when its constrained cavity cannot delete
+ * every subfacet of its 2D cavity (what stopped the recovery on CAD
+ * tessellations, RECOVERY.md): searched again from t as before and shrunk
+ * to a star keeping only the tetrahedra that hold p (and, for a
+ * subsegment split, those around its edge); then the 2D cavity is
+ * narrowed to what that 3D cavity deletes (its missing subfacets and the
+ * present ones whose both tetrahedra it holds). The subfacets it keeps
+ * stay present constraints, so nothing is lost; the narrowed 2D cavity
+ * must still be a star from p in every facet (else no cavity: 1), so the
+ * facet triangulations stay triangulations, and the new subfacets of p's
+ * fan that are not faces of the mesh are missing and queued. Returns 0
+ * (r->cav pending, r->list and r->bedge the narrowed 2D cavity), 1
+ * (nothing pending) or a negative code. */
+static int narrowed_cavity(ref_mesher *r, const double p[3], uint32_t t)
+{
+    tm_mesh *m = &r->m;
+    dt_cavity *cav = &r->cav;
+    bd_set *bd = &r->bd;
+    if (tm_is_dead(m, t) || dt_conflict(m, t, p) <= 0)
+        return 1;
+    cav->may_cross = ref__cross_visited;
+    cav->cross_arg = r;
+    int rc = dt_cavity_search(m, p, t, ref__cdt_flags(r), cav);
+    cav->may_cross = NULL;
+    cav->cross_arg = NULL;
+    if (rc)
+        return rc;
+    if (cav->status != DT_OK) {
+        dt_cavity_abandon(m, cav);
+        return 1;
+    }
+    if (!dt_cavity_is_star(m, cav)) {
+        rc = dt_cavity_shrink(m, cav, holds_point, r);
+        if (rc)
+            return rc; /* 1: abandoned already */
+    }
+    /* The narrowed 2D cavity: r->list keeps what the 3D cavity takes. */
+    size_t n = 0;
+    for (size_t i = 0; i < r->nlist; i++) {
+        uint32_t id = r->list[i];
+        if (cavity_takes(r, id))
+            r->list[n++] = id;
+        else
+            bd->facs[id].flags &= (uint16_t)~BD_F_VISIT;
+    }
+    r->nlist = n;
+    r->nbedge = 0;
+    for (size_t i = 0; i < r->nlist && !rc; i++) {
+        uint32_t id = r->list[i];
+        for (int k = 0; k < 3; k++) {
+            const bd_subfac *T = &bd->facs[id];
+            uint32_t x = T->v[(k + 1) % 3], y = T->v[(k + 2) % 3];
+            if (is_split(r, x, y))
+                continue;
+            int seg = bd_find_subseg(bd, x, y) != BD_NONE;
+            uint32_t u = seg ? BD_NONE : bd_subfac_across(bd, id, k);
+            if (u != BD_NONE && (bd->facs[u].flags & BD_F_VISIT))
+                continue;
+            if (ref__orient_facet(r->p, T->facet, X(m, x), X(m, y), p) <= 0) {
+                rc = 1; /* the narrowed 2D cavity is no star */
+                break;
+            }
+            if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge)) {
+                rc = PDR_ENOMEM;
+                break;
+            }
+            uint32_t *e = r->bedge[r->nbedge++];
+            e[0] = x;
+            e[1] = y;
+            e[2] = T->facet;
+            e[3] = id;
+        }
+    }
+    if (!rc && !r->nlist)
+        rc = 1;
+    if (rc) {
+        dt_cavity_abandon(m, cav);
+        return rc;
+    }
+    r->forced = 0;
+    r->st.forced_cavities++;
+    return 0;
+}
+
 int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b, uint32_t c,
                           int missing, int edge_star)
 {
@@ -301,12 +447,16 @@ int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t
             dt_cavity_abandon(m, cav);
             return rc;
         }
+        if (rc && recovering(r))
+            return narrowed_cavity(r, p, t);
         if (rc)
             return edge_star && c == TM_NONE && !missing ? edge_star_cavity(r, p, a, b) : rc;
         r->st.shrunk++;
     }
-        if (!crosses_all(r)) {
+    if (!crosses_all(r)) {
         dt_cavity_abandon(m, cav);
+        if (recovering(r))
+            return narrowed_cavity(r, p, t);
         if (edge_star && c == TM_NONE && !missing)
             return edge_star_cavity(r, p, a, b);
         if (r->hooks)
@@ -457,11 +607,14 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     if (!rc)
         rc = flip_restore(m, seed, nseed, &fh, &r->flipped, 0);
     /* A face no flip mends lies against a subsegment that is not strongly
-     * Delaunay (a CDT with it may not exist): it is split, under the same
+     * Delaunay (a CDT with it may not exist): it is split (unless
+     * r->keep_stuck: after the recovery with segments first, on CAD
+     * tessellations, those splits cascade next to the thin triangles and
+     * never end; the face is then left and counted), under the same
      * floor as a split some vertex's encroachment asks for (none lets the
      * splits cascade into acute input vertices), in the tetrahedra around
      * it if its constrained cavity is no star. */
-    for (size_t i = 0; i < r->flipped.nstuck && !rc; i++) {
+    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck; i++) {
         tm_link l = r->flipped.stuck_faces[i];
         uint32_t t = tm_ltet(l);
         if (tm_is_dead(m, t))
@@ -495,6 +648,30 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
     r->flipped.flips23 = r->flipped.flips32 = r->flipped.flips22 = r->flipped.stuck = 0;
     r->flipped.blocked = 0;
     return rc;
+}
+
+size_t ref__count_stuck(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t) || tm_is_ghost(m, t) || (m->flags[t] & REF_F_EXTERIOR))
+            continue;
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            if ((m->flags[t] & TM_F_FACEMARK(f)) || tm_is_special(l) || tm_ltet(l) < t)
+                continue;
+            uint32_t u = tm_ltet(l);
+            if (tm_is_ghost(m, u) || (m->flags[u] & REF_F_EXTERIOR))
+                continue;
+            const double *apex = X(m, m->tets[u].v[tm_lface(l)]);
+            if (pred_insphere(X(m, T->v[0]), X(m, T->v[1]), X(m, T->v[2]), X(m, T->v[3]),
+                              apex) > 0)
+                n++;
+        }
+    }
+    return n;
 }
 
 int ref__cdt_remove_flat(ref_mesher *r, uint32_t t)
@@ -545,7 +722,11 @@ int ref_cdt_restore(ref_mesher *r)
     for (uint32_t t = 0; t < m->nslots; t++)
         if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
             all[n++] = t;
+    size_t f23 = r->st.flips23, f32 = r->st.flips32, st0 = r->st.flips_stuck;
     rc = ref__cdt_flip(r, all, n);
+    if (r->o.trace)
+        fprintf(r->o.trace, "cdt restore: %zu 2-3 flips, %zu 3-2 flips, %zu faces stuck\n",
+                r->st.flips23 - f23, r->st.flips32 - f32, r->st.flips_stuck - st0);
     pr_free(all);
     return rc;
 }

@@ -59,6 +59,15 @@ static inline uint32_t ref__vertex_tet(const tm_mesh *m, uint32_t v)
 /* ------------------------------------------------------ refine_run.c */
 
 void ref__queue_free(ref_queue *q);
+/* A bd_subfacs_on_edge callback that adds subfacet s to r's 2D cavity
+ * (r->list) unless it is flagged BD_F_VISIT; arg is a struct
+ * ref_root_arg, whose rc gets PDR_ENOMEM when that fails (the walk then
+ * stops). */
+struct ref_root_arg {
+    ref_mesher *r;
+    int rc;
+};
+int ref__add_root(void *arg, uint32_t s);
 /* Queue a subsegment or subfacet for splitting (once: BD_F_QUEUED). */
 int ref__queue_seg(ref_mesher *r, uint32_t id, float rmin);
 int ref__queue_fac(ref_mesher *r, uint32_t id, float rmin);
@@ -88,6 +97,10 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
  * lie strictly inside one of those subfacets' other edges, or
  * PDR_ENOMEM. */
 int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb);
+/* If subsegment id is an edge of the mesh: its edge bits set in every
+ * tetrahedron around it, *t one of them, the missing flag cleared, 1;
+ * else flagged missing, 0. */
+int ref__mark_subseg(ref_mesher *r, uint32_t id, uint32_t *t);
 /* A tetrahedron with face abc (edge ab when c is TM_NONE), found from a's
  * star; 1 if found. */
 int ref__find_in_star(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t *tout);
@@ -102,11 +115,24 @@ int ref__needle_facet(const ref_mesher *r, uint32_t f);
 /* The point that splits subsegment ab (tests/test_refine.c checks it). */
 void ref__split_point(const ref_mesher *r, uint32_t a, uint32_t b, double p[3]);
 
+/* --------------------------------------------------- refine_facrec.c */
+
+/* Recovers missing subfacet id with its region as ref_recover_facets
+ * does, in a mesh whose present subfacets are marked: on success the
+ * region's subfacets (or the facet's new ones, when the mesh triangulates
+ * a coplanar region otherwise) are marked faces, no longer missing or
+ * queued. Returns 0 (recovered), 1 (left as it was) or a negative code. */
+int ref__recover_region(ref_mesher *r, uint32_t id);
+
 /* ------------------------------------------------------ refine_cdt.c */
 
 /* may_cross of a constrained boundary split: a face whose subfacet is in
  * the split's 2D cavities (BD_F_VISIT). */
 int ref__cross_visited(void *arg, const tm_mesh *m, uint32_t t, int f);
+/* Faces between two interior tetrahedra, on no facet, that are not
+ * locally Delaunay (the far apex strictly inside the circumsphere, as
+ * pdr check tests). */
+size_t ref__count_stuck(const ref_mesher *r);
 /* The dt_cavity_search flags of the constrained mode. */
 unsigned ref__cdt_flags(const ref_mesher *r);
 /* The constrained cavity of point p splitting piece ab (edge) or abc

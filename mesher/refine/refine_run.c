@@ -386,14 +386,9 @@ static double insertion_radius(const ref_mesher *r)
     return sqrt(best);
 }
 
-struct root_arg {
-    ref_mesher *r;
-    int rc;
-};
-
-static int add_root(void *arg, uint32_t s)
+int ref__add_root(void *arg, uint32_t s)
 {
-    struct root_arg *a = arg;
+    struct ref_root_arg *a = arg;
     if (a->r->bd.facs[s].flags & BD_F_VISIT)
         return 0;
     if (ref__list_add(a->r, s)) {
@@ -519,12 +514,12 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         ref__split_point(r, S.v[0], S.v[1], p);
     }
     int setback = 0, rc = 0;
-    struct root_arg ra = {r, 0};
+    struct ref_root_arg ra = {r, 0};
     if (r->o.constrained) {
         /* The 2D cavities first: they say which subfacets the 3D cavity
          * crosses (refine_cdt.c). */
         ref__list_clear(r);
-        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], ref__add_root, &ra);
         uint32_t ea, eb;
         int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
         if (g > 0)
@@ -593,7 +588,7 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
     int g = rc;
     if (!rc && !r->o.constrained) {
         ref__list_clear(r);
-        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], add_root, &ra);
+        bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], ref__add_root, &ra);
         g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
     }
     if (g < 0) {
@@ -725,6 +720,18 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
         if (rc == REF_CDT_ELSEWHERE) {
             *result = SPLIT_ELSEWHERE;
             return 0;
+        }
+        if (missing && r->keep_stuck && !r->centroid_try) {
+            /* The recovery with segments first: a missing subfacet whose
+             * circumcentre (of a thin triangle: far off, its 2D cavity
+             * wide) has no valid cavity is split at its centroid, once. */
+            double ctr[3];
+            for (int k = 0; k < 3; k++)
+                ctr[k] = (X(m, G.v[0])[k] + X(m, G.v[1])[k] + X(m, G.v[2])[k]) / 3.0;
+            r->centroid_try = 1;
+            rc = split_subfac_cdt(r, id, ctr, rmin, result);
+            r->centroid_try = 0;
+            return rc;
         }
         if (missing)
             return hidden_piece(r, c, missing, &r->bd.facs[id].flags, BD_V_FACET, G.facet);
@@ -1329,6 +1336,24 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
     bd_subfac *s = &r->bd.facs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if (r->narrow_recovery && !r->carved) {
+        /* The recovery with segments first: a missing subfacet is first
+         * recovered with its region by cavity retriangulation, now that
+         * its neighbours are constraints (refine_facrec.c); one that was,
+         * with another's region, is no longer queued. */
+        if (!(s->flags & BD_F_QUEUED))
+            return 0;
+        if (s->flags & BD_F_MISSING) {
+            s->flags &= (uint16_t)~BD_F_QUEUED;
+            int rc = ref__recover_region(r, id);
+            if (rc <= 0)
+                return rc;
+            s = &r->bd.facs[id];
+            if (s->flags & BD_F_DEAD)
+                return 0;
+            s->flags |= BD_F_QUEUED;
+        }
+    }
     if ((s->flags & BD_F_MISSING) && recovery_bound(r, s->v, 3))
         return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
