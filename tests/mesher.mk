@@ -71,13 +71,6 @@ EXTRA_DIST += \
 	tests/data/plc/truncated.poly \
 	tests/data/plc/unknown.xyz \
 	tests/data/plc/zero-area.poly \
-	tests/data/cad/README.md \
-	tests/data/cad/anchor.off \
-	tests/data/cad/helmet.off \
-	tests/data/cad/joint.off \
-	tests/data/cad/oblong.off \
-	tests/data/cad/part.off \
-	tests/data/cad/spool.off \
 	tests/data/surf/bracket-0.2.off \
 	tests/data/surf/boxcylsph-0.2.off \
 	tests/data/surf/cone-0.2.off \

@@ -624,6 +624,7 @@ START_TEST(opts_round_trip)
     o.use_region_maxvol = 0;
     o.order = REF_ORDER_FIFO;
     o.constrained = 1;
+    o.keep_stuck = 1;
     pr_buf b = PR_BUF_INIT;
     ck_assert_int_eq(par_decomp_opts_put(&b, &o), 0);
     ck_assert_int_eq(par_decomp_opts_decode(b.data, b.len, &r), 0);

@@ -560,10 +560,8 @@ int pdr_cmd_mesh(int argc, char **argv)
         o.ref.trace = stderr;
         o.ref.trace_every = (size_t)atol(trace);
     }
-    if (po.parallel) {
-        o.parallel = 1;
+    if (po.parallel)
         return mpar_run(&o, &po);
-    }
     mp_ctx c;
     mp_init(&c, &o);
     int rc = run_pipeline(&c);

@@ -368,6 +368,10 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
     pr_buf plcb = PR_BUF_INIT, optb = PR_BUF_INIT;
     if (!rc)
         rc = par_decomp_plc_put(&plcb, &c->p);
+    /* A Mo from the recovery with segments first leaves the faces no flip
+     * mends (ref_mesher.keep_stuck): so do the PEs, and rank 0's merge,
+     * which starts from the same options. */
+    c->o.ref.keep_stuck = c->r.keep_stuck;
     if (!rc)
         rc = par_decomp_opts_put(&optb, &c->o.ref);
     for (int k = 0; k < size && !rc; k++) {

@@ -319,17 +319,6 @@ int mp_initial_mesh(mp_ctx *c)
         c->is.tets = ref_interior_tets(&c->r);
     }
     c->sec[MP_MO] = pdr_now() - t;
-    if (c->o.parallel && c->r.keep_stuck && !c->o.mo_only) {
-        /* The PEs' refiners do not know keep_stuck (it is no option that
-         * travels to them): they split next to the faces no flip mends,
-         * and on these inputs that does not end (RECOVERY.md). */
-        pdr_cli_error(MP_CMD,
-                      "the initial mesh comes from the recovery with segments first (thin "
-                      "input triangles: faces that no flip makes locally Delaunay are left), "
-                      "which the parallel refinement cannot refine yet; run without -n "
-                      "(nothing written)");
-        return PDR_EINVAL;
-    }
     if (!c->o.quiet) {
         printf("initial mesh (%s): %zu tetrahedra, %zu points added on segments, %zu on "
                "facets",

@@ -69,9 +69,6 @@ typedef struct mp_opts {
                             vertices (mp_initial_mesh), else conforming */
     double mo_size;      /* --mo-size N: tetrahedra of Mo, or 0 */
     int mo_only;         /* --mo-only: the driver skips mp_refine */
-    int parallel;        /* the refinement runs on PEs (mesh_par.c): an Mo
-                            it cannot refine yet is refused
-                            (mp_initial_mesh) */
     int check;           /* --check: the driver runs mp_verify */
     int quiet;           /* -Q: print only errors and warnings */
     double max_points;   /* --max-points: bound on inserted points; < 0:

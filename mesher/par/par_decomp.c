@@ -250,7 +250,7 @@ int par_decomp_run(const ref_mesher *mo, uint32_t size, uint32_t nparts, int see
 /* ------------------------------------------------------------------- PLC */
 
 #define PLC_VERSION 1u
-#define OPTS_VERSION 2u
+#define OPTS_VERSION 3u
 #define MAX_VATTR 4096u
 
 /* A name as a wire string, or "" when it is not one. */
@@ -586,7 +586,7 @@ int par_decomp_opts_put(pr_buf *b, const ref_opts *o)
             return PDR_EINVAL;
     if ((o->use_region_maxvol != 0 && o->use_region_maxvol != 1) ||
         (o->order != REF_ORDER_FIFO && o->order != REF_ORDER_LIFO) ||
-        (o->constrained != 0 && o->constrained != 1))
+        (o->constrained != 0 && o->constrained != 1) || (o->keep_stuck != 0 && o->keep_stuck != 1))
         return PDR_EINVAL;
     size_t start = b->len;
     pr_put_u32(b, PAR_DECOMP_OPTS_MAGIC);
@@ -596,6 +596,7 @@ int par_decomp_opts_put(pr_buf *b, const ref_opts *o)
     pr_put_u8(b, (uint8_t)o->use_region_maxvol);
     pr_put_u8(b, (uint8_t)o->order);
     pr_put_u8(b, (uint8_t)o->constrained);
+    pr_put_u8(b, (uint8_t)o->keep_stuck);
     if (b->err) {
         if (b->len >= start)
             b->len = start;
@@ -610,12 +611,12 @@ int par_decomp_opts_decode(const void *msg, size_t len, ref_opts *out)
     pr_reader_init(&rd, msg, len);
     uint32_t magic = 0, version = 0;
     double x[7];
-    uint8_t urm = 0, order = 0, cdt = 0;
+    uint8_t urm = 0, order = 0, cdt = 0, keep = 0;
     pr_get_u32(&rd, &magic);
     pr_get_u32(&rd, &version);
     if (rd.err || magic != PAR_DECOMP_OPTS_MAGIC || version != OPTS_VERSION ||
         get_finite(&rd, x, 7) || pr_get_u8(&rd, &urm) || pr_get_u8(&rd, &order) ||
-        pr_get_u8(&rd, &cdt) || urm > 1 || cdt > 1 ||
+        pr_get_u8(&rd, &cdt) || pr_get_u8(&rd, &keep) || urm > 1 || cdt > 1 || keep > 1 ||
         (order != REF_ORDER_FIFO && order != REF_ORDER_LIFO) || pr_reader_finish(&rd))
         return PDR_EPARSE;
     ref_default_opts(out);
@@ -629,6 +630,7 @@ int par_decomp_opts_decode(const void *msg, size_t len, ref_opts *out)
     out->use_region_maxvol = urm;
     out->order = order;
     out->constrained = cdt;
+    out->keep_stuck = keep;
     out->progress = NULL;
     out->progress_arg = NULL;
     return 0;

@@ -54,6 +54,7 @@ int ref_init(ref_mesher *r, const plc *p, const ref_opts *o)
         r->o = *o;
     else
         ref_default_opts(&r->o);
+    r->keep_stuck = r->o.keep_stuck != 0;
     r->b2 = r->o.ratio > 0 ? r->o.ratio * r->o.ratio : 0.0;
     r->sin_min = r->o.min_dihedral > 0 ? sin(r->o.min_dihedral * M_PI / 180.0) : 0.0;
     double d2 = 0;

@@ -287,6 +287,9 @@ typedef struct ref_opts {
     int constrained;   /* keep a constrained Delaunay tetrahedralization
                           whose subsegments and subfacets no cavity
                           crosses (refine/refine_cdt.c); 0: conforming */
+    int keep_stuck;    /* start as ref_mesher.keep_stuck: the mesh comes
+                          from the recovery with segments first (a
+                          parallel run's PEs and merge: its Mo did) */
     /* Called about every 2^14 insertions when not NULL. */
     void (*progress)(void *arg, const struct ref_mesher *r);
     void *progress_arg;
