@@ -364,7 +364,7 @@ static int set_os_sched(const am_ctx_t *ctx, const char *v)
 /* AM_CPU_BIND: whether this PE is bound to one processor. 'core' binds
  * it, with every thread it starts later (ZeroMQ's I/O thread among them),
  * to the AM_CPU_SLOT-th processor (mod their number) of those it may run
- * on; 'none' leaves it; 'auto' (am-run's default) binds when the
+ * on; 'none' (am-run's default) leaves it; 'auto' binds when the
  * AM_CPU_SLOTS PEs of its host are exactly as many as those processors
  * (fewer: other jobs may want the rest, and two jobs bound alike would
  * share processors while others idle) and the policy is not fifo or rr
@@ -375,7 +375,9 @@ static int set_os_sched(const am_ctx_t *ctx, const char *v)
  * Why: with two PEs on two cores and the default policy, each PE's
  * messages wake ZeroMQ's I/O threads, and the kernel moves the four
  * threads between the cores; bound, a PE and its I/O thread take turns
- * on one core, warm in its caches (bench/parallel.md, run 10). */
+ * on one core. While other work shares the machine that keeps the run
+ * steady; on an idle machine it cost about 8% (bench/parallel.md, run
+ * 10), hence not the default. */
 static int set_cpu_bind(const am_ctx_t *ctx, const char *v, const char *sched)
 {
     int core = !strcmp(v, "core"), autob = !strcmp(v, "auto");

@@ -142,12 +142,13 @@ static void usage(const launch *L, FILE *out)
             "CAP_SYS_NICE; with\n"
             "                          more PEs than cores, fifo lets a PE run "
             "until it waits)\n"
-            "      --cpu-bind MODE     auto (default): bind each PE, with its "
-            "threads, to a core of\n"
-            "                          its own when its host has as many PEs as "
-            "cores (not under\n"
-            "                          fifo or rr); core: always (round robin); "
-            "none: never\n"
+            "      --cpu-bind MODE     none (default), core (bind each PE, with "
+            "its threads, to a\n"
+            "                          core of its own, round robin: steadier "
+            "while other work\n"
+            "                          runs) or auto (core where its host has "
+            "as many PEs as cores,\n"
+            "                          not under fifo or rr)\n"
             "      --hostfile FILE     start ranks on these hosts over ssh "
             "(lines: HOST [slots=N])\n"
             "      --rendezvous HOST   address the hosts reach this machine at "
@@ -434,7 +435,7 @@ static int make_env(launch *L, int r, char env[NENV][1200])
             slot += q < r;
             slots++;
         }
-    snprintf(env[n++], 1200, "AM_CPU_BIND=%s", L->cpu_bind ? L->cpu_bind : "auto");
+    snprintf(env[n++], 1200, "AM_CPU_BIND=%s", L->cpu_bind ? L->cpu_bind : "none");
     snprintf(env[n++], 1200, "AM_CPU_SLOT=%d", slot);
     snprintf(env[n++], 1200, "AM_CPU_SLOTS=%d", slots);
     if (L->stats_dir)

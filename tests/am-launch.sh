@@ -77,27 +77,27 @@ else
     echo "--sched fifo not tried: needs root, setpriv, and an am-run user nobody can run"
 fi
 
-# --- --cpu-bind: where a host has as many PEs as processors, auto (the
-# default) binds each PE, all its threads, to a processor of its own; with
-# more or fewer it leaves them, as none always does; core binds round
-# robin whatever their number; AM_CPU_BIND set by hand is checked by
-# am_init.
+# --- --cpu-bind: by default (none) the PEs are left where the kernel
+# puts them; where a host has as many PEs as processors, auto binds each
+# PE, all its threads, to a processor of its own, and with more or fewer
+# leaves them; core binds round robin whatever their number; AM_CPU_BIND
+# set by hand is checked by am_init.
 ncpu=$(taskset -pc $$ 2>/dev/null | sed 's/.*: //' | tr ',' '\n' |
     awk -F- '{n += (NF == 2 ? $2 - $1 + 1 : 1)} END {print n + 0}')
 if [ "${ncpu:-0}" -ge 2 ] && [ "$ncpu" -le 16 ]; then
     job 30 "$AMRUN" -n "$ncpu" -- "$MP" affinity
+    expect_ok "no --cpu-bind, $ncpu PEs"
+    grep -q '^PE 0 cpus [0-9]*[-,]' "$work/out" || fail "without --cpu-bind PE 0 was bound"
+    job 30 "$AMRUN" -n "$ncpu" --cpu-bind auto -- "$MP" affinity
     expect_ok "--cpu-bind auto, $ncpu PEs"
     a=$(sed -n 's/^PE 0 cpus \([^ ]*\) threads.*/\1/p' "$work/out")
     b=$(sed -n 's/^PE 1 cpus \([^ ]*\) threads.*/\1/p' "$work/out")
     case "$a$b" in *[-,]*|*mixed*|"") fail "--cpu-bind auto: PEs on '$a' and '$b', not one processor each" ;; esac
     [ "$a" != "$b" ] || fail "--cpu-bind auto: both PEs on processor $a"
-    job 30 "$AMRUN" -n $((ncpu - 1)) -- "$MP" affinity
+    job 30 "$AMRUN" -n $((ncpu - 1)) --cpu-bind auto -- "$MP" affinity
     expect_ok "--cpu-bind auto, fewer PEs than processors"
     grep -q '^PE 0 cpus [0-9]*[-,]' "$work/out" || fail "--cpu-bind auto with fewer PEs than processors bound PE 0"
-    job 30 "$AMRUN" -n 2 --cpu-bind none -- "$MP" affinity
-    expect_ok "--cpu-bind none"
-    grep -q '^PE 0 cpus [0-9]*[-,]' "$work/out" || fail "--cpu-bind none: PE 0 was bound"
-    job 30 "$AMRUN" -n $((ncpu + 1)) -- "$MP" affinity
+    job 30 "$AMRUN" -n $((ncpu + 1)) --cpu-bind auto -- "$MP" affinity
     expect_ok "--cpu-bind auto, more PEs than processors"
     grep '^PE ' "$work/out" | grep -qv 'cpus [0-9]*[-,]' &&
         fail "--cpu-bind auto with more PEs than processors bound a PE"
@@ -105,9 +105,9 @@ if [ "${ncpu:-0}" -ge 2 ] && [ "$ncpu" -le 16 ]; then
     expect_ok "--cpu-bind core, more PEs than processors"
     [ "$(grep -c '^PE [0-9]* cpus [0-9]* threads' "$work/out")" -eq $((ncpu + 1)) ] ||
         fail "--cpu-bind core: not every PE bound to one processor"
-    job 60 "$PDR" run -n "$ncpu" -- "$MP" affinity
-    expect_ok "pdr run: --cpu-bind auto"
-    grep '^PE ' "$work/out" | grep -q 'cpus [0-9]* threads' || fail "pdr run: no PE bound"
+    job 60 "$PDR" run -n "$ncpu" --cpu-bind core -- "$MP" affinity
+    expect_ok "pdr run: --cpu-bind core"
+    grep '^PE ' "$work/out" | grep -q 'cpus [0-9]* threads' || fail "pdr run --cpu-bind core: no PE bound"
 else
     echo "--cpu-bind not tried: $ncpu processors (the test wants 2 to 16)"
 fi
