@@ -1429,6 +1429,37 @@ static int has_face(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c)
 
 /* Links sent by a PE that do not fit, and a tetrahedron or a face too
  * many across PEs: each counted, and nothing else. */
+/* Two pairs of faces linked within msg (nt tetrahedra), x-a and y-c, of
+ * four different tetrahedra. */
+static void two_linked_pairs(const uint8_t *msg, size_t len, uint32_t nt, uint32_t *x,
+                             uint32_t *a, uint32_t *y, uint32_t *c)
+{
+    *x = *y = UINT32_MAX;
+    *a = *c = 0;
+    for (uint32_t f = 0; f < 4 * nt && *y == UINT32_MAX; f++) {
+        uint32_t l = link_of(msg, len, f);
+        if (l >= PAR_WIRE_LINK_IFACE || l < f)
+            continue;
+        if (*x == UINT32_MAX) {
+            *x = f, *a = l;
+        } else if (f / 4 != *x / 4 && f / 4 != *a / 4 && l / 4 != *x / 4 && l / 4 != *a / 4) {
+            *y = f, *c = l;
+        }
+    }
+    ck_assert_uint_ne(*y, UINT32_MAX);
+}
+
+/* Releases what a merge test made: P messages, P submeshes, Mo, the PLC. */
+static void free_merge_case(pr_buf *b, par_sub *subs, uint32_t P, ref_mesher *mo, plc *p)
+{
+    for (uint32_t k = 0; k < P; k++) {
+        pr_buf_free(&b[k]);
+        par_sub_free(&subs[k]);
+    }
+    ref_free(mo);
+    plc_free(p);
+}
+
 /* Merges b[0..P) with this process allowed on its first processor only
  * (the merge's step 4 then runs in one pass) or on all it had. */
 static int merge_bufs_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
@@ -1479,17 +1510,8 @@ START_TEST(merge_shares_agree)
     uint8_t *keep = b[1].data;
     uint32_t nt;
     link_offset(keep, b[1].len, &nt);
-    uint32_t x = UINT32_MAX, a = 0, y = UINT32_MAX, c = 0;
-    for (uint32_t f = 0; f < 4 * nt && y == UINT32_MAX; f++) {
-        uint32_t l = link_of(keep, b[1].len, f);
-        if (l >= PAR_WIRE_LINK_IFACE || l < f)
-            continue;
-        if (x == UINT32_MAX)
-            x = f, a = l;
-        else if (f / 4 != x / 4 && f / 4 != a / 4 && l / 4 != x / 4 && l / 4 != a / 4)
-            y = f, c = l;
-    }
-    ck_assert_uint_ne(y, UINT32_MAX);
+    uint32_t x, a, y, c;
+    two_linked_pairs(keep, b[1].len, nt, &x, &a, &y, &c);
     uint8_t *t1 = with_link(keep, b[1].len, x, y);
     b[1].data = with_link(t1, b[1].len, a, c);
     free(t1);
@@ -1499,12 +1521,7 @@ START_TEST(merge_shares_agree)
     ck_assert(!memcmp(&one, &all, sizeof one));
     free(b[1].data);
     b[1].data = keep;
-    for (uint32_t k = 0; k < 3; k++) {
-        pr_buf_free(&b[k]);
-        par_sub_free(&subs[k]);
-    }
-    ref_free(&mo);
-    plc_free(&p);
+    free_merge_case(b, subs, 3, &mo, &p);
 }
 END_TEST
 
@@ -1527,18 +1544,8 @@ START_TEST(merge_counts_link_faults)
     uint32_t nt;
     link_offset(keep, b[1].len, &nt);
     /* two pairs linked within PE 1, x-a and y-b, of four tetrahedra */
-    uint32_t x = UINT32_MAX, a = 0, y = UINT32_MAX, c = 0;
-    for (uint32_t f = 0; f < 4 * nt && y == UINT32_MAX; f++) {
-        uint32_t l = link_of(keep, b[1].len, f);
-        if (l >= PAR_WIRE_LINK_IFACE || l < f)
-            continue;
-        if (x == UINT32_MAX) {
-            x = f, a = l;
-        } else if (f / 4 != x / 4 && f / 4 != a / 4 && l / 4 != x / 4 && l / 4 != a / 4) {
-            y = f, c = l;
-        }
-    }
-    ck_assert_uint_ne(y, UINT32_MAX);
+    uint32_t x, a, y, c;
+    two_linked_pairs(keep, b[1].len, nt, &x, &a, &y, &c);
 
     /* x links to y, which does not link back */
     b[1].data = with_link(keep, b[1].len, x, y);
@@ -1656,12 +1663,7 @@ START_TEST(merge_counts_link_faults)
     ck_assert_uint_eq(rep.open_faces, 4);
     ck_assert_uint_eq(par_merge_problems(&rep), 5);
 
-    for (uint32_t k = 0; k < 3; k++) {
-        pr_buf_free(&b[k]);
-        par_sub_free(&subs[k]);
-    }
-    ref_free(&mo);
-    plc_free(&p);
+    free_merge_case(b, subs, 3, &mo, &p);
 }
 END_TEST
 
