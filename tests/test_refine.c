@@ -262,6 +262,17 @@ static void cube_plc(plc *p)
     pdr_diag_free(&diag);
 }
 
+/* The initial mesh (im_build, conforming) of cube_plc into r, with o. */
+static void cube_mo(plc *p, const ref_opts *o, ref_mesher *r)
+{
+    cube_plc(p);
+    pdr_diag diag = {0};
+    ck_assert_int_eq(ref_init(r, p, o), 0);
+    im_opts io = {0, 0};
+    ck_assert_int_eq(im_build(r, &io, NULL, &diag), 0);
+    pdr_diag_free(&diag);
+}
+
 static void tee_plc(plc *p, double angle, double length, double width)
 {
     pdr_diag diag = {0};
@@ -450,14 +461,10 @@ static size_t unique_edges(uint32_t (*e)[2], size_t n)
 START_TEST(gather_lists_each_subsegment_once)
 {
     plc p;
-    cube_plc(&p);
     ref_opts o;
     ref_default_opts(&o);
     ref_mesher r;
-    pdr_diag diag = {0};
-    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
-    im_opts io = {0, 0};
-    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    cube_mo(&p, &o, &r);
     tm_mesh *m = &r.m;
     uint32_t start = 0;
     while (tm_is_dead(m, start) || tm_is_ghost(m, start))
@@ -509,7 +516,6 @@ START_TEST(gather_lists_each_subsegment_once)
     ck_assert_uint_gt(most, 16); /* the set (16 slots, half full at most) grew twice */
     ref_free(&r);
     plc_free(&p);
-    pdr_diag_free(&diag);
 }
 END_TEST
 
@@ -520,16 +526,12 @@ END_TEST
 START_TEST(busy_tetrahedra_wait)
 {
     plc p;
-    cube_plc(&p);
     ref_opts o;
     ref_default_opts(&o);
     o.maxvol = 1e-4;
     o.order = REF_ORDER_FIFO; /* the parallel runs' order for remote work */
     ref_mesher r;
-    pdr_diag diag = {0};
-    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
-    im_opts io = {0, 0};
-    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    cube_mo(&p, &o, &r);
     ck_assert_int_eq(tm_enable(&r.m, TM_FEAT_LOCKS), 0);
     ck_assert_int_eq(ref_queue_all_tets(&r), 0);
     int kind;
@@ -562,7 +564,6 @@ START_TEST(busy_tetrahedra_wait)
     ck_assert_uint_eq(id, t0);
     ref_free(&r);
     plc_free(&p);
-    pdr_diag_free(&diag);
 }
 END_TEST
 
@@ -668,14 +669,10 @@ END_TEST
 START_TEST(missing_piece_bound_stops)
 {
     plc p;
-    cube_plc(&p);
     ref_opts o;
     ref_default_opts(&o);
     ref_mesher r;
-    pdr_diag diag = {0};
-    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
-    im_opts io = {0, 0};
-    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    cube_mo(&p, &o, &r);
     ck_assert_int_eq(ref_run(&r, 0), 0); /* what im_build left queued */
     ref_bound_recovery(&r);
     size_t bound = REF_RECOVERY_PER_VERTEX * p.nv + REF_RECOVERY_BASE;
@@ -705,7 +702,6 @@ START_TEST(missing_piece_bound_stops)
     }
     ref_free(&r);
     plc_free(&p);
-    pdr_diag_free(&diag);
 }
 END_TEST
 
@@ -787,14 +783,10 @@ END_TEST
 START_TEST(check_each_step_reports_broken_tables)
 {
     plc p;
-    cube_plc(&p);
     ref_opts o;
     ref_default_opts(&o);
     ref_mesher r;
-    pdr_diag diag = {0};
-    im_opts io = {0, 0};
-    ck_assert_int_eq(ref_init(&r, &p, &o), 0);
-    ck_assert_int_eq(im_build(&r, &io, NULL, &diag), 0);
+    cube_mo(&p, &o, &r);
     ck_assert_uint_eq(ref_consistency(&r, NULL, 0), 0);
     uint32_t t = 0;
     while (t < r.m.nslots && (!ref_is_interior(&r.m, t) || (r.m.flags[t] & TM_F_FACEMARKS)))
@@ -819,7 +811,6 @@ START_TEST(check_each_step_reports_broken_tables)
     ck_assert_int_eq(ref_run(&r, 1), PDR_ETOPOLOGY);
     fclose(log);
     ref_free(&r);
-    pdr_diag_free(&diag);
     plc_free(&p);
 }
 END_TEST
