@@ -522,13 +522,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!rc)
         rc = par_run_refine(am, &s, &ro_run, &row);
     if (rc && s.r.recovery_stuck) {
-        fprintf(stderr,
-                "pdr mesh: PE %d: the recovery of missing boundary pieces does not terminate: "
-                "after %zu splits of missing pieces (the bound: %d per input vertex and %d "
-                "more) a piece near (%.9g, %.9g, %.9g) is still missing; splits cascade where "
-                "facets meet at a small angle\n",
-                rank, ref_recovery_splits(&s.r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
-                s.r.stop_at[0], s.r.stop_at[1], s.r.stop_at[2]);
+        char why[512];
+        mp_recovery_stuck_text(&s.r, 9, why, sizeof why);
+        fprintf(stderr, "pdr mesh: PE %d: %s\n", rank, why);
         fflush(stderr);
         _exit(PDR_EXIT_FAIL); /* as below */
     }
@@ -714,25 +710,22 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         }
     }
     if (rc) {
-        if (c.r.recovery_stuck)
-            fprintf(stderr,
-                    "pdr mesh: finishing the merged mesh at rank 0: the recovery of missing "
-                    "boundary pieces does not terminate: after %zu splits of missing pieces "
-                    "(the bound: %d per input vertex and %d more) a piece near (%.9g, %.9g, "
-                    "%.9g) is still missing; splits cascade where facets meet at a small "
-                    "angle; nothing written\n",
-                    ref_recovery_splits(&c.r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
-                    c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2]);
-        else if (c.r.stopped_below)
+        if (c.r.recovery_stuck) {
+            char why[512];
+            mp_recovery_stuck_text(&c.r, 9, why, sizeof why);
+            fprintf(stderr, "pdr mesh: finishing the merged mesh at rank 0: %s; nothing written\n",
+                    why);
+        } else if (c.r.stopped_below) {
             fprintf(stderr,
                     "pdr mesh: finishing the merged mesh at rank 0: a missing boundary piece "
                     "near (%.9g, %.9g, %.9g) %s; nothing written\n",
                     c.r.stop_at[0], c.r.stop_at[1], c.r.stop_at[2],
                     c.r.stop_hidden ? "has no split with a valid constrained cavity"
                                     : "would need a split closer than the resolution floor");
-        else
+        } else {
             fprintf(stderr, "pdr mesh: finishing the merged mesh at rank 0 failed: %s\n",
                     pdr_strerror(rc));
+        }
         goto done;
     }
     t_cls = pdr_now() - t_cls;

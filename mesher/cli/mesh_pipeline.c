@@ -185,6 +185,16 @@ static void feature_name(const plc *p, int vkind, uint32_t feat, char *buf, size
 
 /* The message of a run stopped by the bound on inserted points: how many,
  * and where the last one went, which is where the refinement runs on. */
+void mp_recovery_stuck_text(const ref_mesher *r, int digits, char *buf, size_t size)
+{
+    snprintf(buf, size,
+             "the recovery of missing boundary pieces does not terminate: after %zu splits of "
+             "missing pieces (the bound: %d per input vertex and %d more) a piece near (%.*g, "
+             "%.*g, %.*g) is still missing; splits cascade where facets meet at a small angle",
+             ref_recovery_splits(r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE, digits,
+             r->stop_at[0], digits, r->stop_at[1], digits, r->stop_at[2]);
+}
+
 static int point_limit(mp_ctx *c)
 {
     pdr_progress_end(&c->pg);
@@ -215,13 +225,9 @@ static int point_limit(mp_ctx *c)
         return PDR_ELIMIT;
     }
     if (r->recovery_stuck) {
-        pdr_cli_error(MP_CMD,
-                      "the recovery of missing boundary pieces does not terminate: after %zu "
-                      "splits of missing pieces (the bound: %d per input vertex and %d more) "
-                      "a piece near (%.17g, %.17g, %.17g) is still missing; splits cascade "
-                      "where facets meet at a small angle (nothing written)",
-                      ref_recovery_splits(r), REF_RECOVERY_PER_VERTEX, REF_RECOVERY_BASE,
-                      r->stop_at[0], r->stop_at[1], r->stop_at[2]);
+        char why[512];
+        mp_recovery_stuck_text(r, 17, why, sizeof why);
+        pdr_cli_error(MP_CMD, "%s (nothing written)", why);
         return PDR_ELIMIT;
     }
     if (r->stopped_below) {

@@ -148,6 +148,13 @@ int mp_export(mp_ctx *c);
  * v_added and sec[MP_REFINE]; nothing when quiet. */
 void mp_print_mesh_summary(const mp_ctx *c);
 
+/* Writes into buf (size bytes) why r stopped when its recovery of missing
+ * boundary pieces reached its bound (r->recovery_stuck): the splits made,
+ * the bound, and where the piece left is, with digits significant digits.
+ * The sequential run, a PE and rank 0's merge each say it in their own
+ * frame. */
+void mp_recovery_stuck_text(const ref_mesher *r, int digits, char *buf, size_t size);
+
 /* Writes out in every format of o.formats under base (nothing when none),
  * each file atomically. Returns 0, PDR_EIO or PDR_ENOMEM. */
 int mp_write(mp_ctx *c);
