@@ -770,7 +770,19 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
      * [--stats D]
      * -- /proc/self/exe mesh --parallel ARGS (without the launcher's own
      * options). */
-    char **av = pr_calloc((size_t)argc + 16, sizeof *av);
+    /* The launcher's options that are not the PEs' (--stats is both). */
+    const struct {
+        const char *name;
+        size_t len;
+        const char *value;
+    } own[] = {{"--latency", 9, po->latency},
+               {"--bandwidth", 11, po->bandwidth},
+               {"--sched", 7, po->sched},
+               {"--cpu-bind", 10, po->cpu_bind}};
+    enum { NOWN = sizeof own / sizeof own[0] };
+    /* room for the name, -n P, each option and its value, --stats D, the
+     * four words before ARGS, ARGS and the NULL */
+    char **av = pr_calloc((size_t)argc + 3 + 2 * NOWN + 2 + 4 + 1, sizeof *av);
     if (!av) {
         pdr_cli_error("mesh", "out of memory");
         return PDR_EXIT_FAIL;
@@ -781,22 +793,11 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     av[n++] = (char *)"pdr mesh";
     av[n++] = (char *)"-n";
     av[n++] = np;
-    if (po->latency) {
-        av[n++] = (char *)"--latency";
-        av[n++] = (char *)po->latency;
-    }
-    if (po->bandwidth) {
-        av[n++] = (char *)"--bandwidth";
-        av[n++] = (char *)po->bandwidth;
-    }
-    if (po->sched) {
-        av[n++] = (char *)"--sched";
-        av[n++] = (char *)po->sched;
-    }
-    if (po->cpu_bind) {
-        av[n++] = (char *)"--cpu-bind";
-        av[n++] = (char *)po->cpu_bind;
-    }
+    for (int k = 0; k < NOWN; k++)
+        if (own[k].value) {
+            av[n++] = (char *)own[k].name;
+            av[n++] = (char *)own[k].value;
+        }
     if (po->stats) {
         av[n++] = (char *)"--stats";
         av[n++] = (char *)po->stats;
@@ -807,15 +808,14 @@ int mpar_launch(int argc, char **argv, const mpar_opts *po)
     av[n++] = (char *)"--parallel";
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        if (!strcmp(a, "-n") || !strcmp(a, "--latency") || !strcmp(a, "--bandwidth") ||
-            !strcmp(a, "--sched") || !strcmp(a, "--cpu-bind")) {
-            i++;
+        int skip = !strcmp(a, "-n") ? 2 : !strncmp(a, "-n", 2) ? 1 : 0;
+        for (int k = 0; k < NOWN && !skip; k++)
+            if (!strncmp(a, own[k].name, own[k].len))
+                skip = a[own[k].len] == '\0' ? 2 : a[own[k].len] == '=' ? 1 : 0;
+        if (skip) {
+            i += skip - 1; /* the option's value too when it is the next word */
             continue;
         }
-        if (!strncmp(a, "-n", 2) || !strncmp(a, "--latency=", 10) ||
-            !strncmp(a, "--bandwidth=", 12) || !strncmp(a, "--sched=", 8) ||
-            !strncmp(a, "--cpu-bind=", 11))
-            continue;
         av[n++] = argv[i];
     }
     av[n] = NULL;
