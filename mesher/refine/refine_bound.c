@@ -366,6 +366,32 @@ static int is_split_edge(uint32_t x, uint32_t y, uint32_t sa, uint32_t sb)
     return (x == sa && y == sb) || (x == sb && y == sa);
 }
 
+int ref__cavity2d_rim(const ref_mesher *r, uint32_t id, int k, uint32_t sa, uint32_t sb,
+                      uint32_t *x, uint32_t *y, int *seg, uint32_t *u)
+{
+    const bd_set *bd = &r->bd;
+    const bd_subfac *T = &bd->facs[id];
+    *x = T->v[(k + 1) % 3];
+    *y = T->v[(k + 2) % 3];
+    if (is_split_edge(*x, *y, sa, sb))
+        return 0;
+    *seg = bd_find_subseg(bd, *x, *y) != BD_NONE;
+    *u = *seg ? BD_NONE : bd_subfac_across(bd, id, k);
+    return *u == BD_NONE || !(bd->facs[*u].flags & BD_F_VISIT);
+}
+
+int ref__add_bedge(ref_mesher *r, uint32_t x, uint32_t y, uint32_t id)
+{
+    if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
+        return PDR_ENOMEM;
+    uint32_t *e = r->bedge[r->nbedge++];
+    e[0] = x;
+    e[1] = y;
+    e[2] = r->bd.facs[id].facet;
+    e[3] = id;
+    return 0;
+}
+
 /* Grows the 2D cavity of p from the subfacets in r->list (the roots) over
  * neighbours in the same facet, never across a subsegment (the facet
  * triangulations are constrained by them), and collects its boundary
@@ -401,15 +427,11 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
         for (size_t i = 0; i < r->nlist; i++) {
             uint32_t t = r->list[i];
             for (int k = 0; k < 3; k++) {
-                const bd_subfac *T = &bd->facs[t];
-                uint32_t x = T->v[(k + 1) % 3], y = T->v[(k + 2) % 3];
-                if (is_split_edge(x, y, sa, sb))
+                uint32_t x, y, u;
+                int seg;
+                if (!ref__cavity2d_rim(r, t, k, sa, sb, &x, &y, &seg, &u))
                     continue;
-                int seg = bd_find_subseg(bd, x, y) != BD_NONE;
-                uint32_t u = seg ? BD_NONE : bd_subfac_across(bd, t, k);
-                if (u != BD_NONE && (bd->facs[u].flags & BD_F_VISIT))
-                    continue;
-                if (ref__orient_facet(r->p, T->facet, X(m, x), X(m, y), p) <= 0) {
+                if (ref__orient_facet(r->p, bd->facs[t].facet, X(m, x), X(m, y), p) <= 0) {
                     if (seg || u == BD_NONE) {
                         *ea = x;
                         *eb = y;
@@ -421,13 +443,8 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
                     grew = 1;
                     continue;
                 }
-                if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
+                if (ref__add_bedge(r, x, y, t))
                     return PDR_ENOMEM;
-                uint32_t *e = r->bedge[r->nbedge++];
-                e[0] = x;
-                e[1] = y;
-                e[2] = T->facet;
-                e[3] = t;
             }
         }
         if (!grew)
@@ -468,13 +485,8 @@ int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb)
                 continue;
             if (ref__orient_facet(r->p, T->facet, X(&r->m, x), X(&r->m, y), p) <= 0)
                 return 1; /* the rounded point falls on or beyond this edge */
-            if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge))
+            if (ref__add_bedge(r, x, y, t))
                 return PDR_ENOMEM;
-            uint32_t *e = r->bedge[r->nbedge++];
-            e[0] = x;
-            e[1] = y;
-            e[2] = T->facet;
-            e[3] = t;
         }
     }
     return 0;

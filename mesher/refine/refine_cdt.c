@@ -301,12 +301,6 @@ static int recovering(const ref_mesher *r)
 }
 
 /* 1 if x-y is the subsegment being split (r->split_a, split_b). */
-static int is_split(const ref_mesher *r, uint32_t x, uint32_t y)
-{
-    return r->split_b != TM_NONE &&
-           ((x == r->split_a && y == r->split_b) || (x == r->split_b && y == r->split_a));
-}
-
 /* 1 if the pending cavity deletes subfacet id's face (both tetrahedra
  * of it in the cavity), or id is missing (no face to keep). */
 static int cavity_takes(const ref_mesher *r, uint32_t id)
@@ -375,27 +369,16 @@ static int narrowed_cavity(ref_mesher *r, const double p[3], uint32_t t)
     for (size_t i = 0; i < r->nlist && !rc; i++) {
         uint32_t id = r->list[i];
         for (int k = 0; k < 3; k++) {
-            const bd_subfac *T = &bd->facs[id];
-            uint32_t x = T->v[(k + 1) % 3], y = T->v[(k + 2) % 3];
-            if (is_split(r, x, y))
+            uint32_t x, y, u;
+            int seg;
+            if (!ref__cavity2d_rim(r, id, k, r->split_a, r->split_b, &x, &y, &seg, &u))
                 continue;
-            int seg = bd_find_subseg(bd, x, y) != BD_NONE;
-            uint32_t u = seg ? BD_NONE : bd_subfac_across(bd, id, k);
-            if (u != BD_NONE && (bd->facs[u].flags & BD_F_VISIT))
-                continue;
-            if (ref__orient_facet(r->p, T->facet, X(m, x), X(m, y), p) <= 0) {
+            if (ref__orient_facet(r->p, bd->facs[id].facet, X(m, x), X(m, y), p) <= 0) {
                 rc = 1; /* the narrowed 2D cavity is no star */
                 break;
             }
-            if (pdr_grow((void **)&r->bedge, &r->cap_bedge, r->nbedge + 1, sizeof *r->bedge)) {
-                rc = PDR_ENOMEM;
+            if ((rc = ref__add_bedge(r, x, y, id)))
                 break;
-            }
-            uint32_t *e = r->bedge[r->nbedge++];
-            e[0] = x;
-            e[1] = y;
-            e[2] = T->facet;
-            e[3] = id;
         }
     }
     if (!rc && !r->nlist)

@@ -97,6 +97,15 @@ int ref__grow_cavity2d(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb,
  * lie strictly inside one of those subfacets' other edges, or
  * PDR_ENOMEM. */
 int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb);
+/* Edge k of subfacet id of the 2D cavity r->list: 1 if it bounds the
+ * cavity (it is not the split subsegment sa-sb, sb TM_NONE for none, and
+ * the cavity holds no subfacet across it), with its ends in *x, *y, *seg
+ * 1 when it is a subsegment, and else the subfacet across it in *u
+ * (BD_NONE: none). */
+int ref__cavity2d_rim(const ref_mesher *r, uint32_t id, int k, uint32_t sa, uint32_t sb,
+                      uint32_t *x, uint32_t *y, int *seg, uint32_t *u);
+/* Appends rim edge x-y of subfacet id to r->bedge (0 or PDR_ENOMEM). */
+int ref__add_bedge(ref_mesher *r, uint32_t x, uint32_t y, uint32_t id);
 /* If subsegment id is an edge of the mesh: its edge bits set in every
  * tetrahedron around it, *t one of them, the missing flag cleared, 1;
  * else flagged missing, 0. */
