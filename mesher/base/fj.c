@@ -38,11 +38,13 @@ void fj_run(fj_task *t, size_t n, unsigned nthreads)
     fj_run_state s = {t, n, 0};
     atomic_init(&s.next, 0);
     pthread_t th[FJ_MAX_THREADS];
-    size_t extra = nthreads > 1 ? nthreads - 1 : 0;
+    /* Threads besides the caller's: no more than the tasks after the
+     * first, nor than FJ_MAX_THREADS. */
+    size_t extra = nthreads > 1 ? nthreads - 1 : 0, most = n > 1 ? n - 1 : 0;
+    if (extra > most)
+        extra = most;
     if (extra > FJ_MAX_THREADS)
         extra = FJ_MAX_THREADS;
-    if (extra > n - (n > 0))
-        extra = n > 0 ? n - 1 : 0;
     size_t started = 0;
     while (started < extra && pthread_create(&th[started], NULL, worker, &s) == 0)
         started++;
