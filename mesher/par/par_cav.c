@@ -130,23 +130,25 @@ static int serve_from(par_cav_ctx *cc, par_part *pt, uint32_t owner, const doubl
 {
     tm_mesh *m = &cc->s->r.m;
     uint32_t lk = m->lock[t];
-    if (lk == owner) {
-        /* Visited: a cavity tetrahedron (the face is inside the cavity)
-         * or a closure one (the face will face the origin). */
-        if (k != TM_NONE && !(m->flags[t] & TM_F_CAVITY))
-            return push(&pt->ifcs, k);
-        return REPLY_OK;
-    }
-    if (lk != 0)
+    if (lk == owner && (m->flags[t] & TM_F_CAVITY))
+        return REPLY_OK; /* a cavity tetrahedron: the face is inside */
+    if (lk != 0 && lk != owner)
         return REPLY_LOCKED;
+    /* Free, or held as closure. Closure behind a face of the cavity is not
+     * in conflict, but closure behind a subfacet (the constrained mode's
+     * DT_BND_MARKED) may be, and met now from another side it belongs to
+     * the cavity, as the sequential search would find it: test it. */
     int s = dt_conflict(m, t, p);
     if (s == 0)
         return REPLY_DUPLICATE;
     if (s < 0) {
-        m->lock[t] = owner;
-        int rc = push(&pt->held, t);
+        int rc = 0;
+        if (lk == 0) {
+            m->lock[t] = owner;
+            rc = push(&pt->held, t);
+        }
         if (!rc && k != TM_NONE)
-            rc = push(&pt->ifcs, k);
+            rc = push(&pt->ifcs, k); /* the face will face the origin */
         return rc;
     }
     dt_cavity *c = &cc->scratch;
