@@ -738,7 +738,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!c.o.quiet) {
         print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
         printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s (of "
-               "which classification %.3f)\n",
+               "which rank 0's finish %.3f)\n",
                t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm, t_cls);
         /* The distribution's parts, for the paper's Table 2. */
         printf("distribute: Mo %.3f, partition %.3f, send %.3f s\n", t_prep[1] - t_prep[0],
