@@ -314,6 +314,51 @@ START_TEST(binary_stl_merges_vertices)
 }
 END_TEST
 
+/* Two tetrahedron surfaces that cross each other, as a binary STL: no
+ * lines to name, so the message names the facets (the triangles' order)
+ * and no "line 0". */
+START_TEST(binary_stl_intersection_names_no_line)
+{
+    make_tmpdir();
+    char path[256];
+    snprintf(path, sizeof path, "%s/two.stl", tmpdir);
+    FILE *f = fopen(path, "wb");
+    ck_assert_ptr_nonnull(f);
+    char head[80] = "two tetrahedra";
+    fwrite(head, 1, 80, f);
+    unsigned char n[4] = {8, 0, 0, 0};
+    fwrite(n, 1, 4, f);
+    const float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const int tri[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    for (int copy = 0; copy < 2; copy++)
+        for (int t = 0; t < 4; t++) {
+            for (int k = 0; k < 3; k++)
+                put_f32(f, 0);
+            for (int c = 0; c < 3; c++)
+                for (int k = 0; k < 3; k++)
+                    put_f32(f, v[tri[t][c]][k] + (copy ? 0.25f : 0.0f));
+            fputc(0, f);
+            fputc(0, f);
+        }
+    fclose(f);
+    plc p;
+    pdr_diag d = {0};
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_int_eq(plc_validate(&p, &d), PDR_EGEOMETRY);
+    ck_assert_uint_gt(d.nkept, 0);
+    int named = 0;
+    for (size_t i = 0; i < d.nkept; i++) {
+        ck_assert_ptr_null(strstr(d.msgs[i], "line 0"));
+        named += strstr(d.msgs[i], " intersect near ") != NULL;
+    }
+    ck_assert_int_gt(named, 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
 static const char *fixture(const char *name)
 {
     static char path[4096];
@@ -566,6 +611,7 @@ static Suite *plc_suite(void)
     tcase_add_test(tc, poly_reader_full_format);
     tcase_add_test(tc, poly_with_separate_zero_based_node_file);
     tcase_add_test(tc, binary_stl_merges_vertices);
+    tcase_add_test(tc, binary_stl_intersection_names_no_line);
     tcase_add_test(tc, smesh_off_stl_fixtures);
     suite_add_tcase(s, tc);
     tc = tcase_create("validate");
