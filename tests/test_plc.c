@@ -11,6 +11,7 @@
 #include "plc/dom.h"
 #include "plc/fm.h"
 #include "plc/plc.h"
+#include "plc/plc_tri.h"
 #include "unit.h"
 
 /* ------------------------------------------------------------- helpers */
@@ -359,6 +360,46 @@ START_TEST(binary_stl_intersection_names_no_line)
 }
 END_TEST
 
+/* A facet of three nearly collinear corners (from a public CAD part):
+ * in the facet's triangulation the side from the third corner to the
+ * first crosses an edge that ends at a corner of the enclosing triangle,
+ * whose fan is open; the edge must still be found there. */
+START_TEST(sliver_facet_triangulates)
+{
+    plc p;
+    plc_init(&p, NULL);
+    const double v[4][3] = {{6.00721, 4.00481, 0},
+                            {6.00721, 2.0024, 0},
+                            {6.01099, 0.861366, 0},
+                            {6.0, 2.0, 1.0}};
+    for (int i = 0; i < 4; i++)
+        ck_assert_int_eq(plc_add_vertex(&p, v[i], 0, NULL), 0);
+    static const uint32_t f[4][3] = {{0, 1, 2}, {0, 3, 1}, {1, 3, 2}, {2, 3, 0}};
+    for (int i = 0; i < 4; i++) {
+        ck_assert_int_eq(plc_begin_facet(&p, 0, 0), 0);
+        ck_assert_int_eq(plc_add_polygon(&p, f[i], 3, 0), 0);
+    }
+    pdr_diag d = {0};
+    ck_assert_int_eq(plc_derive(&p, &d), 0);
+    /* Every insertion order of the corners (the workspace's random
+     * state decides it): one of them gives that triangulation. */
+    for (uint32_t seed = 1; seed <= 64; seed++) {
+        plc_cdt w = {0};
+        w.rng = seed * 2654435761u;
+        plc_cdt_fail fail;
+        ck_assert_int_eq(plc_cdt_facet(&w, &p, 0, &fail), 0);
+        ck_assert_uint_eq(w.nout, 1);
+        plc_cdt_free(&w);
+    }
+    int rc = plc_validate(&p, &d);
+    if (rc)
+        pdr_diag_print(&d, stderr);
+    ck_assert_int_eq(rc, 0);
+    pdr_diag_free(&d);
+    plc_free(&p);
+}
+END_TEST
+
 static const char *fixture(const char *name)
 {
     static char path[4096];
@@ -612,6 +653,7 @@ static Suite *plc_suite(void)
     tcase_add_test(tc, poly_with_separate_zero_based_node_file);
     tcase_add_test(tc, binary_stl_merges_vertices);
     tcase_add_test(tc, binary_stl_intersection_names_no_line);
+    tcase_add_test(tc, sliver_facet_triangulates);
     tcase_add_test(tc, smesh_off_stl_fixtures);
     suite_add_tcase(s, tc);
     tc = tcase_create("validate");

@@ -284,20 +284,28 @@ static int insert_point(plc_cdt *w, uint32_t p, uint32_t *hint, plc_cdt_fail *fa
  * NONE. a must be a vertex of the triangulation. */
 static uint32_t find_edge(plc_cdt *w, uint32_t a, uint32_t b, int *edge)
 {
-    uint32_t start = w->vtri[a], ti = start;
-    do {
-        const tri *t = &w->t[ti];
-        int i = index_of(t, a);
-        if (t->v[NEXT(i)] == b) {
-            *edge = PREV(i);
-            return ti;
-        }
-        if (t->v[PREV(i)] == b) {
-            *edge = NEXT(i);
-            return ti;
-        }
-        ti = t->nb[PREV(i)]; /* across a -> v[i+1]: rotate around a */
-    } while (ti != start && ti != NONE);
+    /* Around a one way, and if that meets the outer boundary (a is a
+     * corner of the enclosing triangle: its fan is open) the other way
+     * from the start. */
+    for (int way = 0; way < 2; way++) {
+        uint32_t start = w->vtri[a], ti = start;
+        do {
+            const tri *t = &w->t[ti];
+            int i = index_of(t, a);
+            if (t->v[NEXT(i)] == b) {
+                *edge = PREV(i);
+                return ti;
+            }
+            if (t->v[PREV(i)] == b) {
+                *edge = NEXT(i);
+                return ti;
+            }
+            /* across a -> v[i+1], or across v[i-1] -> a */
+            ti = way == 0 ? t->nb[PREV(i)] : t->nb[NEXT(i)];
+        } while (ti != start && ti != NONE);
+        if (ti == start)
+            break; /* a closed fan, all seen */
+    }
     return NONE;
 }
 
