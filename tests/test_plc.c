@@ -636,6 +636,33 @@ START_TEST(sharp_segments_and_acute_vertices)
     /* the corners of the thin end: the 14-degree angle of each end
      * triangle, the other corners have 90 degrees or 76 */
     ck_assert_uint_eq(st.acute_vertices, 2);
+    /* one 14-degree corner per end triangle: a bad tetrahedron at each
+     * for a bound of 2 (below asin(1/4) = 14.48 degrees), none for 14 */
+    ck_assert_uint_eq(fm_thin_corners(&p, 14.5), 2);
+    ck_assert_uint_eq(fm_thin_corners(&p, 14.0), 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(thin_corners_of_a_dart)
+{
+    /* A prism over the dart A (0,0), B (4,0.5), C (0,1), D (3.95,0.5):
+     * convex corners at A and C (0.1 degrees) and B (14.25), a reflex
+     * one at D (345.6 inside, its edges 14.4 degrees apart), which is
+     * not thin; the sides are rectangles. */
+    const char *dart = "OFF\n8 6 0\n0 0 0\n4 0.5 0\n0 1 0\n3.95 0.5 0\n"
+                       "0 0 1\n4 0.5 1\n0 1 1\n3.95 0.5 1\n"
+                       "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    int rc = prepare_text(dart, FM_MERGE_ANGLE, &p, &st, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_uint_eq(fm_thin_corners(&p, 14.5), 6);
+    ck_assert_uint_eq(fm_thin_corners(&p, 14.0), 4);
+    ck_assert_uint_eq(fm_thin_corners(&p, 0.05), 0);
     plc_free(&p);
     pdr_diag_free(&d);
 }
@@ -664,6 +691,7 @@ static Suite *plc_suite(void)
     tcase_add_test(tc, coplanar_triangles_merge_into_facets);
     tcase_add_test(tc, merge_respects_the_angle_tolerance);
     tcase_add_test(tc, sharp_segments_and_acute_vertices);
+    tcase_add_test(tc, thin_corners_of_a_dart);
     suite_add_tcase(s, tc);
     return s;
 }

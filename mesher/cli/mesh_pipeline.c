@@ -643,8 +643,18 @@ static void print_left(const mp_ctx *c)
         printf(", %zu with a dihedral angle below %g degrees", st->left_sliver,
                c->o.ref.min_dihedral);
     printf("\n");
-    /* Where the ones next to small angles are (input numbering). */
     const plc *p = &c->p;
+    /* How many of them no mesher could avoid without changing the facets
+     * (fm_thin_corners). */
+    double B = c->o.ref.ratio;
+    size_t thin = st->left_ratio && c->have_plc && B > 1 && p->derived
+                      ? fm_thin_corners(p, asin(0.5 / B) * 180.0 / M_PI)
+                      : 0;
+    if (thin)
+        printf("  the input's facets have %zu corners below %.1f degrees: any mesh of them has "
+               "a tetrahedron with radius-edge >= %g at each (on a face at such a corner)\n",
+               thin, asin(0.5 / B) * 180.0 / M_PI, B);
+    /* Where the ones next to small angles are (input numbering). */
     for (int s = 0; s < REF_LEFT_SITES && c->have_plc && st->left_site[s].count; s++) {
         const struct ref_left_site *ls = &st->left_site[s];
         printf(s ? "; " : "  next to: ");

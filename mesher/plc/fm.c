@@ -638,3 +638,48 @@ int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag)
         rc = fm_features(p, st);
     return rc;
 }
+
+size_t fm_thin_corners(const plc *p, double max_angle)
+{
+    double cmax = cos(max_angle * M_PI / 180.0);
+    size_t n = 0;
+    for (size_t f = 0; f < p->nfacet; f++) {
+        const plc_facet *F = &p->facets[f];
+        const plc_polygon *outer = NULL;
+        int ok = F->nhole == 0;
+        for (size_t q = F->poly_first; ok && q < F->poly_first + F->npoly; q++)
+            if (p->polys[q].n >= 3) {
+                ok = outer == NULL;
+                outer = &p->polys[q];
+            }
+        if (!ok || !outer)
+            continue;
+        const uint32_t *c = p->corners + outer->first;
+        uint32_t m = outer->n;
+        /* The polygon's own normal (Newell): its corners turn
+         * counterclockwise about it, so a convex corner turns left. */
+        double nrm[3] = {0, 0, 0};
+        for (uint32_t i = 0; i < m; i++) {
+            const double *a = p->xyz[c[i]], *b = p->xyz[c[(i + 1) % m]];
+            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        }
+        for (uint32_t i = 0; i < m; i++) {
+            const double *a = p->xyz[c[(i + m - 1) % m]], *v = p->xyz[c[i]],
+                         *b = p->xyz[c[(i + 1) % m]];
+            double e1[3], e2[3], t[3];
+            v3_sub(a, v, e1);
+            v3_sub(b, v, e2);
+            double l1 = v3_dot(e1, e1), l2 = v3_dot(e2, e2);
+            if (!(l1 > 0 && l2 > 0))
+                continue;
+            /* the turn (v - a) x (b - v) = e2 x e1 along the normal: convex */
+            cross(e2, e1, t);
+            if (!(v3_dot(t, nrm) > 0))
+                continue;
+            n += v3_dot(e1, e2) > cmax * sqrt(l1 * l2);
+        }
+    }
+    return n;
+}

@@ -108,4 +108,17 @@ int fm_features(plc *p, fm_stats *st);
  * (messages in diag) or PDR_ENOMEM. */
 int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag);
 
+/* The corners of facets of p whose angle inside the facet is below
+ * max_angle degrees, counted on facets bounded by one polygon of three
+ * or more corners and without holes (other polygons of one or two
+ * corners, which only cut the facet, allowed). Each forces a bad
+ * tetrahedron: the facet's triangles at such a corner have an angle of at
+ * most max_angle there, and a tetrahedron on a face whose angle at a
+ * vertex is a has a circumradius at least that face's, |opposite edge| /
+ * (2 sin a), so a radius-edge ratio of at least 1/(2 sin a), whatever the
+ * mesher does, unless it changes the facets. For B = 1/(2 sin(max_angle)),
+ * every mesh of these facets has a tetrahedron of ratio >= B at each such
+ * corner, on the domain's side. Needs the derived PLC (plc_validate). */
+size_t fm_thin_corners(const plc *p, double max_angle);
+
 #endif /* PDR_FM_H */

@@ -16,4 +16,4 @@ libpdrmesh_la_SOURCES += \
 	mesher/refine/refine_facrec.c \
 	mesher/refine/refine_run.c \
 	mesher/refine/refine_segrec.c
-EXTRA_DIST += mesher/refine/RECOVERY.md
+EXTRA_DIST += mesher/refine/RECOVERY.md mesher/refine/QUALITY.md

@@ -207,6 +207,19 @@ typedef struct ref_stats {
     size_t seg_points;   /* subsegment split points inserted */
     size_t rejected;     /* tetrahedron circumcentres turned into splits */
     size_t tolerated;    /* boundary splits refused by the safety net */
+    /* ... of which (PDR_REF_TRACE prints them; see mesher/refine/
+     * QUALITY.md): */
+    size_t tol_floor;    /* the new vertex nearer than the floor rmin */
+    size_t tol_hidden;   /* constrained: its cavity could not be made */
+    size_t tol_below;    /* nearer than min_spacing to a vertex */
+    size_t needle_floor; /* splits for a bad tetrahedron under the whole
+                            floor because a piece ends at a needle point */
+    size_t beyond_seg;   /* subfacet splits given to the subsegment their
+                            circumcentre lies beyond */
+    size_t unseen;       /* constrained: tetrahedra whose circumcentre a
+                            constraint hides and no subfacet on the
+                            cavity's boundary is in the way (given up,
+                            counted degenerate) */
     size_t gave_up;      /* tetrahedra left alone when popped */
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */

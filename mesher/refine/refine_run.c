@@ -464,6 +464,7 @@ static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_
     if (!missing) {
         *flags |= BD_F_TOLERATED;
         r->st.tolerated++;
+        r->st.tol_below++;
         return 0;
     }
     memcpy(r->stop_at, p, sizeof r->stop_at);
@@ -481,6 +482,10 @@ static int hidden_piece(ref_mesher *r, const double *p, int missing, uint16_t *f
                         uint32_t feat)
 {
     int rc = below_resolution(r, p, missing, flags);
+    if (!missing) {
+        r->st.tol_below--;
+        r->st.tol_hidden++;
+    }
     if (rc) {
         r->stop_hidden = 1;
         r->stop_vkind = vkind;
@@ -577,6 +582,7 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         dt_cavity_abandon(m, &r->cav);
         r->bd.segs[id].flags |= BD_F_TOLERATED;
         r->st.tolerated++;
+        r->st.tol_floor++;
         return 0;
     }
     uint16_t any = cavity_flags(r);
@@ -703,6 +709,7 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
             return 0;
         }
         /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
+        r->st.beyond_seg++;
         int res;
         rc = split_subseg(r, sid, rmin, 0, &res);
         *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
@@ -767,6 +774,7 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
             return below_resolution(r, c, missing, &r->bd.facs[id].flags);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
         r->st.tolerated++;
+        r->st.tol_floor++;
         return 0;
     }
     uint32_t v;
@@ -951,6 +959,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
             return 0;
         }
         /* c lies beyond subsegment ea-eb of the facet: it encroaches it */
+        r->st.beyond_seg++;
         int res;
         rc = split_subseg(r, sid, rmin, 0, &res);
         *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
@@ -969,6 +978,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         dt_cavity_abandon(m, &r->cav);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
         r->st.tolerated++;
+        r->st.tol_floor++;
         return 0;
     }
     uint32_t v;
@@ -1082,6 +1092,8 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
      * instead of 1,373, the thin slab 0 instead of 2,602. */
     if (r->o.constrained && !needle)
         floor *= 0.25;
+    else if (r->o.constrained)
+        r->st.needle_floor++;
     int outcome = SPLIT_REFUSED, rc = 0;
     /* With the parallel hooks the splits below may wait for other PEs,
      * during which t may be split or moved away and its slot reused:
@@ -1234,6 +1246,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
         }
         dt_cavity_abandon(m, &r->cav);
         if (d.action == REF_COMMIT && g == BD_NONE) {
+            r->st.unseen++;
             give_up(r, t, 1);
             return 0;
         }
@@ -1541,10 +1554,13 @@ int ref_run(ref_mesher *r, int tets)
     if (trace)
         fprintf(trace,
                 "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
-                "slivers %zu miss %zu anom %zu flips %zu\n",
+                "slivers %zu miss %zu anom %zu flips %zu | tol: floor %zu hidden %zu below %zu; "
+                "needle floor %zu, beyond a subsegment %zu, unseen %zu\n",
                 iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
                 r->st.rejected, r->st.tolerated, r->st.gave_up, r->st.slivers_left,
-                r->st.missing_recovered, r->anomalies, r->flips);
+                r->st.missing_recovered, r->anomalies, r->flips, r->st.tol_floor,
+                r->st.tol_hidden, r->st.tol_below, r->st.needle_floor, r->st.beyond_seg,
+                r->st.unseen);
     return rc;
 }
 
