@@ -360,6 +360,49 @@ START_TEST(binary_stl_intersection_names_no_line)
 }
 END_TEST
 
+/* A non-planar quadrilateral (quad meshes) is cut along its Delaunay
+ * diagonal in projection, not the first ear's: here the corners 0 and 2
+ * have the obtuse angles, so the cut joins them. A square pyramid whose
+ * base is that quadrilateral, twisted out of its plane. */
+START_TEST(nonplanar_quad_cut_along_delaunay_diagonal)
+{
+    make_tmpdir();
+    char path[256];
+    snprintf(path, sizeof path, "%s/pyramid.off", tmpdir);
+    FILE *f = fopen(path, "w");
+    ck_assert_ptr_nonnull(f);
+    fputs("OFF\n5 5 0\n"
+          "0 -1 0\n2 0 0.05\n0 1 0\n-2 0 0.05\n0 0 2\n"
+          "4 2 1 0 3\n3 0 1 4\n3 1 2 4\n3 2 3 4\n3 3 0 4\n",
+          f);
+    fclose(f);
+    plc p;
+    pdr_diag d = {0};
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, path, &d), 0);
+    ck_assert_uint_eq(p.read_split, 1);
+    ck_assert_uint_eq(p.nfacet, 6);
+    int cut02 = 0, cut13 = 0;
+    for (size_t k = 0; k < p.nfacet; k++) {
+        const plc_polygon *q = &p.polys[p.facets[k].poly_first];
+        int has[4] = {0, 0, 0, 0};
+        for (uint32_t i = 0; i < q->n; i++)
+            if (p.corners[q->first + i] < 4)
+                has[p.corners[q->first + i]] = 1;
+        if (q->n == 3 && has[0] && has[2] && (has[1] || has[3]))
+            cut02++;
+        if (q->n == 3 && has[1] && has[3] && (has[0] || has[2]))
+            cut13++;
+    }
+    ck_assert_int_eq(cut02, 2);
+    ck_assert_int_eq(cut13, 0);
+    ck_assert_int_eq(plc_validate(&p, &d), 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
 /* A facet of three nearly collinear corners (from a public CAD part):
  * in the facet's triangulation the side from the third corner to the
  * first crosses an edge that ends at a corner of the enclosing triangle,
@@ -681,6 +724,7 @@ static Suite *plc_suite(void)
     tcase_add_test(tc, binary_stl_merges_vertices);
     tcase_add_test(tc, binary_stl_intersection_names_no_line);
     tcase_add_test(tc, sliver_facet_triangulates);
+    tcase_add_test(tc, nonplanar_quad_cut_along_delaunay_diagonal);
     tcase_add_test(tc, smesh_off_stl_fixtures);
     suite_add_tcase(s, tc);
     tc = tcase_create("validate");

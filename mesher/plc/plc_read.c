@@ -472,6 +472,59 @@ static int in_triangle2(const double *a, const double *b, const double *c, const
            pred_orient2d(c, a, q) >= 0;
 }
 
+/* The projected position of corner vertex v of polygon c[0..n). */
+static const double *corner_q(const double (*q)[2], const uint32_t *c, uint32_t n, uint32_t v)
+{
+    for (uint32_t i = 0; i < n; i++)
+        if (c[i] == v)
+            return q[i];
+    return q[0]; /* not reached: every triangle corner is a polygon corner */
+}
+
+/* Flips the diagonals of an ear-clipped polygon (triangles tri[0..nt),
+ * counterclockwise in the projection q) until each is Delaunay there.
+ * Ear clipping takes the first ear, so a quadrilateral is always cut
+ * along the same diagonal whatever its shape; the Delaunay one is the
+ * diagonal the tetrahedralization of the points most likely has already
+ * (the surface is nearly flat there), so the boundary recovery need not
+ * split it. Only small polygons (quadrilaterals from quad meshes, mostly):
+ * the pair search is quadratic. */
+static void delaunay_diagonals(const double (*q)[2], const uint32_t *c, uint32_t n,
+                               uint32_t (*tri)[3], uint32_t nt)
+{
+    if (nt < 2 || n > 32)
+        return;
+    for (uint32_t pass = 0, flipped = 1; flipped && pass < 4 * n; pass++) {
+        flipped = 0;
+        for (uint32_t i = 0; i < nt; i++)
+            for (uint32_t j = i + 1; j < nt; j++)
+                for (int e = 0; e < 3; e++) {
+                    /* edge (x, y) of triangle i, apex w; triangle j has
+                     * (y, x) with apex z */
+                    uint32_t x = tri[i][e], y = tri[i][(e + 1) % 3], w = tri[i][(e + 2) % 3];
+                    int f = -1;
+                    for (int k = 0; k < 3; k++)
+                        if (tri[j][k] == y && tri[j][(k + 1) % 3] == x)
+                            f = k;
+                    if (f < 0)
+                        continue;
+                    uint32_t z = tri[j][(f + 2) % 3];
+                    const double *qx = corner_q(q, c, n, x), *qy = corner_q(q, c, n, y),
+                                 *qw = corner_q(q, c, n, w), *qz = corner_q(q, c, n, z);
+                    if (pred_incircle(qx, qy, qw, qz) <= 0)
+                        continue;
+                    /* the new diagonal (w, z) must leave two
+                     * counterclockwise triangles: (w, x, z), (z, y, w) */
+                    if (pred_orient2d(qw, qx, qz) <= 0 || pred_orient2d(qz, qy, qw) <= 0)
+                        continue;
+                    tri[i][0] = w, tri[i][1] = x, tri[i][2] = z;
+                    tri[j][0] = z, tri[j][1] = y, tri[j][2] = w;
+                    flipped = 1;
+                    e = 3;
+                }
+    }
+}
+
 /* Ear clipping of polygon c[0..n) (n > 3, distinct corners) projected
  * along normal nrm; adds every triangle as a facet. Returns 0, 1 when the
  * projection has no ear at some step (not a simple polygon: nothing
@@ -535,6 +588,8 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
             ntri++;
         }
     }
+    if (!rc)
+        delaunay_diagonals(q, c, n, tri, ntri);
     for (uint32_t i = 0; i < ntri && !rc; i++)
         if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, tri[i], 3, line))
             rc = PDR_ENOMEM;
