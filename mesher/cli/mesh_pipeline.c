@@ -625,9 +625,9 @@ static void print_left(const mp_ctx *c)
 {
     const ref_stats *st = &c->st;
     if (st->left_stuck)
-        printf("left not locally Delaunay: %zu faces next to thin input triangles (the "
-               "recovery with segments first could not make the mesh a constrained "
-               "Delaunay tetrahedralization there)\n",
+        printf("left not locally Delaunay: %zu faces next to thin input triangles (no flip "
+               "mends them and the splits next to them were refused: the mesh is no "
+               "constrained Delaunay tetrahedralization there)\n",
                st->left_stuck);
     if (!st->left_ratio && !st->left_size && !st->left_sliver && c->o.quiet)
         return;

@@ -254,7 +254,7 @@ typedef struct ref_stats {
     size_t left_ratio_angle;  /* ... left because their split needed a
                                  boundary split the safety net refused */
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
-    size_t left_stuck;   /* keep_stuck: faces off the facets left not
+    size_t left_stuck;   /* constrained: faces off the facets left not
                             locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
     size_t left_sliver;  /* ... with a dihedral angle below the bound */
