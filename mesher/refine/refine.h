@@ -219,6 +219,8 @@ typedef struct ref_stats {
                             their 3D cavity kept a subfacet of their 2D one */
     size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's
                             flips (22: of two boundary subfacets) */
+    size_t stuck_splits; /* constrained: subsegments queued for a split by
+                            a face that no flip mends (ref__cdt_flip) */
     size_t flips_blocked; /* parallel constrained: faces not flipped
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
@@ -453,6 +455,20 @@ typedef struct ref_mesher {
 #define REF_LIMIT_PER_INPUT 200.0
 #define REF_LIMIT_PER_SIZE 20.0
 size_t ref_point_limit(const plc *p, const ref_opts *o);
+
+/* The bound on the subsegment splits that faces no flip mends ask for in
+ * one run (ref_stats.stuck_splits, ref__cdt_flip): REF_STUCK_BASE plus
+ * REF_STUCK_PER_INPUT per input vertex. Past it such faces are left, as
+ * after the recovery with segments first, and counted (left_stuck). On
+ * thin tessellations (CGAL's pipe.off, 160 vertices, and u.off) those
+ * splits cascade, each new vertex's floor lower than the last, for
+ * minutes; the runs that end by themselves stay below it (turbine.off:
+ * 1.6 per input vertex; the generated corpus: at most 2 in all; the parts
+ * meshed after the recovery with segments first split none). Fewer such
+ * splits also mean a better mesh there: pipe.off with none leaves 1,418
+ * tetrahedra above ratio 2, with 1,500 5,399. */
+#define REF_STUCK_BASE 64
+#define REF_STUCK_PER_INPUT 2
 
 /* The bound on the splits of missing pieces in one refinement
  * (ref_mesher.recovery_limit): this many per input vertex and

@@ -615,8 +615,12 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
      * never end; the face is then left and counted), under the same
      * floor as a split some vertex's encroachment asks for (none lets the
      * splits cascade into acute input vertices), in the tetrahedra around
-     * it if its constrained cavity is no star. */
-    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck; i++) {
+     * it if its constrained cavity is no star; up to a bound per run
+     * (REF_STUCK_BASE), past which they cascade under shrinking floors
+     * and the face is left as with keep_stuck. */
+    size_t budget = REF_STUCK_BASE + REF_STUCK_PER_INPUT * r->p->nv;
+    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck && r->st.stuck_splits < budget;
+         i++) {
         tm_link l = r->flipped.stuck_faces[i];
         uint32_t t = tm_ltet(l);
         if (tm_is_dead(m, t))
@@ -629,6 +633,7 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
             uint32_t id = bd_find_subseg(&r->bd, a, b);
             if (id != BD_NONE) {
                 found = 1;
+                r->st.stuck_splits += !(r->bd.segs[id].flags & BD_F_QUEUED);
                 rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
             }
         }
