@@ -462,11 +462,16 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * after the recovery with segments first, and counted (left_stuck). On
  * thin tessellations (CGAL's pipe.off, 160 vertices, and u.off) those
  * splits cascade, each new vertex's floor lower than the last, for
- * minutes; the runs that end by themselves stay below it (turbine.off:
- * 1.6 per input vertex; the generated corpus: at most 2 in all; the parts
- * meshed after the recovery with segments first split none). Fewer such
- * splits also mean a better mesh there: pipe.off with none leaves 1,418
- * tetrahedra above ratio 2, with 1,500 5,399. */
+ * minutes, and on CGAL's anchor_dense a bound of 8 per input vertex
+ * still took 96 s. Most runs stay below it (turbine: 14,859 for 9,210
+ * vertices; the generated corpus: at most 2 in all; the parts meshed
+ * after the recovery with segments first: none); those that end by
+ * themselves above it (CGAL's 3torus, 126 for 19 vertices; dragknob,
+ * 1,031 for 161; double-torus-example, 1,606 for 231) now leave a few more
+ * such faces (9, 76 and 158 instead of 3, 53 and 95) in fewer tetrahedra.
+ * Fewer splits are no worse a mesh: pipe.off with none has 5,826
+ * tetrahedra, 1,418 above ratio 2; with this bound 11,809 and 2,054; with
+ * 1,500, 27,011 and 5,399. */
 #define REF_STUCK_BASE 64
 #define REF_STUCK_PER_INPUT 2
 
