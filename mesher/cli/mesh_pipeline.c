@@ -290,13 +290,14 @@ int mp_initial_mesh(mp_ctx *c)
         return fail(c, rc);
     c->have_r = 1;
     rc = im_build(&c->r, &c->o.mo, &c->is, &c->diag);
-    if (rc == PDR_ELIMIT && c->r.stopped_below && c->r.stop_hidden && c->o.ref.constrained &&
-        !c->o.mo.paper) {
-        /* A split of the constrained recovery had no valid cavity (CAD
-         * tessellations: RECOVERY.md): built again from the start with
-         * the segments recovered first (refine/refine_segrec.c). Only
-         * then, so that every input that meshes the first way keeps its
-         * output. */
+    if (rc == PDR_ELIMIT &&
+        ((c->r.stopped_below && c->r.stop_hidden) || c->r.recovery_capped) &&
+        c->o.ref.constrained && !c->o.mo.paper) {
+        /* A split of the constrained recovery had no valid cavity, or its
+         * splits cascaded up to the recovery's bound (CAD tessellations:
+         * RECOVERY.md): built again from the start with the segments
+         * recovered first (refine/refine_segrec.c). Only then, so that
+         * every input that meshes the first way keeps its output. */
         ref_free(&c->r);
         c->have_r = 0;
         pdr_diag_free(&c->diag);
@@ -625,9 +626,9 @@ static void print_left(const mp_ctx *c)
 {
     const ref_stats *st = &c->st;
     if (st->left_stuck)
-        printf("left not locally Delaunay: %zu faces next to thin input triangles (the "
-               "recovery with segments first could not make the mesh a constrained "
-               "Delaunay tetrahedralization there)\n",
+        printf("left not locally Delaunay: %zu faces next to thin input triangles (no flip "
+               "mends them and the splits next to them were refused: the mesh is no "
+               "constrained Delaunay tetrahedralization there)\n",
                st->left_stuck);
     if (!st->left_ratio && !st->left_size && !st->left_sliver && c->o.quiet)
         return;

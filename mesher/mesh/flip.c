@@ -320,6 +320,8 @@ static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uin
     int o1 = pred_orient3d(P, A, Z, E1), o2 = pred_orient3d(P, A, Z, E2);
     if (!o1 || !o2 || o1 == o2)
         return 0;
+    if (h->facet_ok && !h->facet_ok(h->arg, e1, e2, p, a))
+        return 0;
     uint32_t old[4] = {t, u, g1, g2};
     if (locked(m, h, old, 4)) {
         *rc = FLIP_LOCKED;
@@ -462,6 +464,8 @@ int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[
     int d1 = pred_orient3d(E1, E2, Q1, P), d2 = pred_orient3d(E1, E2, Q1, A);
     int d3 = pred_orient3d(P, A, Q1, E1), d4 = pred_orient3d(P, A, Q1, E2);
     if (!d1 || !d2 || !d3 || !d4 || d1 == d2 || d3 == d4)
+        return 0;
+    if (h->facet_ok && !h->facet_ok(h->arg, e1, e2, p, a))
         return 0;
     uint32_t old[3] = {t, g1, g2};
     if (locked(m, h, old, 3))

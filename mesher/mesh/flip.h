@@ -57,6 +57,14 @@ typedef struct flip_hooks {
      * code). NULL: no 2-2 flips. */
     int (*facet)(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a,
                  const uint32_t tets[4]);
+    /* Asked before such a flip (may be NULL: every flip the 3D tests
+     * allow): 1 if the facet's triangulation allows it, i.e. the
+     * quadrilateral e1 p e2 a is strictly convex as the facet sees it.
+     * The 3D tests look at it from a vertex off the plane; for four
+     * points that are coplanar only up to rounding, three of them nearly
+     * collinear, that view and the facet's own 2D view can disagree, and
+     * the flip would then fold the facet's triangulation over itself. */
+    int (*facet_ok)(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a);
     void *arg;
     /* With m->lock (the parallel refinement), a flip whose tetrahedra
      * include one locked by another owner than this one (0: any lock)

@@ -232,6 +232,8 @@ typedef struct ref_stats {
                             their 3D cavity kept a subfacet of their 2D one */
     size_t flips23, flips32, flips22, flips_stuck; /* constrained: Lawson's
                             flips (22: of two boundary subfacets) */
+    size_t stuck_splits; /* constrained: subsegments queued for a split by
+                            a face that no flip mends (ref__cdt_flip) */
     size_t flips_blocked; /* parallel constrained: faces not flipped
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
@@ -267,7 +269,7 @@ typedef struct ref_stats {
     size_t left_ratio_angle;  /* ... left because their split needed a
                                  boundary split the safety net refused */
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
-    size_t left_stuck;   /* keep_stuck: faces off the facets left not
+    size_t left_stuck;   /* constrained: faces off the facets left not
                             locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
     size_t left_sliver;  /* ... with a dihedral angle below the bound */
@@ -466,6 +468,25 @@ typedef struct ref_mesher {
 #define REF_LIMIT_PER_INPUT 200.0
 #define REF_LIMIT_PER_SIZE 20.0
 size_t ref_point_limit(const plc *p, const ref_opts *o);
+
+/* The bound on the subsegment splits that faces no flip mends ask for in
+ * one run (ref_stats.stuck_splits, ref__cdt_flip): REF_STUCK_BASE plus
+ * REF_STUCK_PER_INPUT per input vertex. Past it such faces are left, as
+ * after the recovery with segments first, and counted (left_stuck). On
+ * thin tessellations (CGAL's pipe.off, 160 vertices, and u.off) those
+ * splits cascade, each new vertex's floor lower than the last, for
+ * minutes, and on CGAL's anchor_dense a bound of 8 per input vertex
+ * still took 96 s. Most runs stay below it (turbine: 14,859 for 9,210
+ * vertices; the generated corpus: at most 2 in all; the parts meshed
+ * after the recovery with segments first: none); those that end by
+ * themselves above it (CGAL's 3torus, 126 for 19 vertices; dragknob,
+ * 1,031 for 161; double-torus-example, 1,606 for 231) now leave a few more
+ * such faces (9, 76 and 158 instead of 3, 53 and 95) in fewer tetrahedra.
+ * Fewer splits are no worse a mesh: pipe.off with none has 5,826
+ * tetrahedra, 1,418 above ratio 2; with this bound 11,809 and 2,054; with
+ * 1,500, 27,011 and 5,399. */
+#define REF_STUCK_BASE 64
+#define REF_STUCK_PER_INPUT 2
 
 /* The bound on the splits of missing pieces in one refinement
  * (ref_mesher.recovery_limit): this many per input vertex and

@@ -562,6 +562,25 @@ static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t 
     return 0;
 }
 
+/* flip_hooks.facet_ok: the quadrilateral e1 p e2 a of a 2-2 flip is
+ * strictly convex in the facet's own 2D view (ref__orient_facet, the view
+ * every 2D cavity and fan of the facet triangulation is built in): the
+ * new diagonal p-a separates e1 from e2 and the old one e1-e2 separates p
+ * from a. */
+static int facet_ok(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t a)
+{
+    const ref_mesher *r = arg;
+    const tm_mesh *m = &r->m;
+    uint32_t s = bd_find_subfac(&r->bd, e1, e2, p);
+    if (s == BD_NONE)
+        return 0;
+    uint32_t f = r->bd.facs[s].facet;
+    const double *P = X(m, p), *A = X(m, a), *E1 = X(m, e1), *E2 = X(m, e2);
+    int d1 = ref__orient_facet(r->p, f, P, A, E1), d2 = ref__orient_facet(r->p, f, P, A, E2);
+    int d3 = ref__orient_facet(r->p, f, E1, E2, P), d4 = ref__orient_facet(r->p, f, E1, E2, A);
+    return d1 && d2 && d3 && d4 && d1 != d2 && d3 != d4;
+}
+
 /* flip_hooks.relink: the parallel hook's, with its own argument. */
 static void relink(void *arg, tm_link outer, uint32_t t, int f)
 {
@@ -573,7 +592,7 @@ static void relink(void *arg, tm_link outer, uint32_t t, int f)
  * hooks the interface faces and the running cavity's lock owner. */
 static flip_hooks flip_hooks_of(ref_mesher *r)
 {
-    flip_hooks fh = {.copy = copy_region, .facet = flip_facet, .arg = r};
+    flip_hooks fh = {.copy = copy_region, .facet = flip_facet, .facet_ok = facet_ok, .arg = r};
     if (r->hooks) {
         fh.relink = r->hooks->relink ? relink : NULL;
         fh.lock_owner = r->hooks->owner ? r->hooks->owner(r->hooks->arg) : 0;
@@ -596,8 +615,12 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
      * never end; the face is then left and counted), under the same
      * floor as a split some vertex's encroachment asks for (none lets the
      * splits cascade into acute input vertices), in the tetrahedra around
-     * it if its constrained cavity is no star. */
-    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck; i++) {
+     * it if its constrained cavity is no star; up to a bound per run
+     * (REF_STUCK_BASE), past which they cascade under shrinking floors
+     * and the face is left as with keep_stuck. */
+    size_t budget = REF_STUCK_BASE + REF_STUCK_PER_INPUT * r->p->nv;
+    for (size_t i = 0; i < r->flipped.nstuck && !rc && !r->keep_stuck && r->st.stuck_splits < budget;
+         i++) {
         tm_link l = r->flipped.stuck_faces[i];
         uint32_t t = tm_ltet(l);
         if (tm_is_dead(m, t))
@@ -610,6 +633,7 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
             uint32_t id = bd_find_subseg(&r->bd, a, b);
             if (id != BD_NONE) {
                 found = 1;
+                r->st.stuck_splits += !(r->bd.segs[id].flags & BD_F_QUEUED);
                 rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
             }
         }

@@ -455,7 +455,10 @@ void ref_count_bad(ref_mesher *r)
     fj_run(ft, n, n);
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
     r->st.left_size = r->st.left_sliver = 0;
-    r->st.left_stuck = r->keep_stuck ? ref__count_stuck(r) : 0;
+    /* Also without keep_stuck: a split that a face no flip mends asks for
+     * may be refused (the floor, a cavity that cannot be made), and the
+     * face is then left too; the summary must say so. */
+    r->st.left_stuck = r->keep_stuck || r->o.constrained ? ref__count_stuck(r) : 0;
     for (unsigned i = 0; i < n; i++) {
         r->st.left_ratio += sh[i].ratio;
         r->st.left_ratio_angle += sh[i].angle;

@@ -527,8 +527,29 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         bd_subfacs_on_edge(&r->bd, S.v[0], S.v[1], ref__add_root, &ra);
         uint32_t ea, eb;
         int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, S.v[0], S.v[1], &ea, &eb);
-        if (g > 0)
-            r->anomalies++; /* not expected for a point on the segment */
+        if (g > 0) {
+            /* Not a star (p lies beyond a subsegment the circumcircles
+             * reach round, or the growth gave up): the collection stopped
+             * half way, so r->bedge is partial and a commit would leave
+             * part of the facets without subfacets (turbine.off with
+             * --no-merge: hull faces left unmarked, the exterior then
+             * taken for inside). A present subsegment is left as it is
+             * (tolerated); a missing one is split in the subfacets on it
+             * alone, each in two, as the segment recovery does
+             * (refine_segrec.c). */
+            r->anomalies++;
+            if (!missing) {
+                ref__list_clear(r);
+                r->bd.segs[id].flags |= BD_F_TOLERATED;
+                r->st.tolerated++;
+                return 0;
+            }
+            g = ref__cavity2d_edge(r, p, S.v[0], S.v[1]);
+            if (g > 0) {
+                ref__list_clear(r);
+                return hidden_piece(r, p, missing, &r->bd.segs[id].flags, BD_V_SEGMENT, S.seg);
+            }
+        }
         /* A queued split of a present subsegment is one a face that no
          * flip mends asks for (ref__cdt_flip): the CDT needs it. */
         rc = g < 0 ? g : ref__cdt_search_piece(r, p, S.v[0], S.v[1], TM_NONE, missing, queued);
