@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/hmap.h"
 #include "base/pdr_util.h"
 #include "geom/pred.h"
 #include "plc/fm.h"
@@ -494,6 +495,10 @@ int ref__cavity2d_edge(ref_mesher *r, const double *p, uint32_t sa, uint32_t sb)
 
 /* ------------------------------------------------ boundary updates */
 
+/* Stars up to this many tetrahedra are searched with a scan of the list
+ * (find_in_star_of), larger ones with a hash set. */
+#define STAR_SCAN_MAX 64
+
 /* The general search for a face of the mesh: tetrahedra around vertex a
  * (a breadth-first walk over the faces containing a) until one has b and
  * c too (c == TM_NONE: edge ab). Slow, used where no cavity tells where
@@ -506,7 +511,8 @@ static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c,
         return 0;
     uint32_t stackbuf[256], *stack = stackbuf;
     size_t n = 0, cap = 256, head = 0;
-    int found = 0;
+    int found = 0, hashed = 0, oom = 0;
+    hmap visited = {0};
     stack[n++] = start;
     while (head < n && !found) {
         uint32_t t = stack[head++];
@@ -522,11 +528,28 @@ static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c,
             if (k == sa || tm_is_special(T->n[k]))
                 continue;
             uint32_t u = tm_ltet(T->n[k]);
+            /* Seen already? A scan while the star is small, a hash set
+             * once it is not (a vertex where splits cascaded can have
+             * thousands of tetrahedra, and the scan made the walk
+             * quadratic). */
             int seen = 0;
-            for (size_t i = 0; i < n && !seen; i++)
-                seen = stack[i] == u;
+            if (n <= STAR_SCAN_MAX) {
+                for (size_t i = 0; i < n && !seen; i++)
+                    seen = stack[i] == u;
+            } else {
+                if (!hashed) {
+                    for (size_t i = 0; i < n && !oom; i++)
+                        oom = hmap_put(&visited, stack[i], 1) != 0;
+                    hashed = 1;
+                }
+                seen = hmap_get(&visited, u) != HMAP_NONE;
+            }
             if (seen)
                 continue;
+            if (hashed && !oom)
+                oom = hmap_put(&visited, u, 1) != 0;
+            if (oom)
+                break;
             if (n == cap) {
                 uint32_t *ns = pr_malloc(2 * cap * sizeof *ns);
                 if (!ns)
@@ -542,6 +565,7 @@ static int find_in_star_of(const tm_mesh *m, uint32_t a, uint32_t b, uint32_t c,
     }
     if (stack != stackbuf)
         pr_free(stack);
+    hmap_free(&visited);
     return found;
 }
 
