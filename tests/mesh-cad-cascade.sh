@@ -19,13 +19,11 @@
 # Without the package the test is skipped (exit 77), never passed.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
-cgal=${CGAL_DATA:-/usr/share/doc/libcgal-dev/data.tar.gz}
-[ -f "$cgal" ] || { echo "SKIP: no $cgal (apt-get install libcgal-dev)"; exit 77; }
+. "$top_srcdir/tests/cad-lib.sh"
 tmp=$(pwd)/mesh-cad-cascade.$$
 mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
-tar -xzf "$cgal" -C "$tmp" data/meshes/pipe.off data/meshes/u.off data/meshes/turbine.off ||
-    fail "cannot extract the parts from $cgal"
+cad_extract "$tmp" pipe u turbine
 data=$tmp/data/meshes
 
 # name  seconds  TetGen's tetrahedra  pdr mesh options...
@@ -36,26 +34,13 @@ while read -r name secs tetgen opts; do
     timeout "$secs" "$PDR" mesh $opts -o "$out" "$in" >"$out.out" 2>&1
     rc=$?
     [ "$rc" -eq 0 ] || { cat "$out.out"; fail "$name: pdr mesh $opts exited $rc"; }
-    nt=$(sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$out.out")
-    [ -n "$nt" ] && [ "$nt" -gt 0 ] || fail "$name: '$nt' tetrahedra"
+    cad_tets "$name" "$out.out"
     [ "$nt" -le $((10 * tetgen)) ] || fail "$name: $nt tetrahedra, TetGen $tetgen"
     merge=
     case $opts in *--no-merge*) merge=--no-merge ;; esac
-    "$PDR" check --plc "$in" $merge --max-ratio 2 "$out" >"$out.chk" 2>&1
-    other=$(grep -- '<-- DEFECT' "$out.chk" |
-        grep -v -e '^tetrahedra with radius-edge ratio' -e '^ *faces not locally Delaunay')
-    [ -z "$other" ] || { cat "$out.chk"; fail "$name: $other"; }
-    grep -q '^ *facets not covered (area differs) *0$' "$out.chk" ||
-        fail "$name: no facet coverage line from pdr check"
-    nd=$(sed -n 's/^ *faces not locally Delaunay *\([0-9]*\).*/\1/p' "$out.chk")
-    said=$(sed -n 's/^left not locally Delaunay: \([0-9]*\) faces.*/\1/p' "$out.out")
-    [ -n "$nd" ] && [ "$nd" -eq "${said:-0}" ] ||
-        fail "$name: pdr check finds '$nd' faces not locally Delaunay, the summary '${said:-0}'"
-    bad=$(sed -n 's/^tetrahedra with radius-edge ratio >= 2: \([0-9]*\).*/\1/p' "$out.chk")
-    left=$(sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge.*/\1/p' \
-        "$out.out")
-    [ -n "$bad" ] && [ -n "$left" ] || fail "$name: no ratio counts ('$bad', '$left')"
-    [ "$bad" -le "$left" ] || fail "$name: pdr check finds $bad above ratio 2, the summary $left"
+    # shellcheck disable=SC2086
+    cad_check "$name" "$in" "$out" "$out.out" $merge
+    cad_check_cover "$name" "$out" "$out.out"
     echo "$name $opts: $nt tetrahedra (TetGen $tetgen), $nd faces not locally Delaunay," \
         "$left left above ratio 2"
     rm -f "$out.node" "$out.ele" "$out.face"

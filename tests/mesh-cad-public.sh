@@ -23,14 +23,11 @@
 # Without the package the test is skipped (exit 77), never passed.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
-cgal=${CGAL_DATA:-/usr/share/doc/libcgal-dev/data.tar.gz}
-[ -f "$cgal" ] || { echo "SKIP: no $cgal (apt-get install libcgal-dev)"; exit 77; }
+. "$top_srcdir/tests/cad-lib.sh"
 tmp=$(pwd)/mesh-cad-public.$$
 mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
-tar -xzf "$cgal" -C "$tmp" data/meshes/part.off data/meshes/joint.off \
-    data/meshes/oblong.off data/meshes/helmet.off data/meshes/anchor.off \
-    data/meshes/spool.off || fail "cannot extract the parts from $cgal"
+cad_extract "$tmp" part joint oblong helmet anchor spool
 data=$tmp/data/meshes
 
 # The same oblong with its vertices renumbered (old vertex i becomes
@@ -62,25 +59,10 @@ while read -r name tetgen; do
     timeout 60 "$PDR" mesh -o "$tmp/$name" "$in" >"$tmp/$name.out" 2>&1
     rc=$?
     [ "$rc" -eq 0 ] || { cat "$tmp/$name.out"; fail "$name: pdr mesh exited $rc"; }
-    nt=$(sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$tmp/$name.out")
-    [ -n "$nt" ] && [ "$nt" -gt 0 ] || fail "$name: '$nt' tetrahedra"
+    cad_tets "$name" "$tmp/$name.out"
     [ "$nt" -le $((2 * tetgen)) ] || fail "$name: $nt tetrahedra, TetGen $tetgen"
-    "$PDR" check --plc "$in" --max-ratio 2 "$tmp/$name" >"$tmp/$name.chk" 2>&1
-    other=$(grep -- '<-- DEFECT' "$tmp/$name.chk" |
-        grep -v -e '^tetrahedra with radius-edge ratio' -e '^ *faces not locally Delaunay')
-    [ -z "$other" ] || { cat "$tmp/$name.chk"; fail "$name: $other"; }
-    grep -q '^ *facets not covered (area differs) *0$' "$tmp/$name.chk" ||
-        fail "$name: no facet coverage line from pdr check"
-    nd=$(sed -n 's/^ *faces not locally Delaunay *\([0-9]*\).*/\1/p' "$tmp/$name.chk")
-    said=$(sed -n 's/^left not locally Delaunay: \([0-9]*\) faces.*/\1/p' "$tmp/$name.out")
-    [ -n "$nd" ] || fail "$name: no Delaunay count from pdr check"
-    [ "$nd" -eq "${said:-0}" ] ||
-        fail "$name: pdr check finds $nd faces not locally Delaunay, the summary '${said:-0}'"
-    bad=$(sed -n 's/^tetrahedra with radius-edge ratio >= 2: \([0-9]*\).*/\1/p' "$tmp/$name.chk")
-    left=$(sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge.*/\1/p' \
-        "$tmp/$name.out")
-    [ -n "$bad" ] && [ -n "$left" ] || fail "$name: no ratio counts ('$bad', '$left')"
-    [ "$bad" -le "$left" ] || fail "$name: pdr check finds $bad above ratio 2, the summary $left"
+    cad_check "$name" "$in" "$tmp/$name" "$tmp/$name.out"
+    cad_check_cover "$name" "$tmp/$name" "$tmp/$name.out"
     echo "$name: $nt tetrahedra (TetGen $tetgen), $nd faces not locally Delaunay, $left left" \
         "above ratio 2"
 done <<EOF
@@ -106,17 +88,9 @@ for run in "part 2 3340" "joint 3 7742 --latency 100us-1ms"; do
     timeout 120 "$PDR" mesh -n "$np" "$@" -o "$tmp/par" "$data/$name.off" >"$tmp/par.out" 2>&1
     rc=$?
     [ "$rc" -eq 0 ] || { cat "$tmp/par.out"; fail "$name -n $np: exit $rc"; }
-    nt=$(sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$tmp/par.out")
-    [ -n "$nt" ] && [ "$nt" -gt 0 ] && [ "$nt" -le $((2 * tetgen)) ] ||
-        fail "$name -n $np: '$nt' tetrahedra, TetGen $tetgen"
-    "$PDR" check --plc "$data/$name.off" --max-ratio 2 "$tmp/par" >"$tmp/par.chk" 2>&1
-    other=$(grep -- '<-- DEFECT' "$tmp/par.chk" |
-        grep -v -e '^tetrahedra with radius-edge ratio' -e '^ *faces not locally Delaunay')
-    [ -z "$other" ] || { cat "$tmp/par.chk"; fail "$name -n $np: $other"; }
-    nd=$(sed -n 's/^ *faces not locally Delaunay *\([0-9]*\).*/\1/p' "$tmp/par.chk")
-    said=$(sed -n 's/^left not locally Delaunay: \([0-9]*\) faces.*/\1/p' "$tmp/par.out")
-    [ -n "$nd" ] && [ "$nd" -eq "${said:-0}" ] ||
-        fail "$name -n $np: pdr check finds '$nd' faces not locally Delaunay, the summary '${said:-0}'"
+    cad_tets "$name -n $np" "$tmp/par.out"
+    [ "$nt" -le $((2 * tetgen)) ] || fail "$name -n $np: '$nt' tetrahedra, TetGen $tetgen"
+    cad_check "$name -n $np" "$data/$name.off" "$tmp/par" "$tmp/par.out"
     echo "$name -n $np $*: $nt tetrahedra, $nd faces not locally Delaunay"
 done
 echo "ok"

@@ -114,6 +114,7 @@ REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/mesh-cad.sh tests/mesh-cad-public.sh tests/mesh-cad-cascade.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
+EXTRA_DIST += tests/cad-lib.sh
 
 # The parallel mesher's data path without the network: decomposition,
 # submesh messages, merge.
