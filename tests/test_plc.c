@@ -267,6 +267,28 @@ static void put_f32(FILE *f, float v)
     fwrite(o, 1, 4, f);
 }
 
+/* A binary STL: the 80-byte header holding text, the triangle count. */
+static void put_stl_header(FILE *f, const char *text, unsigned char ntri)
+{
+    char head[80] = {0};
+    strncpy(head, text, sizeof head - 1);
+    fwrite(head, 1, 80, f);
+    unsigned char n[4] = {ntri, 0, 0, 0};
+    fwrite(n, 1, 4, f);
+}
+
+/* One binary STL triangle: a zero normal, corners c, no attribute. */
+static void put_stl_triangle(FILE *f, const float c[3][3])
+{
+    for (int k = 0; k < 3; k++)
+        put_f32(f, 0);
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            put_f32(f, c[i][k]);
+    fputc(0, f);
+    fputc(0, f);
+}
+
 START_TEST(binary_stl_merges_vertices)
 {
     make_tmpdir();
@@ -275,20 +297,15 @@ START_TEST(binary_stl_merges_vertices)
     FILE *f = fopen(path, "wb");
     ck_assert_ptr_nonnull(f);
     /* The header starts with "solid" on purpose: the size decides. */
-    char head[80] = "solid but binary";
-    fwrite(head, 1, 80, f);
-    unsigned char n[4] = {4, 0, 0, 0};
-    fwrite(n, 1, 4, f);
+    put_stl_header(f, "solid but binary", 4);
     const float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     const int tri[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
     for (int t = 0; t < 4; t++) {
-        for (int k = 0; k < 3; k++)
-            put_f32(f, 0);
-        for (int c = 0; c < 3; c++)
+        float c[3][3];
+        for (int i = 0; i < 3; i++)
             for (int k = 0; k < 3; k++) /* -0 must merge with +0 */
-                put_f32(f, t == 3 && v[tri[t][c]][k] == 0 ? -0.0f : v[tri[t][c]][k]);
-        fputc(0, f);
-        fputc(0, f);
+                c[i][k] = t == 3 && v[tri[t][i]][k] == 0 ? -0.0f : v[tri[t][i]][k];
+        put_stl_triangle(f, c);
     }
     fclose(f);
     plc p;
@@ -325,21 +342,16 @@ START_TEST(binary_stl_intersection_names_no_line)
     snprintf(path, sizeof path, "%s/two.stl", tmpdir);
     FILE *f = fopen(path, "wb");
     ck_assert_ptr_nonnull(f);
-    char head[80] = "two tetrahedra";
-    fwrite(head, 1, 80, f);
-    unsigned char n[4] = {8, 0, 0, 0};
-    fwrite(n, 1, 4, f);
+    put_stl_header(f, "two tetrahedra", 8);
     const float v[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     const int tri[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
     for (int copy = 0; copy < 2; copy++)
         for (int t = 0; t < 4; t++) {
-            for (int k = 0; k < 3; k++)
-                put_f32(f, 0);
-            for (int c = 0; c < 3; c++)
+            float c[3][3];
+            for (int i = 0; i < 3; i++)
                 for (int k = 0; k < 3; k++)
-                    put_f32(f, v[tri[t][c]][k] + (copy ? 0.25f : 0.0f));
-            fputc(0, f);
-            fputc(0, f);
+                    c[i][k] = v[tri[t][i]][k] + (copy ? 0.25f : 0.0f);
+            put_stl_triangle(f, c);
         }
     fclose(f);
     plc p;
