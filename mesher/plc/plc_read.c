@@ -472,25 +472,17 @@ static int in_triangle2(const double *a, const double *b, const double *c, const
            pred_orient2d(c, a, q) >= 0;
 }
 
-/* The projected position of corner vertex v of polygon c[0..n). */
-static const double *corner_q(const double (*q)[2], const uint32_t *c, uint32_t n, uint32_t v)
-{
-    for (uint32_t i = 0; i < n; i++)
-        if (c[i] == v)
-            return q[i];
-    return q[0]; /* not reached: every triangle corner is a polygon corner */
-}
-
-/* Flips the diagonals of an ear-clipped polygon (triangles tri[0..nt),
- * counterclockwise in the projection q) until each is Delaunay there.
+/* Flips the diagonals of an ear-clipped polygon (triangles tri[0..nt) of
+ * corner positions, counterclockwise in the projection q) until each is
+ * Delaunay there.
  * Ear clipping takes the first ear, so a quadrilateral is always cut
  * along the same diagonal whatever its shape; the Delaunay one is the
  * diagonal the tetrahedralization of the points most likely has already
  * (the surface is nearly flat there), so the boundary recovery need not
  * split it. Only small polygons (quadrilaterals from quad meshes, mostly):
  * the pair search is quadratic. */
-static void delaunay_diagonals(const double (*q)[2], const uint32_t *c, uint32_t n,
-                               uint32_t (*tri)[3], uint32_t nt)
+static void delaunay_diagonals(const double (*q)[2], uint32_t n, uint32_t (*tri)[3],
+                               uint32_t nt)
 {
     if (nt < 2 || n > 32)
         return;
@@ -509,8 +501,7 @@ static void delaunay_diagonals(const double (*q)[2], const uint32_t *c, uint32_t
                     if (f < 0)
                         continue;
                     uint32_t z = tri[j][(f + 2) % 3];
-                    const double *qx = corner_q(q, c, n, x), *qy = corner_q(q, c, n, y),
-                                 *qw = corner_q(q, c, n, w), *qz = corner_q(q, c, n, z);
+                    const double *qx = q[x], *qy = q[y], *qw = q[w], *qz = q[z];
                     if (pred_incircle(qx, qy, qw, qz) <= 0)
                         continue;
                     /* the new diagonal (w, z) must leave two
@@ -571,9 +562,9 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
             rc = 1;
             break;
         }
-        tri[ntri][0] = c[idx[(ear + left - 1) % left]];
-        tri[ntri][1] = c[idx[ear]];
-        tri[ntri][2] = c[idx[(ear + 1) % left]];
+        tri[ntri][0] = idx[(ear + left - 1) % left];
+        tri[ntri][1] = idx[ear];
+        tri[ntri][2] = idx[(ear + 1) % left];
         ntri++;
         memmove(idx + ear, idx + ear + 1, (left - ear - 1) * sizeof *idx);
         left--;
@@ -582,17 +573,19 @@ static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3],
         if (pred_orient2d(q[idx[0]], q[idx[1]], q[idx[2]]) <= 0)
             rc = 1;
         else {
-            tri[ntri][0] = c[idx[0]];
-            tri[ntri][1] = c[idx[1]];
-            tri[ntri][2] = c[idx[2]];
+            tri[ntri][0] = idx[0];
+            tri[ntri][1] = idx[1];
+            tri[ntri][2] = idx[2];
             ntri++;
         }
     }
     if (!rc)
-        delaunay_diagonals(q, c, n, tri, ntri);
-    for (uint32_t i = 0; i < ntri && !rc; i++)
-        if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, tri[i], 3, line))
+        delaunay_diagonals(q, n, tri, ntri);
+    for (uint32_t i = 0; i < ntri && !rc; i++) {
+        const uint32_t t[3] = {c[tri[i][0]], c[tri[i][1]], c[tri[i][2]]};
+        if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, t, 3, line))
             rc = PDR_ENOMEM;
+    }
     pr_free(q);
     pr_free(idx);
     pr_free(tri);
