@@ -598,17 +598,15 @@ static void report_hits(const plc *p, struct hits *hs, pdr_diag *diag)
         if (i > 0 && hs->h[i].a == hs->h[i - 1].a && hs->h[i].b == hs->h[i - 1].b)
             continue;
         const struct hit *h = &hs->h[i];
-        if (h->b < nf && p->facets[h->b].line > 0) {
+        if (h->b < nf) {
+            /* The second facet's line, where the file has lines (a binary
+             * STL has none: the facet numbers are the triangles' order). */
+            char at[32] = "";
+            if (p->facets[h->b].line > 0)
+                snprintf(at, sizeof at, " (line %ld)", p->facets[h->b].line);
             pdr_diag_add(diag, p->path, p->facets[h->a].line,
-                         "facets %u and %u (line %ld) intersect near (%.6g, %.6g, %.6g)",
-                         h->a + 1, h->b + 1, p->facets[h->b].line, h->at[0], h->at[1],
-                         h->at[2]);
-        } else if (h->b < nf) {
-            /* No lines to name (a binary STL): the facet numbers are the
-             * triangles' order in the file. */
-            pdr_diag_add(diag, p->path, p->facets[h->a].line,
-                         "facets %u and %u intersect near (%.6g, %.6g, %.6g)", h->a + 1,
-                         h->b + 1, h->at[0], h->at[1], h->at[2]);
+                         "facets %u and %u%s intersect near (%.6g, %.6g, %.6g)", h->a + 1,
+                         h->b + 1, at, h->at[0], h->at[1], h->at[2]);
         } else {
             const plc_segment *s = &p->segin[h->b - nf];
             if (h->a < nf)
