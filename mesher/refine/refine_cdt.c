@@ -300,7 +300,6 @@ static int recovering(const ref_mesher *r)
     return r->narrow_recovery && !r->classified && !r->carved && !r->hooks;
 }
 
-/* 1 if x-y is the subsegment being split (r->split_a, split_b). */
 /* 1 if the pending cavity deletes subfacet id's face (both tetrahedra
  * of it in the cavity), or id is missing (no face to keep). */
 static int cavity_takes(const ref_mesher *r, uint32_t id)
