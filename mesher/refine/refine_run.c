@@ -454,17 +454,16 @@ static int search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t b
     return dt_cavity_search(m, p, t, 0, &r->cav);
 }
 
-/* A boundary split whose new vertex would lie nearer than min_spacing to
- * another: below that, double precision no longer describes the geometry
- * (splits that cascade into a corner reach it, and the boundary then
- * falls apart). A present piece is left as it is (tolerated); a missing
- * one cannot be, so the run stops with PDR_ELIMIT and r->stop_at. */
-static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_t *flags)
+/* A boundary split that cannot be made: a present piece is left as it is
+ * (tolerated, counted in *why too); a missing one cannot be, so the run
+ * stops with PDR_ELIMIT and r->stop_at. */
+static int refuse_piece(ref_mesher *r, const double *p, int missing, uint16_t *flags,
+                        size_t *why)
 {
     if (!missing) {
         *flags |= BD_F_TOLERATED;
         r->st.tolerated++;
-        r->st.tol_below++;
+        (*why)++;
         return 0;
     }
     memcpy(r->stop_at, p, sizeof r->stop_at);
@@ -473,7 +472,16 @@ static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_
     return PDR_ELIMIT;
 }
 
-/* As below_resolution, for a split refused because its constrained
+/* A boundary split whose new vertex would lie nearer than min_spacing to
+ * another: below that, double precision no longer describes the geometry
+ * (splits that cascade into a corner reach it, and the boundary then
+ * falls apart). Refused as above, counted in tol_below. */
+static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_t *flags)
+{
+    return refuse_piece(r, p, missing, flags, &r->st.tol_below);
+}
+
+/* Refused as above (counted in tol_hidden), for a split whose constrained
  * cavity could not be made (refine_cdt.c: other constraints hide part of
  * what the point must replace), not because of the floor: a missing
  * piece stops the run with r->stop_hidden and the piece's input feature
@@ -481,11 +489,7 @@ static int below_resolution(ref_mesher *r, const double *p, int missing, uint16_
 static int hidden_piece(ref_mesher *r, const double *p, int missing, uint16_t *flags, int vkind,
                         uint32_t feat)
 {
-    int rc = below_resolution(r, p, missing, flags);
-    if (!missing) {
-        r->st.tol_below--;
-        r->st.tol_hidden++;
-    }
+    int rc = refuse_piece(r, p, missing, flags, &r->st.tol_hidden);
     if (rc) {
         r->stop_hidden = 1;
         r->stop_vkind = vkind;
