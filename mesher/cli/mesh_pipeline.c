@@ -167,15 +167,27 @@ int mp_read(mp_ctx *c)
 /* Where a vertex of kind vkind (bd.h) on input feature feat lies, as " on
  * the segment between input vertices A and B", " on facet F (line L)" or
  * " inside the volume". */
+/* "facet F (line L)", or "facet F" where the input has no lines (binary
+ * STL). */
+static void facet_label(const plc *p, size_t f, char *buf, size_t size)
+{
+    if (p->facets[f].line > 0)
+        snprintf(buf, size, "facet %zu (line %ld)", f + 1, p->facets[f].line);
+    else
+        snprintf(buf, size, "facet %zu", f + 1);
+}
+
 static void feature_name(const plc *p, int vkind, uint32_t feat, char *buf, size_t size)
 {
+    char fl[64];
     switch (vkind) {
     case BD_V_SEGMENT:
         snprintf(buf, size, " on the segment between input vertices %ld and %ld",
                  plc_vnum(p, p->segs[feat].v[0]), plc_vnum(p, p->segs[feat].v[1]));
         break;
     case BD_V_FACET:
-        snprintf(buf, size, " on facet %u (line %ld)", feat + 1, p->facets[feat].line);
+        facet_label(p, feat, fl, sizeof fl);
+        snprintf(buf, size, " on %s", fl);
         break;
     default:
         snprintf(buf, size, " inside the volume");
@@ -389,6 +401,49 @@ static double tri_area(const double *a, const double *b, const double *c)
     return 0.5 * sqrt(x * x + y * y + z * z);
 }
 
+/* Says in c->missing which boundary pieces are still missing when the
+ * refinement ends (their splits were refused: below the resolution, or
+ * no valid constrained cavity) and where the first one is: the place
+ * where the inside/outside flood can cross the boundary. */
+static void note_missing(mp_ctx *c)
+{
+    const bd_set *b = &c->r.bd;
+    const plc *p = &c->p;
+    size_t ns, nf;
+    c->missing[0] = 0;
+    bd_count_missing(b, &ns, &nf);
+    if (!ns && !nf)
+        return;
+    const double *xyz = c->r.m.xyz;
+    double at[3] = {0, 0, 0};
+    char what[160] = "";
+    for (size_t i = 0; i < b->nfacs && !what[0]; i++) {
+        const bd_subfac *f = &b->facs[i];
+        if ((f->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
+            continue;
+        for (int k = 0; k < 3; k++)
+            for (int d = 0; d < 3; d++)
+                at[d] += xyz[3 * (size_t)f->v[k] + d] / 3;
+        char fl[64];
+        facet_label(p, f->facet, fl, sizeof fl);
+        snprintf(what, sizeof what, "a subfacet of %s", fl);
+    }
+    for (size_t i = 0; i < b->nsegs && !what[0]; i++) {
+        const bd_subseg *s = &b->segs[i];
+        if ((s->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
+            continue;
+        for (int k = 0; k < 2; k++)
+            for (int d = 0; d < 3; d++)
+                at[d] += xyz[3 * (size_t)s->v[k] + d] / 2;
+        snprintf(what, sizeof what, "a subsegment of the segment between input vertices %ld "
+                 "and %ld", plc_vnum(p, p->segs[s->seg].v[0]), plc_vnum(p, p->segs[s->seg].v[1]));
+    }
+    snprintf(c->missing, sizeof c->missing,
+             "; %zu subsegment%s and %zu subfacet%s stayed missing, their splits refused "
+             "(the first: %s, near (%.9g, %.9g, %.9g))",
+             ns, ns == 1 ? "" : "s", nf, nf == 1 ? "" : "s", what, at[0], at[1], at[2]);
+}
+
 /* The guard against a mesh that does not cover its input: no tetrahedra
  * at all, open (> 0) faces that bound the interior on no input facet, or
  * a facet whose subfacets in the output do not add up to its area. A facet may have no subfacet at all only when the input has hole
@@ -404,7 +459,7 @@ static int guard_output(mp_ctx *c, size_t open)
     if (!o->view.nt) {
         pdr_cli_error(MP_CMD,
                       "the mesh is empty: the boundary of the domain was lost during the "
-                      "refinement (nothing written)");
+                      "refinement%s (nothing written)", c->missing);
         return PDR_ETOPOLOGY;
     }
     /* The domain's boundary is made of subfacets: a face that bounds the
@@ -441,12 +496,13 @@ static int guard_output(mp_ctx *c, size_t open)
     pr_free(got);
     if (!bad)
         return 0;
+    char fl[64];
+    facet_label(p, first, fl, sizeof fl);
     pdr_cli_error(MP_CMD,
                   "the mesh does not cover the input: %zu facet%s not covered by the mesh's "
-                  "boundary (the first: facet %zu, line %ld of %s; area off by up to %.3g%%); "
-                  "the boundary was lost during the refinement (nothing written)",
-                  bad, bad == 1 ? "" : "s", first + 1, p->facets[first].line, p->path,
-                  100 * worst);
+                  "boundary (the first: %s of %s; area off by up to %.3g%%); "
+                  "the boundary was lost during the refinement%s (nothing written)",
+                  bad, bad == 1 ? "" : "s", fl, p->path, 100 * worst, c->missing);
     return PDR_ETOPOLOGY;
 }
 
@@ -456,6 +512,7 @@ int mp_export(mp_ctx *c)
     /* The progress line, open on a terminal, ends before the summary. */
     pdr_progress_end(&c->pg);
     ref_count_bad(&c->r);
+    note_missing(c);
     /* The work memory goes first, so that the export's peak is lower. */
     ref_release_work(&c->r);
     c->v_added = (size_t)(c->r.m.nv - c->v0);

@@ -106,6 +106,9 @@ typedef struct mp_ctx {
                               runs alongside the files) */
     ref_quality quality; /* of out, once have_quality */
     int have_quality;
+    char missing[256];   /* what of the boundary stayed missing when the
+                            refinement ended ("" when nothing), for the
+                            guard's message (mp_export) */
 } mp_ctx;
 
 /* Sets *o to the defaults of 'pdr mesh': ref_default_opts, the general
