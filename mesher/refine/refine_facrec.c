@@ -25,21 +25,10 @@
  *      edges that are not edges of the mesh (region()). The region's
  *      vertices are the floor; every other vertex is above or below all
  *      of its triangles, in their plane, or neither (vside()).
- *   1. Faces of the mesh with corners on the floor that triangulate the
- *      region in the facet's own 2D view (adopt()): then they replace its
- *      subfacets in the facet's triangulation, and nothing else changes.
- *      Every vertex of the region lies on the facet by construction, so
- *      no 3D test decides "in the plane": a facet merged within a
- *      tolerance, or a triangle whose subfacets' corners are split points
- *      rounded off its plane, has no exact plane, and the mesh's faces
- *      across the region's other diagonals are as good a triangulation of
- *      it as the region's own (homer.off, rotor.off: Steiner points on
- *      a triangle's edges, the mesh and the facet taking other diagonals
- *      between them, with slivers of rounding error between the two).
- *   1b. Else the cavity C: the tetrahedra whose interior meets a triangle
- *      of the region (an exact separating-axis test, crosses_tri()),
- *      found from the tetrahedra around the region's present edges and
- *      across their faces.
+ *   1. The cavity C: the tetrahedra whose interior meets a triangle of the
+ *      region (an exact separating-axis test, crosses_tri()), found from
+ *      the tetrahedra around the region's present edges and across their
+ *      faces.
  *   2. Every boundary face of C lies above or below the region (touching
  *      it at most at floor vertices): the UPPER faces and the LOWER
  *      faces. With the region's triangles they bound two polyhedra, the
@@ -57,6 +46,20 @@
  *   4. The two fills replace C: new tetrahedra linked to each other
  *      across the floor and to C's outside across its boundary faces,
  *      whose marks and subsegment bits they take.
+ *   5. Where no tetrahedron crosses the region, or the steps above fail:
+ *      faces of the mesh with corners on the floor that triangulate the
+ *      region in the facet's own 2D view replace its subfacets in the
+ *      facet's triangulation (adopt()), and the mesh does not change.
+ *      Every vertex of the region lies on the facet by construction, so
+ *      no 3D test decides "in the plane": a facet merged within a
+ *      tolerance, or a triangle whose subfacets' corners are split points
+ *      rounded off its plane, has no exact plane, and the mesh's faces
+ *      across the region's other diagonals are as good a triangulation of
+ *      it as the region's own (homer.off, rotor.off: Steiner points on a
+ *      triangle's edges, the mesh and the facet taking other diagonals
+ *      between them, a sliver of rounding error between the two layers
+ *      that the cavity of steps 1-4 cannot split into an upper and a
+ *      lower side).
  * It is done only when no subsegment edge and no subfacet face inside C
  * (a recovered neighbour) would be lost, and no vertex of C either. What
  * fails is left missing: ref_queue_boundary and ref_run split it as
@@ -173,7 +176,7 @@ typedef struct facrec {
     size_t capde;
     uint32_t *tris; /* adopt(): its triangles, 3 vertices each */
     size_t ntris, captris;
-    size_t adopted; /* subfacets replaced by coplanar faces of the mesh */
+    size_t adopted; /* subfacets replaced by faces of the mesh (step 5) */
     size_t recovered, regions;
     int last; /* the reason of the last give-up */
     size_t why[FR_W_N]; /* regions left, by reason, for the trace */
@@ -1013,7 +1016,7 @@ static int dedge_add(facrec *s, size_t *n, uint32_t a, uint32_t b, int boundary)
     return 0;
 }
 
-/* Step 1 of the top comment: the faces of the mesh that triangulate the
+/* Step 5 of the top comment: the faces of the mesh that triangulate the
  * region otherwise (the mesh took other diagonals: cocircular vertices of
  * a planar face, or a facet that is planar only up to rounding or the
  * merge's tolerance). They are found from the region's boundary inwards
@@ -1115,19 +1118,16 @@ static int adopt(facrec *s)
     return 0;
 }
 
-/* Recovers the region of missing subfacet id: 0 done, 1 left, or a
+/* Recovers the region of missing subfacet id: 0 done (cavity
+ * retriangulated), 2 done (the mesh's faces adopted), 1 left, or a
  * negative code. */
 static int recover_one(facrec *s, uint32_t id)
 {
     s->ncav = 0;
     s->last = FR_W_REGION;
     int rc = region(s, id);
+    int have_region = rc == 0;
     if (!rc) {
-        rc = adopt(s);
-        if (rc <= 0) {
-            vside_clear(s);
-            return rc < 0 ? rc : 2;
-        }
         s->last = FR_W_COLLECT;
         rc = collect(s);
     }
@@ -1159,6 +1159,15 @@ static int recover_one(facrec *s, uint32_t id)
     }
     cav_clear(s);
     points_clear(s);
+    if (rc > 0 && have_region) {
+        /* Steps 1-4 of the top comment failed (or no tetrahedron crosses
+         * the region): the mesh may triangulate it otherwise (step 5). */
+        int a = adopt(s);
+        if (a <= 0) {
+            vside_clear(s);
+            return a < 0 ? a : 2;
+        }
+    }
     vside_clear(s);
     if (rc > 0)
         s->why[s->last]++;
