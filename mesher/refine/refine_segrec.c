@@ -266,7 +266,7 @@ static int in_ids(const uint32_t *ids, size_t n, uint32_t id)
  * out[0..nout); then its rim in r->bedge. 0, 1 if p does not see a rim
  * edge from inside (no star), or PDR_ENOMEM. */
 static int recut_cavity(ref_mesher *r, const double *p, uint32_t a, uint32_t b,
-                        const uint32_t *out, size_t nout, uint32_t *old, size_t nold)
+                        const uint32_t *out, size_t nout, const uint32_t *old, size_t nold)
 {
     bd_set *bd = &r->bd;
     const tm_mesh *m = &r->m;
