@@ -415,8 +415,11 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
     if (!rc && r->narrow_recovery && r->o.trace) {
         size_t ms, mf;
         bd_count_missing(&r->bd, &ms, &mf);
-        fprintf(r->o.trace, "recovery: %zu subsegments and %zu subfacets missing before the splits\n",
-                ms, mf);
+        fprintf(r->o.trace,
+                "recovery: %zu subsegments and %zu subfacets missing before the splits "
+                "(segment recovery: %zu points, %zu flat fans kept out; facet recovery: "
+                "%zu subfacets)\n",
+                ms, mf, r->st.segrec_points, r->st.flat_fans_kept, r->st.facrec_faces);
     }
     if (!rc)
         rc = ref_run(r, 0);

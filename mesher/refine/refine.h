@@ -250,6 +250,9 @@ typedef struct ref_stats {
     size_t facrec_faces; /* constrained: missing subfacets made faces by
                             retriangulating the tetrahedra they cross
                             (ref_recover_facets), no point inserted */
+    size_t flat_fans_kept; /* constrained: subfacets the segment recovery
+                            kept out of a 2D cavity because the fan over
+                            their subsegment would be flat (refine_segrec.c) */
     size_t slivers_left; /* slivers not split (circumradius too small) */
     size_t edge_star_splits; /* constrained: subsegment splits made in the
                             tetrahedra around the edge (its constrained

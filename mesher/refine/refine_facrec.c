@@ -28,10 +28,7 @@
  *   1. The cavity C: the tetrahedra whose interior meets a triangle of the
  *      region (an exact separating-axis test, crosses_tri()), found from
  *      the tetrahedra around the region's present edges and across their
- *      faces. No tetrahedron crosses a region that lies in one plane and
- *      that the mesh triangulates otherwise (cocircular vertices): its
- *      subfacets are then replaced by those faces of the mesh when they
- *      triangulate it exactly (adopt()).
+ *      faces.
  *   2. Every boundary face of C lies above or below the region (touching
  *      it at most at floor vertices): the UPPER faces and the LOWER
  *      faces. With the region's triangles they bound two polyhedra, the
@@ -49,6 +46,20 @@
  *   4. The two fills replace C: new tetrahedra linked to each other
  *      across the floor and to C's outside across its boundary faces,
  *      whose marks and subsegment bits they take.
+ *   5. Where no tetrahedron crosses the region, or the steps above fail:
+ *      faces of the mesh with corners on the floor that triangulate the
+ *      region in the facet's own 2D view replace its subfacets in the
+ *      facet's triangulation (adopt()), and the mesh does not change.
+ *      Every vertex of the region lies on the facet by construction, so
+ *      no 3D test decides "in the plane": a facet merged within a
+ *      tolerance, or a triangle whose subfacets' corners are split points
+ *      rounded off its plane, has no exact plane, and the mesh's faces
+ *      across the region's other diagonals are as good a triangulation of
+ *      it as the region's own (homer.off, rotor.off: Steiner points on a
+ *      triangle's edges, the mesh and the facet taking other diagonals
+ *      between them, a sliver of rounding error between the two layers
+ *      that the cavity of steps 1-4 cannot split into an upper and a
+ *      lower side).
  * It is done only when no subsegment edge and no subfacet face inside C
  * (a recovered neighbour) would be lost, and no vertex of C either. What
  * fails is left missing: ref_queue_boundary and ref_run split it as
@@ -165,7 +176,7 @@ typedef struct facrec {
     size_t capde;
     uint32_t *tris; /* adopt(): its triangles, 3 vertices each */
     size_t ntris, captris;
-    size_t adopted; /* subfacets replaced by coplanar faces of the mesh */
+    size_t adopted; /* subfacets replaced by faces of the mesh (step 5) */
     size_t recovered, regions;
     int last; /* the reason of the last give-up */
     size_t why[FR_W_N]; /* regions left, by reason, for the trace */
@@ -1005,15 +1016,18 @@ static int dedge_add(facrec *s, size_t *n, uint32_t a, uint32_t b, int boundary)
     return 0;
 }
 
-/* A region that no tetrahedron crosses lies in one plane, covered by
- * faces of the mesh that triangulate it otherwise (cocircular vertices:
- * the mesh took the other diagonals). Those faces are found from the
- * region's boundary inwards (the face on the region's side of each edge,
- * in the plane, with a corner of the region) and, if they triangulate
- * the region exactly (every boundary edge used once, every inner edge
- * once each way, all turning as the region's triangles do), they replace
- * its subfacets in the facet's triangulation. Returns 0 (replaced), 1
- * (not so) or a negative code. */
+/* Step 5 of the top comment: the faces of the mesh that triangulate the
+ * region otherwise (the mesh took other diagonals: cocircular vertices of
+ * a planar face, or a facet that is planar only up to rounding or the
+ * merge's tolerance). They are found from the region's boundary inwards
+ * (for each edge, a face of the mesh through it whose third corner is a
+ * corner of the region on the region's side in the facet's 2D view,
+ * ref__orient_facet) and, if they triangulate the region exactly (every
+ * boundary edge used once, every inner edge once each way, all turning as
+ * the region's triangles do: by the winding number they tile it), they
+ * replace its subfacets in the facet's triangulation. Only corners of the
+ * region are used, and they lie on the facet by construction, so the new
+ * subfacets do too. Returns 0 (replaced), 1 (not so) or a negative code. */
 static int adopt(facrec *s)
 {
     ref_mesher *r = s->r;
@@ -1029,9 +1043,6 @@ static int adopt(facrec *s)
     int rc;
     for (size_t i = 0; i < s->nreg; i++) {
         const uint32_t *v = bd->facs[s->reg[i]].v;
-        for (int k = 0; k < 3; k++)
-            if (pred_orient3d(p0, p1, p2, X(m, v[k])) != 0)
-                return 1; /* not one plane */
         for (int k = 0; k < 3; k++)
             if ((rc = dedge_add(s, &nde, v[k], v[(k + 1) % 3], 1)))
                 return rc;
@@ -1064,8 +1075,7 @@ static int adopt(facrec *s)
                 uint32_t c = tv[k];
                 if (c == e.a || c == e.b || c == TM_VINF || s->vside[c] != FR_V_FLOOR)
                     continue;
-                if (pred_orient3d(p0, p1, p2, X(m, c)) != 0 ||
-                    ref__orient_facet(r->p, f, X(m, e.a), X(m, e.b), X(m, c)) != turn)
+                if (ref__orient_facet(r->p, f, X(m, e.a), X(m, e.b), X(m, c)) != turn)
                     continue;
                 x = c;
                 break;
@@ -1108,23 +1118,18 @@ static int adopt(facrec *s)
     return 0;
 }
 
-/* Recovers the region of missing subfacet id: 0 done, 1 left, or a
+/* Recovers the region of missing subfacet id: 0 done (cavity
+ * retriangulated), 2 done (the mesh's faces adopted), 1 left, or a
  * negative code. */
 static int recover_one(facrec *s, uint32_t id)
 {
     s->ncav = 0;
     s->last = FR_W_REGION;
     int rc = region(s, id);
+    int have_region = rc == 0;
     if (!rc) {
         s->last = FR_W_COLLECT;
         rc = collect(s);
-        if (rc == 1 && !s->ncav) {
-            rc = adopt(s);
-            if (rc <= 0) {
-                vside_clear(s);
-                return rc < 0 ? rc : 2;
-            }
-        }
     }
     for (int round = 0; !rc && round < FR_GROW_MAX; round++) {
         rc = boundary(s);
@@ -1154,6 +1159,15 @@ static int recover_one(facrec *s, uint32_t id)
     }
     cav_clear(s);
     points_clear(s);
+    if (rc > 0 && have_region) {
+        /* Steps 1-4 of the top comment failed (or no tetrahedron crosses
+         * the region): the mesh may triangulate it otherwise (step 5). */
+        int a = adopt(s);
+        if (a <= 0) {
+            vside_clear(s);
+            return a < 0 ? a : 2;
+        }
+    }
     vside_clear(s);
     if (rc > 0)
         s->why[s->last]++;

@@ -34,8 +34,9 @@
  * so the mesh stays a Delaunay tetrahedralization constrained by the
  * present subsegments, and edges of short missing pieces appear as they do
  * in a Delaunay one. The facet triangulations follow each split (the 2D
- * cavity of p in the facets through the segment, as any boundary split),
- * but nothing is marked in the mesh: the next phase (ref_queue_boundary,
+ * cavity of p in the facets through the segment, as any boundary split,
+ * less the subfacets whose fan triangle over a rim subsegment would be
+ * flat: unflatten_cavity), but nothing is marked in the mesh: the next phase (ref_queue_boundary,
  * then ref_run) attaches the subfacets, makes the present ones
  * constraints and recovers the missing ones as before, now with every
  * segment present.
@@ -223,6 +224,134 @@ static int stop_hidden(ref_mesher *r, const double p[3], uint32_t seg)
     return PDR_ELIMIT;
 }
 
+/* Height over longest edge below which a fan triangle of a 2D cavity is
+ * flat (SR_FLAT_FAN): its three corners lie on one line up to a few
+ * roundings of the coordinates, so that later points on its edges,
+ * rounded, fall on either side of the others. */
+#define SR_FLAT_FAN 1e-6
+
+/* 1 if triangle abc is flat (SR_FLAT_FAN; a measure, not a decision of
+ * validity: the star test that follows is exact). */
+static int flat_fan(const double *a, const double *b, const double *c)
+{
+    double u[3], v[3], w[3], n[3];
+    v3_sub(b, a, u);
+    v3_sub(c, a, v);
+    v3_sub(c, b, w);
+    v3_cross(u, v, n);
+    double l2 = fmax(v3_dot(u, u), fmax(v3_dot(v, v), v3_dot(w, w)));
+    return v3_dot(n, n) < SR_FLAT_FAN * SR_FLAT_FAN * l2 * l2;
+}
+
+/* 1 if subfacet id has edge a-b (a root of the 2D cavity of a point on
+ * subsegment a-b). */
+static int on_split_edge(const bd_set *bd, uint32_t id, uint32_t a, uint32_t b)
+{
+    const uint32_t *v = bd->facs[id].v;
+    int ha = v[0] == a || v[1] == a || v[2] == a;
+    int hb = v[0] == b || v[1] == b || v[2] == b;
+    return ha && hb;
+}
+
+static int in_ids(const uint32_t *ids, size_t n, uint32_t id)
+{
+    for (size_t i = 0; i < n; i++)
+        if (ids[i] == id)
+            return 1;
+    return 0;
+}
+
+/* The 2D cavity r->list cut down to the subfacets reached from its roots
+ * (those on a-b) across edges that are no subsegment, none of them in
+ * out[0..nout); then its rim in r->bedge. 0, 1 if p does not see a rim
+ * edge from inside (no star), or PDR_ENOMEM. */
+static int recut_cavity(ref_mesher *r, const double *p, uint32_t a, uint32_t b,
+                        const uint32_t *out, size_t nout, const uint32_t *old, size_t nold)
+{
+    bd_set *bd = &r->bd;
+    const tm_mesh *m = &r->m;
+    ref__list_clear(r);
+    for (size_t i = 0; i < nold; i++)
+        if (on_split_edge(bd, old[i], a, b) && ref__list_add(r, old[i]))
+            return PDR_ENOMEM;
+    for (size_t scan = 0; scan < r->nlist; scan++) {
+        uint32_t t = r->list[scan];
+        for (int k = 0; k < 3; k++) {
+            uint32_t x, y, u;
+            int seg;
+            if (!ref__cavity2d_rim(r, t, k, a, b, &x, &y, &seg, &u) || seg || u == BD_NONE)
+                continue;
+            if (in_ids(old, nold, u) && !in_ids(out, nout, u) && ref__list_add(r, u))
+                return PDR_ENOMEM;
+        }
+    }
+    r->nbedge = 0;
+    for (size_t i = 0; i < r->nlist; i++) {
+        uint32_t t = r->list[i];
+        for (int k = 0; k < 3; k++) {
+            uint32_t x, y, u;
+            int seg;
+            if (!ref__cavity2d_rim(r, t, k, a, b, &x, &y, &seg, &u))
+                continue;
+            if (ref__orient_facet(r->p, bd->facs[t].facet, X(m, x), X(m, y), p) <= 0)
+                return 1;
+            if (ref__add_bedge(r, x, y, t))
+                return PDR_ENOMEM;
+        }
+    }
+    return 0;
+}
+
+/* Keeps flat triangles out of the fan of p (flat_fan). Where a facet's
+ * boundary bends by almost nothing at a vertex c (two segments of a merged
+ * facet nearly in line: CAD faces, rotor_small.off), the Delaunay 2D
+ * cavity of a point p on one segment next to c may take every subfacet at
+ * c, and the fan over the rim subsegment x-c of the other segment is then
+ * a triangle x c p whose orientation, though exact, depends on the last
+ * bits of the coordinates: no rounded point of x-c sees the rest of its
+ * cavity from inside any more, and the segment recovery stopped there.
+ * The subfacet on such a rim subsegment stays (the facet triangulation is
+ * then not Delaunay there, which no later step needs), and so do those it
+ * alone joined to the cavity. Returns as recut_cavity. */
+static int unflatten_cavity(ref_mesher *r, const double *p, uint32_t a, uint32_t b)
+{
+    const tm_mesh *m = &r->m;
+    uint32_t *old = NULL, *out = NULL;
+    size_t nold = r->nlist, nout = 0, capout = 0;
+    int rc = 0;
+    for (int round = 0; round < 64 && !rc; round++) {
+        size_t n0 = nout;
+        for (size_t i = 0; i < r->nbedge && !rc; i++) {
+            const uint32_t *e = r->bedge[i];
+            if (bd_find_subseg(&r->bd, e[0], e[1]) == BD_NONE ||
+                on_split_edge(&r->bd, e[3], a, b) || !flat_fan(X(m, e[0]), X(m, e[1]), p) ||
+                in_ids(out, nout, e[3]))
+                continue;
+            if (pdr_grow((void **)&out, &capout, nout + 1, sizeof *out))
+                rc = PDR_ENOMEM;
+            else
+                out[nout++] = e[3];
+        }
+        if (rc || nout == n0)
+            break;
+        if (!old) {
+            nold = r->nlist;
+            old = pr_malloc(nold * sizeof *old);
+            if (!old) {
+                rc = PDR_ENOMEM;
+                break;
+            }
+            memcpy(old, r->list, nold * sizeof *old);
+        }
+        rc = recut_cavity(r, p, a, b, out, nout, old, nold);
+    }
+    if (!rc)
+        r->st.flat_fans_kept += nout;
+    pr_free(old);
+    pr_free(out);
+    return rc;
+}
+
 /* The 2D cavity of point p on subsegment a-b in the facets through it
  * (r->list, r->bedge): 0, 1 when there is none (p, rounded, outside a thin
  * subfacet on the edge), or a negative code. */
@@ -233,6 +362,8 @@ static int facets_cavity(ref_mesher *r, uint32_t a, uint32_t b, const double *p)
     bd_subfacs_on_edge(&r->bd, a, b, ref__add_root, &ra);
     uint32_t ea, eb;
     int g = ra.rc ? ra.rc : ref__grow_cavity2d(r, p, a, b, &ea, &eb);
+    if (g == 0)
+        g = unflatten_cavity(r, p, a, b);
     if (g > 0) {
         /* Not a star in some facet (a rounded p): the subfacets on the
          * edge alone, each split in two. */
