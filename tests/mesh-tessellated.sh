@@ -4,8 +4,9 @@
 #  - the cube [-1,1]^3 with every face a grid of triangles (866 vertices,
 #    1,728 triangles): its coplanar triangles merge into 6 facets and it
 #    meshes into a full mesh that pdr check passes; with --no-merge it
-#    either meshes (and passes) or fails with a message, never an empty
-#    mesh and exit 0;
+#    either meshes (pdr check finding nothing but the faces not locally
+#    Delaunay and tetrahedra above ratio 2 that the summary reports) or
+#    fails with a message, never an empty mesh and exit 0;
 #  - a square frame (genus 1) and a slanted octahedron with gridded faces:
 #    full meshes that pass pdr check;
 #  - the needle (a tetrahedron surface with a vertex at y = 99999999999):
@@ -14,6 +15,7 @@
 #  - pdr check --plc fails an empty mesh of a closed surface.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
+. "$top_srcdir/tests/cad-lib.sh"
 tmp=$(pwd)/mesh-tessellated.$$
 mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
@@ -53,10 +55,12 @@ case $rc in
     nt=$(sed -n 's/^mesh: [0-9]* vertices, \([0-9]*\) tetrahedra.*/\1/p' "$tmp/cubenm.out")
     [ -n "$nt" ] && [ "$nt" -gt 0 ] || fail "--no-merge: exit 0 with '$nt' tetrahedra"
     # (tetrahedra may be left above ratio 2 next to the 45-degree angles
-    # of the unmerged triangles: the summary counts them)
-    "$PDR" check -q --plc "$data/gridcube.off" --no-merge "$tmp/cubenm" ||
-        fail "--no-merge: the mesh does not pass pdr check"
-    echo "cube --no-merge: $(grep '^mesh:' "$tmp/cubenm.out")"
+    # of the unmerged triangles, and faces not locally Delaunay where the
+    # splits next to them were refused: the summary counts both, and pdr
+    # check must find nothing else and no more of them)
+    cad_check "cube --no-merge" "$data/gridcube.off" "$tmp/cubenm" "$tmp/cubenm.out" --no-merge
+    cad_check_cover "cube --no-merge" "$tmp/cubenm" "$tmp/cubenm.out"
+    echo "cube --no-merge: $(grep '^mesh:' "$tmp/cubenm.out"), $nd faces not locally Delaunay"
     ;;
 124) fail "--no-merge: still running after 120 s" ;;
 *)
