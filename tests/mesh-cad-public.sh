@@ -24,7 +24,8 @@
 # segments first until its 2D cavities kept flat fans out (a point on one
 # of two segments nearly in line at a vertex: refine_segrec.c) and the
 # facet recovery adopted the mesh's faces of a region planar only by
-# construction (refine_facrec.c): the same checks, one extraction.
+# construction (refine_facrec.c): the same checks, one extraction, and
+# for rotor renumbered too (which had lost its boundary: an empty mesh).
 # Without the package the test is skipped (exit 77), never passed.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
@@ -57,6 +58,7 @@ renumber() { # K C IN: the OFF file IN renumbered, on stdout
 }
 renumber 101 5 "$data/oblong.off" >"$data/oblong-r101.off" || exit 99
 renumber 13 17 "$data/oblong.off" >"$data/oblong-r13.off" || exit 99
+renumber 101 5 "$data/rotor.off" >"$data/rotor-r101.off" || exit 99
 
 # name  TetGen's tetrahedra (tetgen -pq2.0, TetGen 1.6)
 while read -r name tetgen; do
@@ -80,6 +82,7 @@ spool 9968
 oblong-r101 16910
 oblong-r13 16910
 rotor 25952
+rotor-r101 25952
 rotor_small 40776
 homer 112225
 EOF
