@@ -234,6 +234,11 @@ typedef struct ref_stats {
                             flips (22: of two boundary subfacets) */
     size_t stuck_splits; /* constrained: subsegments queued for a split by
                             a face that no flip mends (ref__cdt_flip) */
+    size_t stuck_quality; /* constrained: splits of present subsegments
+                            that faces no flip mends asked for during the
+                            quality refinement (process_seg in
+                            refine_run.c; the rest of the run's bound,
+                            REF_STUCK_QUALITY_BASE and _PER_INPUT) */
     size_t flips_blocked; /* parallel constrained: faces not flipped
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
@@ -374,6 +379,7 @@ typedef struct ref_mesher {
     double b2;         /* ratio^2, or 0 */
     double sin_min;    /* sin(min_dihedral), or 0 */
     int classified;    /* exterior marked, regions assigned */
+    int refining;      /* ref_run is splitting bad tetrahedra too */
     int finishing;     /* rank 0 finishes the merged mesh of a parallel
                           run in the constrained mode (no hooks there;
                           split_subseg's retries) */
@@ -490,6 +496,18 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * 1,500, 27,011 and 5,399. */
 #define REF_STUCK_BASE 64
 #define REF_STUCK_PER_INPUT 2
+
+/* Of those, the ones the quality refinement (ref_refine, after the
+ * initial mesh) may make: REF_STUCK_QUALITY_BASE plus one per
+ * REF_STUCK_QUALITY_INPUTS input vertices (ref_stats.stuck_quality); past
+ * it the subsegment is left (tolerated) and the face counted. There, on
+ * thin CAD tessellations whose initial mesh is a CDT (CGAL's handle.off
+ * once its recovery stopped making splits no piece needed), each split
+ * makes bad tetrahedra whose constrained cavities reach across thousands
+ * of flat ones, and the run went past 30 s (TetGen: 2.7 s); with this
+ * bound it takes 3.5 s. The generated corpus asks for at most 4. */
+#define REF_STUCK_QUALITY_BASE 64
+#define REF_STUCK_QUALITY_INPUTS 8
 
 /* The bound on the splits of missing pieces in one refinement
  * (ref_mesher.recovery_limit): this many per input vertex and

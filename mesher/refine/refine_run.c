@@ -1419,11 +1419,49 @@ static double shortest_side(const ref_mesher *r, uint32_t id)
     return sqrt(l);
 }
 
+/* 1 if the refinement has a size bound: a volume bound (global, or a
+ * region's when those apply) or an edge bound. */
+static int size_bounded(const ref_mesher *r)
+{
+    if (r->o.maxvol > 0 || r->o.maxedge > 0)
+        return 1;
+    for (size_t i = 0; r->o.use_region_maxvol && i < r->p->nregion; i++)
+        if (r->p->regions[i].maxvol > 0)
+            return 1;
+    return 0;
+}
+
+/* 1 if present subsegment (flags), queued with floor rmin, is one a
+ * face that no flip mends asked to split during the quality refinement
+ * (constrained mode: after the classification nothing else queues a
+ * present subsegment with a floor) past that refinement's bound on them
+ * (REF_STUCK_QUALITY_BASE): it is then left. Counts the others. Not with
+ * a size bound: the boundary is then split far below the tessellation's
+ * scale, and so are the faces next to it (the torus of tests/mesh-cad.sh
+ * under -a 2e-5 needs more). */
+static int stuck_past_bound(ref_mesher *r, uint16_t flags, float rmin)
+{
+    if (!r->o.constrained || !r->classified || !r->refining || (flags & BD_F_MISSING) ||
+        !(rmin > 0.0f) || size_bounded(r))
+        return 0;
+    size_t bound = REF_STUCK_QUALITY_BASE + r->p->nv / REF_STUCK_QUALITY_INPUTS;
+    if (r->st.stuck_quality >= bound)
+        return 1;
+    r->st.stuck_quality++;
+    return 0;
+}
+
 static int process_seg(ref_mesher *r, uint32_t id, float rmin)
 {
     bd_subseg *s = &r->bd.segs[id];
     if (s->flags & BD_F_DEAD)
         return 0;
+    if (stuck_past_bound(r, s->flags, rmin)) {
+        s->flags &= (uint16_t)~BD_F_QUEUED;
+        s->flags |= BD_F_TOLERATED;
+        r->st.tolerated++;
+        return 0;
+    }
     if (recovered_meanwhile(r, s->flags, seg_too_long(r, id))) {
         s->flags &= (uint16_t)~BD_F_QUEUED;
         return 0;
@@ -1608,6 +1646,7 @@ int ref_run(ref_mesher *r, int tets)
      * the step just done (iter - 1, r->last_op) brought in. */
     FILE *trace = r->o.trace;
     size_t every = r->o.trace_every;
+    r->refining = tets != 0;
     while (!rc) {
         if ((++iter & 0x3fff) == 0 && r->o.progress)
             r->o.progress(r->o.progress_arg, r);
