@@ -237,8 +237,8 @@ typedef struct ref_stats {
     size_t stuck_quality; /* constrained: splits of present subsegments
                             that faces no flip mends asked for during the
                             quality refinement (process_seg in
-                            refine_run.c; the rest of the run's bound,
-                            REF_STUCK_QUALITY_BASE and _PER_INPUT) */
+                            refine_run.c), bounded by
+                            REF_STUCK_QUALITY_BASE and _INPUTS */
     size_t flips_blocked; /* parallel constrained: faces not flipped
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
