@@ -237,8 +237,8 @@ typedef struct ref_stats {
     size_t stuck_quality; /* constrained: splits of present subsegments
                             that faces no flip mends asked for during the
                             quality refinement (process_seg in
-                            refine_run.c; the rest of the run's bound,
-                            REF_STUCK_QUALITY_BASE and _PER_INPUT) */
+                            refine_run.c), bounded by
+                            REF_STUCK_QUALITY_BASE and _INPUTS */
     size_t flips_blocked; /* parallel constrained: faces not flipped
                             because another cavity held a tetrahedron (the
                             merged mesh is flipped once more at rank 0) */
@@ -505,7 +505,10 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * once its recovery stopped making splits no piece needed), each split
  * makes bad tetrahedra whose constrained cavities reach across thousands
  * of flat ones, and the run went past 30 s (TetGen: 2.7 s); with this
- * bound it takes 3.5 s. The generated corpus asks for at most 4. */
+ * bound it takes 2 s. PDR_REF_TRACE prints the count. The generated
+ * corpus asks for at most 1; of CGAL's parts, turbine.off, pipe.off and
+ * handle.off reach the bound (1,215, 84, 209), dragknob.off and u.off
+ * ask for none, eight.off for 91 (bound 103). */
 #define REF_STUCK_QUALITY_BASE 64
 #define REF_STUCK_QUALITY_INPUTS 8
 
