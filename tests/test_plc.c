@@ -595,7 +595,7 @@ static int prepare_text(const char *text, double angle, plc *p, fm_stats *st, pd
     if (!rc)
         rc = plc_validate(p, d);
     if (!rc)
-        rc = fm_prepare(p, angle, st, d);
+        rc = fm_prepare(p, angle, FM_FACET_TOL, st, d);
     remove_tmpdir();
     return rc;
 }

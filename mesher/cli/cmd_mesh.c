@@ -78,6 +78,18 @@ static void usage(FILE *f)
             "                       tolerance of facets) become one polygonal facet, the\n"
             "                       segment between them removed (default %g, TetGen's\n"
             "                       179.9 degrees; 0: exactly coplanar only)\n"
+            "      --facet-tol T    input preparation: the merge also joins triangles\n"
+            "                       whose far corner is within T times the bounding-box\n"
+            "                       diagonal of the group's plane, making facets that are\n"
+            "                       planar only within T (CAD files' six-digit rounding\n"
+            "                       leaves the two triangles of a strip 1e-7..1e-6 off one\n"
+            "                       plane): their inner edges are no segments and the\n"
+            "                       mesh's boundary may take other diagonals, within T of\n"
+            "                       the input. TetGen merges on the angle alone (179.9\n"
+            "                       degrees, the default --merge-angle); T bounds how far\n"
+            "                       such a facet bends. Default %g (exactly coplanar only;\n"
+            "                       5e-7 for six-digit CAD tessellations); give pdr check\n"
+            "                       the same value\n"
             "      --no-merge       keep every input triangle a facet\n"
             "      --max-points N   stop with an error after inserting N points (default:\n"
             "                       %.0f + %.0f per input vertex, segment and facet + %.0f\n"
@@ -123,7 +135,7 @@ static void usage(FILE *f)
             "ranges and how many tetrahedra were left above the bound (only near input\n"
             "angles too small for the algorithm) and why.\n\n"
             "Exit status: 0 done, 1 failed (bad input, out of memory), 2 usage error.\n",
-            DEFAULT_DOMAIN_MAXVOL, FM_MERGE_ANGLE, REF_LIMIT_BASE, REF_LIMIT_PER_INPUT,
+            DEFAULT_DOMAIN_MAXVOL, FM_MERGE_ANGLE, FM_FACET_TOL, REF_LIMIT_BASE, REF_LIMIT_PER_INPUT,
             REF_LIMIT_PER_SIZE);
 }
 
@@ -176,7 +188,7 @@ static int parse_double(const char *s, double *out)
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
     O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_SCHED, O_CPU_BIND, O_STATS, O_SUBMESHES,
-    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK
+    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK, O_FACETTOL
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -208,6 +220,7 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"submeshes", no_argument, NULL, O_SUBMESHES},
                                           {"merge-angle", required_argument, NULL, O_MERGE},
                                           {"no-merge", no_argument, NULL, O_NOMERGE},
+                                          {"facet-tol", required_argument, NULL, O_FACETTOL},
                                           {"max-points", required_argument, NULL, O_MAXPOINTS},
                                           {"help", no_argument, NULL, 'h'},
                                           {NULL, 0, NULL, 0}};
@@ -437,6 +450,10 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
             break;
         case O_NOMERGE:
             o->merge_angle = -1;
+            break;
+        case O_FACETTOL:
+            if (pdr_cli_facet_tol("mesh", optarg, &o->facet_tol))
+                rc = PDR_EXIT_USAGE;
             break;
         case O_CHECK:
             o->check = 1;

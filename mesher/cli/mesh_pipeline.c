@@ -30,6 +30,7 @@ void mp_default_opts(mp_opts *o)
     ref_default_opts(&o->ref);
     o->formats = MP_FMT_NODE;
     o->merge_angle = FM_MERGE_ANGLE;
+    o->facet_tol = FM_FACET_TOL;
     o->max_points = -1;
     o->mo_auto = 1;
 }
@@ -101,7 +102,7 @@ static int load_plc(mp_ctx *c)
     if (!rc)
         rc = plc_validate(&c->p, &c->diag);
     if (!rc)
-        rc = fm_prepare(&c->p, c->o.merge_angle, &c->fm, &c->diag);
+        rc = fm_prepare(&c->p, c->o.merge_angle, c->o.facet_tol, &c->fm, &c->diag);
     return rc;
 }
 
@@ -159,6 +160,14 @@ int mp_read(mp_ctx *c)
                c->fm.triangles_merged, c->fm.facets_before, c->fm.facets_after,
                c->fm.sharp_segments, FM_SHARP_DIH, c->fm.acute_vertices, FM_ACUTE_ANG,
                c->fm.smooth_segments, FM_SMOOTH_DIH);
+    if (!c->o.quiet && (c->fm.bent_facets || c->fm.bent_regrouped))
+        printf("near-planar facets: %zu merged facets planar within --facet-tol %g of the "
+               "bounding box (their inner edges no segments), %zu groups refused and merged "
+               "exactly\n",
+               c->fm.bent_facets, c->o.facet_tol, c->fm.bent_regrouped);
+    if (!c->o.quiet && c->fm.bent_undone)
+        printf("near-planar facets: undone (the bent facets crossed other facets); merged "
+               "exactly\n");
     return 0;
 }
 

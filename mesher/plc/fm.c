@@ -76,12 +76,18 @@ static void cross(const double *u, const double *w, double *n)
 typedef struct fm_work {
     plc *p;
     double cos_min;     /* merge when the dihedral cosine is at most this */
-    double plane_tol;   /* absolute distance to the seed plane */
+    double exact_tol;   /* absolute distance to the seed plane that counts
+                           as coplanar (the PLC's planar tolerance) */
+    double bend_tol;    /* ... that a bent facet allows (>= exact_tol) */
+    double plane_tol;   /* the one in force: bend_tol, or exact_tol while
+                           a refused bent group is grouped again */
     uint32_t *group;    /* per facet: first facet of its group, or NONE */
     uint32_t (*ot)[3];  /* per triangle facet: corners, oriented in group */
     uint32_t *next;     /* per facet: next member of its group, or NONE */
     uint32_t *size;     /* per facet (group leader): members */
     uint8_t *merged;    /* per facet (group leader): group becomes a facet */
+    uint8_t *bent;      /* per facet (group leader): a member is off the
+                           seed plane by more than exact_tol */
     uint32_t *queue;
     hmap explicit_segs; /* undirected keys of the input's own segments */
     /* one group at a time */
@@ -144,9 +150,11 @@ static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_
         v3_sub(q2, q0, u2);
         cross(u1, u2, n);
         v3_sub(pd, q0, x);
-        double nn = sqrt(v3_dot(n, n));
-        if (!(nn > 0) || fabs(v3_dot(x, n)) / nn > w->plane_tol)
+        double nn = sqrt(v3_dot(n, n)), h = nn > 0 ? fabs(v3_dot(x, n)) / nn : INFINITY;
+        if (!(h <= w->plane_tol))
             return NONE;
+        if (h > w->exact_tol)
+            w->bent[lead] = 1;
     }
     return u;
 }
@@ -275,6 +283,44 @@ static void hole_point(const plc *p, uint32_t a, uint32_t b, const double n[3], 
         x[k] = 0.5 * (p->xyz[a][k] + p->xyz[b][k]) - 1e-3 * left[k];
 }
 
+/* Whether bent group lead, emitted as the last facet of w with its outer
+ * loop first, may stay one facet: every corner of the group within
+ * bend_tol of the plane plc_derive will give the facet (Newell's, of the
+ * outer loop), and every triangle of the group turning the same way about
+ * that plane's normal in the projection that drops its dominant axis
+ * (exact), so that the facet is a graph over its projection. */
+static int bent_group_ok(const fm_work *w, uint32_t lead)
+{
+    const plc *p = w->p;
+    const plc_polygon *q = &w->polys[w->facets[w->nfacet - 1].poly_first];
+    double n[3], c[3];
+    plc__newell_ring((const double(*)[3])p->xyz, w->corners + q->first, q->n, n, c);
+    double len = sqrt(v3_dot(n, n));
+    if (!(len > 0))
+        return 0;
+    int axis = 0;
+    for (int k = 0; k < 3; k++) {
+        n[k] /= len;
+        if (fabs(n[k]) > fabs(n[axis]))
+            axis = k;
+    }
+    double off = v3_dot(n, c);
+    int i = (axis + 1) % 3, j = (axis + 2) % 3, turn = n[axis] > 0 ? 1 : -1;
+    for (uint32_t t = lead; t != NONE; t = w->next[t]) {
+        double x[3][2];
+        for (int k = 0; k < 3; k++) {
+            const double *v = p->xyz[w->ot[t][k]];
+            if (!(fabs(v3_dot(n, v) - off) <= w->bend_tol))
+                return 0;
+            x[k][0] = v[i];
+            x[k][1] = v[j];
+        }
+        if (pred_orient2d(x[0], x[1], x[2]) != turn)
+            return 0;
+    }
+    return 1;
+}
+
 /* Emits group lead as one facet: loops (outer first), hole points,
  * isolated vertices. Returns 0, 1 when the group cannot be one facet
  * (nothing emitted), or PDR_ENOMEM. */
@@ -348,6 +394,8 @@ static int emit_group(fm_work *w, uint32_t lead)
     if (!rc)
         rc = put_polygon(w, w->queue + start[outer], (uint32_t)(start[outer + 1] - start[outer]),
                          p->polys[p->facets[lead].poly_first].line);
+    if (!rc && w->bent[lead] && !bent_group_ok(w, lead))
+        rc = 1;
     for (size_t l = 0; l < nloop && !rc; l++) {
         if (l == outer)
             continue;
@@ -380,6 +428,7 @@ static void work_free(fm_work *w)
     pr_free(w->next);
     pr_free(w->size);
     pr_free(w->merged);
+    pr_free(w->bent);
     pr_free(w->queue);
     hmap_free(&w->explicit_segs);
     hmap_free(&w->edges);
@@ -411,6 +460,59 @@ static int make_groups(fm_work *w)
     return 0;
 }
 
+static int cmp_u32(const void *x, const void *y)
+{
+    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+/* Groups the members of refused bent group lead again with the exact
+ * criterion, each subgroup from its lowest-numbered triangle (lead is the
+ * group's lowest, so every subgroup's leader comes at or after it). */
+static void regroup_exact(fm_work *w, uint32_t lead)
+{
+    size_t n = 0;
+    for (uint32_t t = lead; t != NONE; t = w->next[t])
+        w->queue[n++] = t;
+    qsort(w->queue, n, sizeof *w->queue, cmp_u32);
+    for (size_t i = 0; i < n; i++) {
+        uint32_t t = w->queue[i];
+        w->group[t] = w->next[t] = NONE;
+        w->size[t] = 0;
+        w->bent[t] = 0;
+        facet_tri(w->p, t, w->ot[t]);
+    }
+    /* grow_group uses queue as its own work list, at most one entry per
+     * member: keep the members after that room. */
+    uint32_t *members = w->queue + n;
+    memmove(members, w->queue, n * sizeof *members);
+    w->plane_tol = w->exact_tol;
+    for (size_t i = 0; i < n; i++)
+        if (w->group[members[i]] == NONE)
+            grow_group(w, members[i]);
+    w->plane_tol = w->bend_tol;
+}
+
+/* Emits group f (its leader) as one facet; returns 0, 1 when it stays
+ * triangles (nothing emitted), or PDR_ENOMEM. */
+static int try_group(fm_work *w, uint32_t f, fm_stats *s)
+{
+    size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
+    int rc = emit_group(w, f);
+    if (rc == 0) {
+        w->merged[f] = 1;
+        s->triangles_merged += w->size[f];
+        s->bent_facets += w->bent[f];
+        return 0;
+    }
+    /* Keep the group's triangles: undo what was emitted. */
+    w->nfacet = nf;
+    w->npoly = np;
+    w->ncorner = nc;
+    w->nfhole = nh;
+    return rc;
+}
+
 /* Writes the new facets into w: merged groups in place of their first
  * triangle, the rest copied. */
 static int rebuild(fm_work *w, fm_stats *s)
@@ -422,21 +524,17 @@ static int rebuild(fm_work *w, fm_stats *s)
         if (g != NONE && g != f && w->merged[g])
             continue;
         if (g == f && w->size[f] > 1) {
-            size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
-            rc = emit_group(w, (uint32_t)f);
-            if (rc == 0) {
-                w->merged[f] = 1;
-                s->triangles_merged += w->size[f];
-                continue;
+            rc = try_group(w, (uint32_t)f, s);
+            if (rc == 1 && w->bent[f]) {
+                s->bent_regrouped++;
+                regroup_exact(w, (uint32_t)f);
+                rc = w->size[f] > 1 ? try_group(w, (uint32_t)f, s) : 2;
             }
+            if (rc == 0)
+                continue;
             if (rc < 0)
                 return rc;
-            /* Keep the group's triangles: undo what was emitted. */
-            w->nfacet = nf;
-            w->npoly = np;
-            w->ncorner = nc;
-            w->nfhole = nh;
-            s->groups_kept++;
+            s->groups_kept += rc == 1;
             rc = 0;
         }
         rc = copy_facet(w, f);
@@ -444,10 +542,58 @@ static int rebuild(fm_work *w, fm_stats *s)
     return rc;
 }
 
-int fm_merge(plc *p, double angle_tol, fm_stats *st)
+/* The facet arrays a merge replaced, kept so that fm_prepare can undo a
+ * bent merge. */
+typedef struct fm_saved {
+    plc_facet *facets;
+    size_t nfacet, cap_facet;
+    plc_polygon *polys;
+    size_t npoly, cap_poly;
+    uint32_t *corners;
+    size_t ncorner, cap_corner;
+    plc_point *fholes;
+    size_t nfhole, cap_fhole;
+    double planar_tol;
+} fm_saved;
+
+static void saved_free(fm_saved *sv)
+{
+    pr_free(sv->facets);
+    pr_free(sv->polys);
+    pr_free(sv->corners);
+    pr_free(sv->fholes);
+    memset(sv, 0, sizeof *sv);
+}
+
+/* Exchanges the facet arrays of p and sv. */
+static void swap_facets(plc *p, fm_saved *sv)
+{
+    fm_saved t = {p->facets, p->nfacet, p->cap_facet, p->polys, p->npoly, p->cap_poly,
+                  p->corners, p->ncorner, p->cap_corner, p->fholes, p->nfhole, p->cap_fhole,
+                  p->planar_tol};
+    p->facets = sv->facets;
+    p->nfacet = sv->nfacet;
+    p->cap_facet = sv->cap_facet;
+    p->polys = sv->polys;
+    p->npoly = sv->npoly;
+    p->cap_poly = sv->cap_poly;
+    p->corners = sv->corners;
+    p->ncorner = sv->ncorner;
+    p->cap_corner = sv->cap_corner;
+    p->fholes = sv->fholes;
+    p->nfhole = sv->nfhole;
+    p->cap_fhole = sv->cap_fhole;
+    p->planar_tol = sv->planar_tol;
+    *sv = t;
+}
+
+/* fm_merge, handing the replaced facet arrays to old (emptied first;
+ * still empty when nothing was merged). */
+static int merge_keep(plc *p, double angle_tol, double facet_tol, fm_stats *st, fm_saved *old)
 {
     fm_stats s;
     memset(&s, 0, sizeof s);
+    memset(old, 0, sizeof *old);
     s.facets_before = s.facets_after = p->nfacet;
     if (!p->derived || !p->nfacet) {
         if (st)
@@ -463,49 +609,50 @@ int fm_merge(plc *p, double angle_tol, fm_stats *st)
     double d2 = 0;
     for (int k = 0; k < 3; k++)
         d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
-    w.plane_tol = p->planar_tol * sqrt(d2);
+    w.exact_tol = p->planar_tol * sqrt(d2);
+    w.bend_tol = facet_tol > p->planar_tol ? facet_tol * sqrt(d2) : w.exact_tol;
+    w.plane_tol = w.bend_tol;
     size_t nf = p->nfacet;
     w.group = pr_malloc(nf * sizeof *w.group);
     w.ot = pr_malloc(nf * sizeof *w.ot);
     w.next = pr_malloc(nf * sizeof *w.next);
     w.size = pr_malloc(nf * sizeof *w.size);
     w.merged = pr_calloc(nf, 1);
+    w.bent = pr_calloc(nf, 1);
     w.queue = pr_malloc((nf * 3 + 1) * sizeof *w.queue);
     w.vstamp = pr_calloc(p->nv ? p->nv : 1, sizeof *w.vstamp);
-    int rc = w.group && w.ot && w.next && w.size && w.merged && w.queue && w.vstamp ? 0
-                                                                                      : PDR_ENOMEM;
+    int rc = w.group && w.ot && w.next && w.size && w.merged && w.bent && w.queue && w.vstamp
+                 ? 0
+                 : PDR_ENOMEM;
     if (!rc)
         rc = make_groups(&w);
     if (!rc)
         rc = rebuild(&w, &s);
     if (!rc && s.triangles_merged) {
-        /* Swap the new facet arrays in; the old ones go with w. */
-        plc_facet *fa = p->facets;
-        plc_polygon *po = p->polys;
-        uint32_t *co = p->corners;
-        plc_point *fh = p->fholes;
-        p->facets = w.facets;
-        p->nfacet = w.nfacet;
-        p->cap_facet = w.cap_facet;
-        p->polys = w.polys;
-        p->npoly = w.npoly;
-        p->cap_poly = w.cap_poly;
-        p->corners = w.corners;
-        p->ncorner = w.ncorner;
-        p->cap_corner = w.cap_corner;
-        p->fholes = w.fholes;
-        p->nfhole = w.nfhole;
-        p->cap_fhole = w.cap_fhole;
-        w.facets = fa;
-        w.polys = po;
-        w.corners = co;
-        w.fholes = fh;
+        /* Swap the new facet arrays in; the old ones go to old. */
+        fm_saved nw = {w.facets, w.nfacet, w.cap_facet, w.polys, w.npoly, w.cap_poly,
+                       w.corners, w.ncorner, w.cap_corner, w.fholes, w.nfhole, w.cap_fhole,
+                       s.bent_facets ? facet_tol : p->planar_tol};
+        w.polys = NULL;
+        w.corners = NULL;
+        w.fholes = NULL;
+        w.facets = NULL;
+        swap_facets(p, &nw);
+        *old = nw;
         plc__drop_derived(p);
         s.facets_after = p->nfacet;
     }
     work_free(&w);
     if (st)
         *st = s;
+    return rc;
+}
+
+int fm_merge(plc *p, double angle_tol, double facet_tol, fm_stats *st)
+{
+    fm_saved old;
+    int rc = merge_keep(p, angle_tol, facet_tol, st, &old);
+    saved_free(&old);
     return rc;
 }
 
@@ -620,20 +767,55 @@ int fm_features(plc *p, fm_stats *st)
     return 0;
 }
 
-int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag)
+/* Validates p after a merge that made bent facets, with the
+ * intersection tests. On failure puts the facets of old back, merges them
+ * exactly (angle_tol) and validates that; *undone says so. */
+static int validate_bent(plc *p, double angle_tol, fm_saved *old, fm_stats *st, pdr_diag *diag)
 {
-    memset(st, 0, sizeof *st);
-    st->facets_before = st->facets_after = p->nfacet;
-    int rc = merge_angle >= 0 ? fm_merge(p, merge_angle, st) : 0;
+    pdr_diag bent_diag = {0};
+    int rc = plc_validate(p, &bent_diag);
+    if (rc != PDR_EGEOMETRY) {
+        pdr_diag_move(diag, &bent_diag);
+        pdr_diag_free(&bent_diag);
+        return rc;
+    }
+    pdr_diag_free(&bent_diag);
+    swap_facets(p, old);
+    saved_free(old);
+    plc__drop_derived(p);
+    rc = plc_derive(p, diag);
+    if (!rc)
+        rc = merge_keep(p, angle_tol, 0.0, st, old);
+    st->bent_undone = 1;
     if (!rc && st->triangles_merged) {
         p->skip_intersections = 1;
         rc = plc_validate(p, diag);
         p->skip_intersections = 0;
-        if (rc == PDR_EGEOMETRY)
-            pdr_diag_add(diag, p->path, 0,
-                         "the facets made by merging coplanar triangles are not valid "
-                         "(a defect of the merge: try --no-merge)");
+    } else if (!rc) {
+        rc = plc_validate(p, diag);
     }
+    return rc;
+}
+
+int fm_prepare(plc *p, double merge_angle, double facet_tol, fm_stats *st, pdr_diag *diag)
+{
+    memset(st, 0, sizeof *st);
+    st->facets_before = st->facets_after = p->nfacet;
+    fm_saved old;
+    memset(&old, 0, sizeof old);
+    int rc = merge_angle >= 0 ? merge_keep(p, merge_angle, facet_tol, st, &old) : 0;
+    if (!rc && st->bent_facets) {
+        rc = validate_bent(p, merge_angle, &old, st, diag);
+    } else if (!rc && st->triangles_merged) {
+        p->skip_intersections = 1;
+        rc = plc_validate(p, diag);
+        p->skip_intersections = 0;
+    }
+    saved_free(&old);
+    if (rc == PDR_EGEOMETRY)
+        pdr_diag_add(diag, p->path, 0,
+                     "the facets made by merging coplanar triangles are not valid "
+                     "(a defect of the merge: try --no-merge)");
     if (!rc)
         rc = fm_features(p, st);
     return rc;

@@ -257,25 +257,31 @@ int plc_add_region(plc *p, const double xyz[3], double attr, double maxvol,
 
 /* ----------------------------------------------------------- derived data */
 
-void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3])
+void plc__newell_ring(const double (*xyz)[3], const uint32_t *c, uint32_t n, double nrm[3],
+                      double cen[3])
 {
-    n[0] = n[1] = n[2] = 0.0;
-    c[0] = c[1] = c[2] = 0.0;
-    for (uint32_t i = 0; i < q->n; i++) {
-        const double *a = p->xyz[p->corners[q->first + i]];
-        const double *b = p->xyz[p->corners[q->first + (i + 1) % q->n]];
+    nrm[0] = nrm[1] = nrm[2] = 0.0;
+    cen[0] = cen[1] = cen[2] = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        const double *a = xyz[c[i]];
+        const double *b = xyz[c[(i + 1) % n]];
         /* Newell's method: the sum over the edges of (a - b) x (a + b)
          * components gives twice the area vector of the polygon, for any
          * simple polygon, and is well defined even if it is nearly
          * degenerate or slightly non-planar. */
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
         for (int k = 0; k < 3; k++)
-            c[k] += a[k];
+            cen[k] += a[k];
     }
     for (int k = 0; k < 3; k++)
-        c[k] /= q->n;
+        cen[k] /= n;
+}
+
+void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3])
+{
+    plc__newell_ring((const double(*)[3])p->xyz, p->corners + q->first, q->n, n, c);
 }
 
 /* Computes each facet's plane from its polygon of largest area. */
