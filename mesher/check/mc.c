@@ -37,35 +37,19 @@ static double tri_area(const double *a, const double *b, const double *c)
     return 0.5 * sqrt(v3_dot(n, n));
 }
 
-/* The distance a mesh face may lie off facet f beyond rounding (tol): 2T
- * for a near-planar facet (planar_tol T above REL_TOL, see check/mc.h,
- * and a corner farther than tol from the plane), else 0. */
-static double bend_allowance(const plc *p, size_t f, double diag, double tol)
+/* The distance a mesh face may lie off facet f beyond rounding: 2T for a
+ * near-planar facet (planar_tol T, see check/mc.h), else 0. */
+static double bend_allowance(const plc *p, size_t f, double diag)
 {
-    if (!(p->planar_tol > REL_TOL))
-        return 0.0;
-    const plc_facet *F = &p->facets[f];
-    for (size_t k = F->poly_first; k < F->poly_first + F->npoly; k++)
-        for (uint32_t i = 0; i < p->polys[k].n; i++) {
-            const double *x = p->xyz[p->corners[p->polys[k].first + i]];
-            if (fabs(v3_dot(F->normal, x) - F->offset) > tol)
-                return 2.0 * p->planar_tol * diag;
-        }
-    return 0.0;
+    return plc_facet_bent(p, f) ? 2.0 * p->planar_tol * diag : 0.0;
 }
 
-/* The area of triangle abc; with near-planar facets (bent), that of its
- * projection on facet F's plane. */
-static double facet_area(const plc_facet *F, int bent, const double *a, const double *b,
+/* The area of triangle abc as facet f's coverage counts it (bend: the
+ * facet's allowance): on a near-planar facet that of its projection. */
+static double facet_area(const plc *p, size_t f, double bend, const double *a, const double *b,
                          const double *c)
 {
-    if (!bent)
-        return tri_area(a, b, c);
-    double u[3], v[3], n[3];
-    v3_sub(b, a, u);
-    v3_sub(c, a, v);
-    v3_cross(u, v, n);
-    return 0.5 * fabs(v3_dot(n, F->normal));
+    return bend > 0 ? plc_facet_proj_area(p, f, a, b, c) : tri_area(a, b, c);
 }
 
 /* x inside triangle abc of facet f's plane, up to a relative tolerance,
@@ -225,7 +209,7 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
         return PDR_ENOMEM;
     }
     for (size_t f = 0; f < p->nfacet; f++)
-        bend[f] = bend_allowance(p, f, sqrt(diag), tol);
+        bend[f] = bend_allowance(p, f, sqrt(diag));
     for (size_t f = 0; f < p->nfacet; f++) {
         for (int k = 0; k < 3; k++) {
             box[f][0][k] = INFINITY;
@@ -246,7 +230,7 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
             r->faces_off_facet++;
             continue;
         }
-        am[f] += facet_area(&p->facets[f], bend[f] > 0, P(c, c->tri[i][0]), P(c, c->tri[i][1]),
+        am[f] += facet_area(p, (size_t)f, bend[f], P(c, c->tri[i][0]), P(c, c->tri[i][1]),
                             P(c, c->tri[i][2]));
         c->fstart[f + 1]++;
     }
@@ -268,7 +252,7 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
     for (size_t f = 0; f < p->nfacet; f++) {
         double ap = 0;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
-            ap += facet_area(&p->facets[f], bend[f] > 0, p->xyz[p->ftri[t][0]],
+            ap += facet_area(p, f, bend[f], p->xyz[p->ftri[t][0]],
                              p->xyz[p->ftri[t][1]], p->xyz[p->ftri[t][2]]);
         r->volume_allow += ap * bend[f];
         if (am[f] == 0) {

@@ -319,8 +319,43 @@ static int derive_planes(plc *p, pdr_diag *diag)
         fa->axis = axis;
         fa->offset = fa->normal[0] * bc[0] + fa->normal[1] * bc[1] +
                      fa->normal[2] * bc[2];
+        fa->bend = 0.0;
+        for (size_t k = 0; k < fa->npoly; k++) {
+            const plc_polygon *q = &p->polys[fa->poly_first + k];
+            for (uint32_t i = 0; i < q->n; i++) {
+                const double *x = p->xyz[p->corners[q->first + i]];
+                double d = fabs(fa->normal[0] * x[0] + fa->normal[1] * x[1] +
+                                fa->normal[2] * x[2] - fa->offset);
+                fa->bend = d > fa->bend ? d : fa->bend;
+            }
+        }
     }
     return rc;
+}
+
+int plc_facet_bent(const plc *p, size_t f)
+{
+    if (!(p->planar_tol > PLC_PLANAR_TOL))
+        return 0;
+    double s = 0;
+    for (int k = 0; k < 3; k++)
+        s += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
+    return p->facets[f].bend > PLC_PLANAR_TOL * sqrt(s);
+}
+
+double plc_facet_proj_area(const plc *p, size_t f, const double *a, const double *b,
+                           const double *c)
+{
+    double u[3], v[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        v[k] = c[k] - a[k];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    const double *N = p->facets[f].normal;
+    return 0.5 * fabs(n[0] * N[0] + n[1] * N[1] + n[2] * N[2]);
 }
 
 struct edge_rec {
