@@ -166,8 +166,8 @@ int mp_read(mp_ctx *c)
                "exactly\n",
                c->fm.bent_facets, c->o.facet_tol, c->fm.bent_regrouped);
     if (!c->o.quiet && c->fm.bent_undone)
-        printf("near-planar facets: undone (the bent facets crossed other facets); merged "
-               "exactly\n");
+        printf("near-planar facets: undone (with them the facets did not validate: they "
+               "crossed or did not triangulate); merged exactly\n");
     return 0;
 }
 

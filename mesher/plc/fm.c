@@ -78,9 +78,9 @@ typedef struct fm_work {
     double cos_min;     /* merge when the dihedral cosine is at most this */
     double exact_tol;   /* absolute distance to the seed plane that counts
                            as coplanar (the PLC's planar tolerance) */
-    double bend_tol;    /* ... that a bent facet allows (>= exact_tol) */
-    double plane_tol;   /* the one in force: bend_tol, or exact_tol while
-                           a refused bent group is grouped again */
+    double bend_tol;    /* ... that a bent facet allows (> exact_tol: the
+                           exact groups are then joined into bent ones) */
+    double seed_n[3], seed_x[3]; /* the bent group's plane: normal, point */
     uint32_t *group;    /* per facet: first facet of its group, or NONE */
     uint32_t (*ot)[3];  /* per triangle facet: corners, oriented in group */
     uint32_t *next;     /* per facet: next member of its group, or NONE */
@@ -88,6 +88,9 @@ typedef struct fm_work {
     uint8_t *merged;    /* per facet (group leader): group becomes a facet */
     uint8_t *bent;      /* per facet (group leader): a member is off the
                            seed plane by more than exact_tol */
+    /* the exact groups, kept while bent groups are made of them */
+    uint32_t *egroup, *enext, *esize;
+    uint32_t (*eot)[3];
     uint32_t *queue;
     hmap explicit_segs; /* undirected keys of the input's own segments */
     /* one group at a time */
@@ -120,9 +123,13 @@ static uint32_t seg_between(const plc *p, uint32_t a, uint32_t b)
     return NONE;
 }
 
-/* Whether the triangle facet across edge a->b of oriented triangle (a, b,
- * c) of group g joins g; if so returns it with its far corner in *d. */
-static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c, uint32_t *d)
+/* The triangle facet across edge a->b of oriented triangle (a, b, c) of
+ * group lead that may join it as far as the edge tells (not in a group
+ * yet, same marker, an edge of no other facet and no explicit segment,
+ * a dihedral angle within the tolerance), with its far corner in *d; or
+ * NONE. */
+static uint32_t neighbour(const fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c,
+                          uint32_t *d)
 {
     const plc *p = w->p;
     uint32_t s = seg_between(p, a, b);
@@ -141,20 +148,30 @@ static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_
     int flat = pred_orient3d(pa, pb, pc, pd) == 0 && cs < 0;
     if (!flat && !(cs <= w->cos_min))
         return NONE;
+    return u;
+}
+
+/* Whether the triangle facet across edge a->b of oriented triangle (a, b,
+ * c) of group lead joins it with the exact criterion; if so returns it
+ * with its far corner in *d. */
+static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c, uint32_t *d)
+{
+    const plc *p = w->p;
+    uint32_t u = neighbour(w, lead, a, b, c, d);
+    if (u == NONE)
+        return NONE;
     /* Against the plane of the group's first triangle. */
     const uint32_t *s0 = w->ot[lead];
-    const double *q0 = p->xyz[s0[0]], *q1 = p->xyz[s0[1]], *q2 = p->xyz[s0[2]];
+    const double *q0 = p->xyz[s0[0]], *q1 = p->xyz[s0[1]], *q2 = p->xyz[s0[2]], *pd = p->xyz[*d];
     if (pred_orient3d(q0, q1, q2, pd) != 0) {
         double u1[3], u2[3], n[3], x[3];
         v3_sub(q1, q0, u1);
         v3_sub(q2, q0, u2);
         cross(u1, u2, n);
         v3_sub(pd, q0, x);
-        double nn = sqrt(v3_dot(n, n)), h = nn > 0 ? fabs(v3_dot(x, n)) / nn : INFINITY;
-        if (!(h <= w->plane_tol))
+        double nn = sqrt(v3_dot(n, n));
+        if (!(nn > 0) || fabs(v3_dot(x, n)) / nn > w->exact_tol)
             return NONE;
-        if (h > w->exact_tol)
-            w->bent[lead] = 1;
     }
     return u;
 }
@@ -182,6 +199,101 @@ static void grow_group(fm_work *w, uint32_t lead)
             last = u;
             w->size[lead]++;
             w->queue[n++] = u;
+        }
+    }
+}
+
+/* The distance of point x from the bent group's plane. */
+static double seed_distance(const fm_work *w, const double *x)
+{
+    double v[3];
+    v3_sub(x, w->seed_x, v);
+    return fabs(v3_dot(v, w->seed_n));
+}
+
+/* Sets the bent group's plane to that of the largest triangle of exact
+ * group e (a thin triangle's plane is tilted most by rounding). */
+static void seed_plane(fm_work *w, uint32_t e)
+{
+    const plc *p = w->p;
+    double best = -1;
+    for (uint32_t t = e; t != NONE; t = w->enext[t]) {
+        const double *a = p->xyz[w->eot[t][0]], *b = p->xyz[w->eot[t][1]],
+                     *c = p->xyz[w->eot[t][2]];
+        double u1[3], u2[3], n[3];
+        v3_sub(b, a, u1);
+        v3_sub(c, a, u2);
+        cross(u1, u2, n);
+        double nn = v3_dot(n, n);
+        if (nn > best) {
+            best = nn;
+            for (int k = 0; k < 3; k++) {
+                w->seed_n[k] = n[k] / sqrt(nn);
+                w->seed_x[k] = a[k];
+            }
+        }
+    }
+}
+
+/* Whether every corner of exact group e lies within bend_tol of the bent
+ * group's plane. */
+static int exact_group_fits(const fm_work *w, uint32_t e)
+{
+    for (uint32_t t = e; t != NONE; t = w->enext[t])
+        for (int k = 0; k < 3; k++)
+            if (!(seed_distance(w, w->p->xyz[w->eot[t][k]]) <= w->bend_tol))
+                return 0;
+    return 1;
+}
+
+/* Adds exact group e to bent group lead (flip: its triangles turn the
+ * other way in lead), queueing its triangles at queue[*n]. */
+static void absorb(fm_work *w, uint32_t lead, uint32_t e, int flip, size_t *n, uint32_t *last)
+{
+    for (uint32_t t = e; t != NONE; t = w->enext[t]) {
+        w->group[t] = lead;
+        w->ot[t][0] = w->eot[t][0];
+        w->ot[t][1] = w->eot[t][flip ? 2 : 1];
+        w->ot[t][2] = w->eot[t][flip ? 1 : 2];
+        for (int k = 0; k < 3; k++)
+            if (seed_distance(w, w->p->xyz[w->ot[t][k]]) > w->exact_tol)
+                w->bent[lead] = 1;
+        if (*last != NONE)
+            w->next[*last] = t;
+        w->next[t] = NONE;
+        *last = t;
+        w->size[lead]++;
+        w->queue[(*n)++] = t;
+    }
+}
+
+/* Grows bent group lead, the leader of an exact group, breadth first over
+ * whole exact groups: a neighbouring exact group joins when the edge
+ * allows it (neighbour) and all its corners lie within bend_tol of the
+ * plane of lead's largest triangle. */
+static void grow_bent(fm_work *w, uint32_t lead)
+{
+    size_t head = 0, n = 0;
+    uint32_t last = NONE;
+    seed_plane(w, lead);
+    w->size[lead] = 0;
+    absorb(w, lead, lead, 0, &n, &last);
+    while (head < n) {
+        uint32_t t = w->queue[head++];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = w->ot[t][k], b = w->ot[t][(k + 1) % 3], c = w->ot[t][(k + 2) % 3], d;
+            uint32_t u = neighbour(w, lead, a, b, c, &d);
+            if (u == NONE)
+                continue;
+            uint32_t e = w->egroup[u];
+            if (!exact_group_fits(w, e))
+                continue;
+            /* u must run along b->a in lead: flip its exact group if it
+             * runs along a->b there */
+            const uint32_t *o = w->eot[u];
+            int flip = (o[0] == a && o[1] == b) || (o[1] == a && o[2] == b) ||
+                       (o[2] == a && o[0] == b);
+            absorb(w, lead, e, flip, &n, &last);
         }
     }
 }
@@ -429,6 +541,10 @@ static void work_free(fm_work *w)
     pr_free(w->size);
     pr_free(w->merged);
     pr_free(w->bent);
+    pr_free(w->egroup);
+    pr_free(w->enext);
+    pr_free(w->esize);
+    pr_free(w->eot);
     pr_free(w->queue);
     hmap_free(&w->explicit_segs);
     hmap_free(&w->edges);
@@ -457,40 +573,44 @@ static int make_groups(fm_work *w)
     for (size_t f = 0; f < p->nfacet; f++)
         if (w->group[f] == NONE && facet_tri(p, f, w->ot[f]))
             grow_group(w, (uint32_t)f);
+    if (!(w->bend_tol > w->exact_tol))
+        return 0;
+    /* Bent groups, made of whole exact groups. */
+    size_t nf = p->nfacet;
+    w->egroup = pr_malloc(nf * sizeof *w->egroup);
+    w->enext = pr_malloc(nf * sizeof *w->enext);
+    w->esize = pr_malloc(nf * sizeof *w->esize);
+    w->eot = pr_malloc(nf * sizeof *w->eot);
+    if (!w->egroup || !w->enext || !w->esize || !w->eot)
+        return PDR_ENOMEM;
+    memcpy(w->egroup, w->group, nf * sizeof *w->egroup);
+    memcpy(w->enext, w->next, nf * sizeof *w->enext);
+    memcpy(w->esize, w->size, nf * sizeof *w->esize);
+    memcpy(w->eot, w->ot, nf * sizeof *w->eot);
+    for (size_t f = 0; f < nf; f++)
+        if (w->egroup[f] != NONE)
+            w->group[f] = NONE;
+    for (size_t f = 0; f < nf; f++)
+        if (w->egroup[f] == f && w->group[f] == NONE)
+            grow_bent(w, (uint32_t)f);
     return 0;
 }
 
-static int cmp_u32(const void *x, const void *y)
-{
-    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
-    return a < b ? -1 : a > b;
-}
-
-/* Groups the members of refused bent group lead again with the exact
- * criterion, each subgroup from its lowest-numbered triangle (lead is the
- * group's lowest, so every subgroup's leader comes at or after it). */
+/* Puts the members of refused bent group lead back into their exact
+ * groups (lead is the lowest-numbered of them all, so each exact group's
+ * leader comes at or after it). */
 static void regroup_exact(fm_work *w, uint32_t lead)
 {
-    size_t n = 0;
-    for (uint32_t t = lead; t != NONE; t = w->next[t])
-        w->queue[n++] = t;
-    qsort(w->queue, n, sizeof *w->queue, cmp_u32);
-    for (size_t i = 0; i < n; i++) {
-        uint32_t t = w->queue[i];
-        w->group[t] = w->next[t] = NONE;
-        w->size[t] = 0;
+    uint32_t t = lead;
+    while (t != NONE) {
+        uint32_t nx = w->next[t];
+        w->group[t] = w->egroup[t];
+        w->next[t] = w->enext[t];
+        w->size[t] = w->esize[t];
         w->bent[t] = 0;
-        facet_tri(w->p, t, w->ot[t]);
+        memcpy(w->ot[t], w->eot[t], sizeof w->ot[t]);
+        t = nx;
     }
-    /* grow_group uses queue as its own work list, at most one entry per
-     * member: keep the members after that room. */
-    uint32_t *members = w->queue + n;
-    memmove(members, w->queue, n * sizeof *members);
-    w->plane_tol = w->exact_tol;
-    for (size_t i = 0; i < n; i++)
-        if (w->group[members[i]] == NONE)
-            grow_group(w, members[i]);
-    w->plane_tol = w->bend_tol;
 }
 
 /* Emits group f (its leader) as one facet; returns 0, 1 when it stays
@@ -611,7 +731,6 @@ static int merge_keep(plc *p, double angle_tol, double facet_tol, fm_stats *st, 
         d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
     w.exact_tol = p->planar_tol * sqrt(d2);
     w.bend_tol = facet_tol > p->planar_tol ? facet_tol * sqrt(d2) : w.exact_tol;
-    w.plane_tol = w.bend_tol;
     size_t nf = p->nfacet;
     w.group = pr_malloc(nf * sizeof *w.group);
     w.ot = pr_malloc(nf * sizeof *w.ot);
