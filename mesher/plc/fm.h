@@ -41,48 +41,59 @@
  * Near-planar facets (facet_tol > 0, 'pdr mesh --facet-tol T'). CAD
  * files tessellate curved faces into thin strips whose two triangles lie
  * off one plane only by the rounding of the file's coordinates (six
- * significant digits: about 1e-7 to 1e-6 of the part's size). Exactly,
- * they are two facets; the diagonal between them is then a segment whose
- * corners of 1-4 degrees force tetrahedra of radius-edge ratio far above
- * 2 whatever the mesher does (fm_thin_corners), where TetGen, merging on
- * the dihedral angle alone, treats the strip as one surface and flips or
- * splits its diagonal freely. With facet_tol the merge also accepts a far
- * corner within facet_tol times the bounding-box diagonal of the group's
- * first plane (on top of the dihedral test above: TetGen's 179.9 degrees
- * alone would fold a finely tessellated cylinder into one facet; the
- * distance keeps a facet within the file's rounding). Such a group
- * becomes a bent facet. What stays exact and consistent:
+ * significant digits; a thin triangle magnifies it: up to 1e-5 of the
+ * part's size). Exactly, they are two facets; the diagonal between them
+ * is then a segment whose corners of 1-4 degrees force tetrahedra of
+ * radius-edge ratio far above 2 whatever the mesher does
+ * (fm_thin_corners), where TetGen, merging on the dihedral angle alone,
+ * treats the strip as one surface and flips or splits its diagonal
+ * freely. With facet_tol the groups of the exact criterion above are
+ * joined, whole, into bent groups: across an edge that the merge's own
+ * tests allow (same marker, no explicit segment, dihedral angle at least
+ * 180 - angle_tol: TetGen's 179.9 degrees by default), a neighbouring
+ * exact group joins when every corner of it lies within facet_tol times
+ * the bounding-box diagonal of the plane of the bent group's first exact
+ * group's largest triangle. The distance bound is what TetGen does not
+ * have: the angle alone would fold a finely tessellated cylinder into one
+ * facet; the distance keeps a facet within T of a plane. What stays
+ * exact and consistent:
  *  - Representation. A bent facet is an ordinary facet (polygons, holes,
- *    one plane by Newell's method, a dominant axis). Its corners are
- *    within the tolerance of its plane, and the PLC says so: its
- *    planar_tol becomes facet_tol, which plc_validate checks and 'pdr
- *    check --plc' uses. No input vertex moves.
+ *    one plane by Newell's method, a dominant axis), whose corners lie
+ *    within T of its plane; plc_derive records the distance of the
+ *    farthest as the facet's bend, and the PLC's planar_tol becomes T,
+ *    which plc_validate checks and 'pdr check --plc' uses. No input
+ *    vertex moves.
  *  - The projection is one-to-one. Everything two-dimensional about a
  *    facet is decided exactly in its projection that drops the dominant
  *    axis (plc_tri's constrained Delaunay triangulation, the refinement's
  *    ref__orient_facet and its point location on facets). A bent group is
  *    accepted only if every one of its triangles turns the same way about
  *    the facet's normal in that projection (exact orient2d) and every
- *    corner lies within the tolerance of the facet's own plane (the one
- *    plc_derive computes); otherwise its triangles are grouped again with
- *    the exact criterion, as without the option. So the facet is the
- *    graph of a function over its projected polygons, and any
+ *    corner lies within T of the facet's own plane (the one plc_derive
+ *    computes); otherwise it falls back to its exact groups. So the facet
+ *    is the graph of a function over its projected polygons, and any
  *    triangulation of its vertices in the projection lifts to a surface
- *    that covers the same projected region, within the tolerance of the
- *    input's triangles.
+ *    that covers the same projected region, within T of the input's
+ *    triangles.
  *  - The surface is a valid PLC. A merge of exactly coplanar triangles
  *    covers the same points, so fm_prepare skips the intersection tests
  *    when it validates the result; with bent facets it runs them (exact
- *    predicates on the facets' new triangulations), and if any fails it
- *    undoes the whole merge and merges with the exact criterion only.
+ *    predicates on the facets' new triangulations), and if the result
+ *    does not validate it undoes the whole merge and merges with the
+ *    exact criterion only.
  *  - The diagonals inside a bent facet are no segments: no subsegment,
  *    no encroachment protects them, and the mesh's subfacets on the facet
  *    are any triangulation of its vertices (Steiner points included) in
- *    the projection: the boundary of the mesh lies within the tolerance of
- *    the input surface, not on it. 'pdr check --plc' compares areas in
- *    the projection on the facet's plane (equal for every triangulation
- *    of the same projected region) and the volume with an allowance of
- *    each bent facet's area times twice its distance tolerance.
+ *    the projection: the boundary of the mesh lies within T of the input
+ *    surface, not on it. 'pdr check --plc' compares areas in the
+ *    projection on the facet's plane (equal for every triangulation of
+ *    the same projected region) and the volume with an allowance of each
+ *    bent facet's area times 2T.
+ *  - Bent facets are unions of exact facets, so a mesh of the exact
+ *    facets conforms to them too and passes the same check: 'pdr mesh'
+ *    meshes again with exact facets when the recovery or the refinement
+ *    fails with bent ones (cli/cmd_mesh.c; refine/QUALITY.md says where
+ *    they are not yet safe).
  * Without facet_tol nothing changes: groups are those of the exact
  * criterion, the PLC's planar_tol stays.
  *
@@ -109,8 +120,13 @@
 /* Default angular tolerance of the merge, degrees (TetGen: 179.9). */
 #define FM_MERGE_ANGLE 0.1
 /* Default distance tolerance of near-planar facets, relative to the
- * bounding-box diagonal (see above); 0: exactly coplanar merges only. */
-#define FM_FACET_TOL 0.0
+ * bounding-box diagonal (see above); 0: exactly coplanar merges only.
+ * 1e-6 takes in most strips of six-digit CAD files (their rounding,
+ * magnified by the strips' thinness, puts 70-90 % of them within it) and
+ * is safe on both corpora of tools/bench-surfaces; at 1e-5 and above the
+ * refinement runs on (sh2.stl) or leaves tetrahedra above the bound where
+ * it left none (bear_bis.off): refine/QUALITY.md. */
+#define FM_FACET_TOL 1e-6
 /* Thresholds of fm_features, degrees. */
 #define FM_SHARP_DIH 72.0
 #define FM_ACUTE_ANG 60.0
