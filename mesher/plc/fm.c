@@ -86,8 +86,8 @@ typedef struct fm_work {
     uint32_t *next;     /* per facet: next member of its group, or NONE */
     uint32_t *size;     /* per facet (group leader): members */
     uint8_t *merged;    /* per facet (group leader): group becomes a facet */
-    uint8_t *bent;      /* per facet (group leader): a member is off the
-                           seed plane by more than exact_tol */
+    uint8_t *bent;      /* per facet (group leader): a bent group, made of
+                           more than one exact group */
     /* the exact groups, kept while bent groups are made of them */
     uint32_t *egroup, *enext, *esize;
     uint32_t (*eot)[3];
@@ -247,17 +247,19 @@ static int exact_group_fits(const fm_work *w, uint32_t e)
 }
 
 /* Adds exact group e to bent group lead (flip: its triangles turn the
- * other way in lead), queueing its triangles at queue[*n]. */
+ * other way in lead), queueing its triangles at queue[*n]. A group made of
+ * more than one exact group is bent, even where its corners happen to lie
+ * within exact_tol of one plane: it is then validated as one (bent_group_ok,
+ * the PLC's tolerance, the intersection tests). */
 static void absorb(fm_work *w, uint32_t lead, uint32_t e, int flip, size_t *n, uint32_t *last)
 {
+    if (e != lead)
+        w->bent[lead] = 1;
     for (uint32_t t = e; t != NONE; t = w->enext[t]) {
         w->group[t] = lead;
         w->ot[t][0] = w->eot[t][0];
         w->ot[t][1] = w->eot[t][flip ? 2 : 1];
         w->ot[t][2] = w->eot[t][flip ? 1 : 2];
-        for (int k = 0; k < 3; k++)
-            if (seed_distance(w, w->p->xyz[w->ot[t][k]]) > w->exact_tol)
-                w->bent[lead] = 1;
         if (*last != NONE)
             w->next[*last] = t;
         w->next[t] = NONE;
