@@ -585,8 +585,10 @@ static void fan_cube_off(char *buf, size_t n, const char *lift)
              lift);
 }
 
-/* Reads and validates OFF text, then prepares it (fm_prepare). */
-static int prepare_text(const char *text, double angle, plc *p, fm_stats *st, pdr_diag *d)
+/* Reads and validates OFF text, then prepares it (fm_prepare) with the
+ * facet tolerance facet_tol. */
+static int prepare_text_tol(const char *text, double angle, double facet_tol, plc *p,
+                            fm_stats *st, pdr_diag *d)
 {
     make_tmpdir();
     const char *path = write_file("s.off", text);
@@ -595,9 +597,15 @@ static int prepare_text(const char *text, double angle, plc *p, fm_stats *st, pd
     if (!rc)
         rc = plc_validate(p, d);
     if (!rc)
-        rc = fm_prepare(p, angle, st, d);
+        rc = fm_prepare(p, angle, facet_tol, st, d);
     remove_tmpdir();
     return rc;
+}
+
+/* The same with the default facet tolerance. */
+static int prepare_text(const char *text, double angle, plc *p, fm_stats *st, pdr_diag *d)
+{
+    return prepare_text_tol(text, angle, FM_FACET_TOL, p, st, d);
 }
 
 START_TEST(coplanar_triangles_merge_into_facets)
@@ -667,6 +675,58 @@ START_TEST(merge_respects_the_angle_tolerance)
     ck_assert_int_eq(prepare_text(off, 10, &p, &st, &d), 0);
     ck_assert_uint_eq(p.nfacet, 5 + 4);
     ck_assert_uint_eq(st.sharp_segments, 0);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(near_planar_facets_within_facet_tol)
+{
+    /* The top centre lifted by 1e-6 (the diagonal is 2 sqrt(3)): beyond
+     * the planar tolerance, so with facet_tol 0 the top stays four
+     * triangles; with facet_tol 1e-6 it is one bent facet (its corners
+     * within 3.5e-6 of its plane), the PLC says so, its four inner edges
+     * are no segments, and only the top is bent. */
+    char off[1024];
+    fan_cube_off(off, sizeof off, "2.000001");
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    ck_assert_int_eq(prepare_text_tol(off, FM_MERGE_ANGLE, 0, &p, &st, &d), 0);
+    ck_assert_uint_eq(p.nfacet, 5 + 4);
+    ck_assert_uint_eq(st.bent_facets, 0);
+    ck_assert(p.planar_tol == PLC_PLANAR_TOL);
+    plc_free(&p);
+    ck_assert_int_eq(prepare_text_tol(off, FM_MERGE_ANGLE, 1e-6, &p, &st, &d), 0);
+    dump(&d);
+    ck_assert_uint_eq(p.nfacet, 6);
+    ck_assert_uint_eq(p.nseg, 12);
+    ck_assert_uint_eq(st.bent_facets, 1);
+    ck_assert_uint_eq(st.bent_regrouped, 0);
+    ck_assert_int_eq(st.bent_undone, 0);
+    ck_assert(p.planar_tol == 1e-6);
+    size_t bent = 0;
+    for (size_t f = 0; f < p.nfacet; f++) {
+        if (!plc_facet_bent(&p, f))
+            continue;
+        bent++;
+        ck_assert(p.facets[f].bend > 1e-8 && p.facets[f].bend < 3.5e-6);
+        /* the facet triangulated in its projection: four triangles about
+         * the lifted centre, covering the square's projected area */
+        ck_assert_uint_eq(p.ftri_start[f + 1] - p.ftri_start[f], 4);
+        double a = 0;
+        for (size_t t = p.ftri_start[f]; t < p.ftri_start[f + 1]; t++)
+            a += plc_facet_proj_area(&p, f, p.xyz[p.ftri[t][0]], p.xyz[p.ftri[t][1]],
+                                     p.xyz[p.ftri[t][2]]);
+        ck_assert(fabs(a - 4.0) < 1e-9);
+    }
+    ck_assert_uint_eq(bent, 1);
+    plc_free(&p);
+    /* Lifted by 1e-3 it is beyond that tolerance too: four facets. */
+    fan_cube_off(off, sizeof off, "2.001");
+    ck_assert_int_eq(prepare_text_tol(off, FM_MERGE_ANGLE, 1e-6, &p, &st, &d), 0);
+    ck_assert_uint_eq(p.nfacet, 5 + 4);
+    ck_assert_uint_eq(st.bent_facets, 0);
     plc_free(&p);
     pdr_diag_free(&d);
 }
@@ -746,6 +806,7 @@ static Suite *plc_suite(void)
     tc = tcase_create("prepare");
     tcase_add_test(tc, coplanar_triangles_merge_into_facets);
     tcase_add_test(tc, merge_respects_the_angle_tolerance);
+    tcase_add_test(tc, near_planar_facets_within_facet_tol);
     tcase_add_test(tc, sharp_segments_and_acute_vertices);
     tcase_add_test(tc, thin_corners_of_a_dart);
     suite_add_tcase(s, tc);

@@ -24,7 +24,14 @@
  * Tolerances are relative: 1e-9 of the facet area or domain volume (the
  * mesh's vertices on facets that are not axis-aligned are off the plane by
  * rounding errors), and 1e-9 of the bounding-box diagonal for "on the
- * facet's plane". Locating a triangle's facet tests the facets whose
+ * facet's plane". A PLC whose facets are planar only within a larger
+ * tolerance T (near-planar facets, plc/fm.h: its planar_tol is T) has
+ * mesh faces that may take other diagonals than its triangles, within T
+ * of them: a triangle then lies in a facet when its corners are within 2T
+ * (a subfacet's circumcentre may lie off its subfacet) of the facet's
+ * plane, areas are compared in projection on the facet's plane (the same
+ * for every triangulation of the same projected region), and the volumes
+ * may differ by the facets' areas times 2T besides. Locating a triangle's facet tests the facets whose
  * bounding box holds it: fast for the model problems, quadratic in the
  * worst case (an STL surface of many thousand facets).
  */
@@ -50,6 +57,7 @@ typedef struct mc_report {
     double area_err_max;       /* largest relative area difference */
     /* volume */
     double volume_mesh, volume_plc, volume_err; /* volume_err relative */
+    double volume_allow;       /* allowance for near-planar facets (absolute) */
     /* defects: keep every defect counter in this block (mc_defects) */
     size_t faces_not_in_mesh;  /* boundary triangles no tetrahedron has */
     size_t boundary_uncovered; /* boundary faces missing from the list */

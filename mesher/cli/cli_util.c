@@ -46,3 +46,16 @@ int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out)
     *out = x;
     return 0;
 }
+
+int pdr_cli_facet_tol(const char *cmd, const char *arg, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(arg, &end);
+    if (errno || end == arg || *end || !(x >= 0 && x <= 1e-3)) {
+        pdr_cli_error(cmd, "--facet-tol needs a number in [0, 0.001], not '%s'", arg);
+        return -1;
+    }
+    *out = x;
+    return 0;
+}

@@ -49,6 +49,11 @@ static void usage(FILE *f)
             "      --merge-angle A, --no-merge  prepare IN as 'pdr mesh' does: coplanar\n"
             "                     triangles merged into facets (default A = %g degrees;\n"
             "                     give the value pdr mesh was given)\n"
+            "      --facet-tol T  prepare IN with near-planar facets as 'pdr mesh\n"
+            "                     --facet-tol T' does (default %g; give the value pdr\n"
+            "                     mesh was given): boundary triangles within 2T of such\n"
+            "                     a facet, areas in its plane, the volume within its\n"
+            "                     area times 2T\n"
             "      --face FILE    boundary triangles (default MESH.face when it exists)\n"
             "      --max-ratio B  a tetrahedron with radius-edge ratio >= B is a defect\n"
             "      --plot PNG     draw the dihedral angle histograms with gnuplot\n"
@@ -58,12 +63,12 @@ static void usage(FILE *f)
             "  -q, --quiet        print only the verdict line\n"
             "  -h, --help         show this help\n\n"
             "Exit status: 0 no defect, 1 defects found or unreadable input, 2 usage error.\n",
-            FM_MERGE_ANGLE);
+            FM_MERGE_ANGLE, FM_FACET_TOL);
 }
 
 int pdr_cmd_check(int argc, char **argv)
 {
-    enum { O_PLC = 256, O_FACE, O_MAXRATIO, O_PLOT, O_NOQ, O_MERGE, O_NOMERGE };
+    enum { O_PLC = 256, O_FACE, O_MAXRATIO, O_PLOT, O_NOQ, O_MERGE, O_NOMERGE, O_FACETTOL };
     static const struct option opts[] = {{"no-delaunay", no_argument, NULL, 'D'},
                                          {"plc", required_argument, NULL, O_PLC},
                                          {"face", required_argument, NULL, O_FACE},
@@ -72,6 +77,7 @@ int pdr_cmd_check(int argc, char **argv)
                                          {"no-quality", no_argument, NULL, O_NOQ},
                                          {"merge-angle", required_argument, NULL, O_MERGE},
                                          {"no-merge", no_argument, NULL, O_NOMERGE},
+                                         {"facet-tol", required_argument, NULL, O_FACETTOL},
                                          {"no-hull", no_argument, NULL, 'H'},
                                          {"quiet", no_argument, NULL, 'q'},
                                          {"help", no_argument, NULL, 'h'},
@@ -79,7 +85,7 @@ int pdr_cmd_check(int argc, char **argv)
     unsigned what = VF_ALL;
     int quiet = 0, hull = 1, c, quality = 1;
     const char *plc_path = NULL, *face_path = NULL, *plot = NULL;
-    double max_ratio = 0, merge_angle = FM_MERGE_ANGLE;
+    double max_ratio = 0, merge_angle = FM_MERGE_ANGLE, facet_tol = FM_FACET_TOL;
     /* 0, not 1: glibc (and musl) then also forget where an earlier parse
      * stopped inside a cluster of short options ("-Qh"), which would
      * otherwise be read from that parse's argv. */
@@ -114,6 +120,10 @@ int pdr_cmd_check(int argc, char **argv)
             break;
         case O_NOMERGE:
             merge_angle = -1;
+            break;
+        case O_FACETTOL:
+            if (pdr_cli_facet_tol("check", optarg, &facet_tol))
+                return PDR_EXIT_USAGE;
             break;
         case O_MAXRATIO: {
             char *end;
@@ -176,7 +186,7 @@ int pdr_cmd_check(int argc, char **argv)
         if (!rc)
             rc = plc_validate(&p, &diag);
         if (!rc)
-            rc = fm_prepare(&p, merge_angle, &fs, &diag);
+            rc = fm_prepare(&p, merge_angle, facet_tol, &fs, &diag);
         if (rc) {
             pdr_cli_fail("check", &diag, rc);
             goto done;

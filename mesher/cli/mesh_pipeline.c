@@ -30,6 +30,7 @@ void mp_default_opts(mp_opts *o)
     ref_default_opts(&o->ref);
     o->formats = MP_FMT_NODE;
     o->merge_angle = FM_MERGE_ANGLE;
+    o->facet_tol = FM_FACET_TOL;
     o->max_points = -1;
     o->mo_auto = 1;
 }
@@ -101,7 +102,7 @@ static int load_plc(mp_ctx *c)
     if (!rc)
         rc = plc_validate(&c->p, &c->diag);
     if (!rc)
-        rc = fm_prepare(&c->p, c->o.merge_angle, &c->fm, &c->diag);
+        rc = fm_prepare(&c->p, c->o.merge_angle, c->o.facet_tol, &c->fm, &c->diag);
     return rc;
 }
 
@@ -159,6 +160,14 @@ int mp_read(mp_ctx *c)
                c->fm.triangles_merged, c->fm.facets_before, c->fm.facets_after,
                c->fm.sharp_segments, FM_SHARP_DIH, c->fm.acute_vertices, FM_ACUTE_ANG,
                c->fm.smooth_segments, FM_SMOOTH_DIH);
+    if (!c->o.quiet && (c->fm.bent_facets || c->fm.bent_regrouped))
+        printf("near-planar facets: %zu merged facets planar within --facet-tol %g of the "
+               "bounding box (their inner edges no segments), %zu groups refused and merged "
+               "exactly\n",
+               c->fm.bent_facets, c->o.facet_tol, c->fm.bent_regrouped);
+    if (!c->o.quiet && c->fm.bent_undone)
+        printf("near-planar facets: undone (with them the facets did not validate: they "
+               "crossed or did not triangulate); merged exactly\n");
     return 0;
 }
 
@@ -444,6 +453,16 @@ static void note_missing(mp_ctx *c)
              ns, ns == 1 ? "" : "s", nf, nf == 1 ? "" : "s", what, at[0], at[1], at[2]);
 }
 
+/* The area of triangle abc as facet f's coverage counts it: on a
+ * near-planar facet (plc/fm.h), that of its projection on the facet's
+ * plane, since the mesh may take other diagonals than the facet's own
+ * triangulation. */
+static double facet_area(const plc *p, size_t f, const double *a, const double *b,
+                         const double *c)
+{
+    return plc_facet_bent(p, f) ? plc_facet_proj_area(p, f, a, b, c) : tri_area(a, b, c);
+}
+
 /* The guard against a mesh that does not cover its input: no tetrahedra
  * at all, open (> 0) faces that bound the interior on no input facet, or
  * a facet whose subfacets in the output do not add up to its area. A facet may have no subfacet at all only when the input has hole
@@ -477,14 +496,15 @@ static int guard_output(mp_ctx *c, size_t open)
     if (!got)
         return fail(c, PDR_ENOMEM);
     for (size_t i = 0; i < o->view.nf; i++)
-        got[o->tri_facet[i]] += tri_area(o->xyz[o->tri[i][0]], o->xyz[o->tri[i][1]],
-                                         o->xyz[o->tri[i][2]]);
+        got[o->tri_facet[i]] += facet_area(p, (size_t)o->tri_facet[i], o->xyz[o->tri[i][0]],
+                                           o->xyz[o->tri[i][1]], o->xyz[o->tri[i][2]]);
     size_t bad = 0, first = 0;
     double worst = 0;
     for (size_t f = 0; f < p->nfacet; f++) {
         double want = 0;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
-            want += tri_area(p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]], p->xyz[p->ftri[t][2]]);
+            want += facet_area(p, f, p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]],
+                               p->xyz[p->ftri[t][2]]);
         double err = want > 0 ? fabs(got[f] - want) / want : 0.0;
         if (err > 1e-6 && (got[f] > 0 || !p->nhole)) {
             if (!bad++)

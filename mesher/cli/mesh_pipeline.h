@@ -75,6 +75,9 @@ typedef struct mp_opts {
                             automatic (ref_point_limit), 0: none */
     double merge_angle;  /* --merge-angle: tolerance of the coplanar merge
                             (plc/fm.h), degrees; < 0 (--no-merge): none */
+    double facet_tol;    /* --facet-tol: distance tolerance of near-planar
+                            facets (plc/fm.h), relative to the bounding-box
+                            diagonal; 0: exactly coplanar merges only */
 } mp_opts;
 
 /* The stages, as indices of mp_ctx.sec. */

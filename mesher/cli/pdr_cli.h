@@ -37,6 +37,9 @@ void pdr_cli_fail(const char *cmd, const void *diag, int rc);
 /* --merge-angle A of 'pdr mesh' and 'pdr check': A in [0, 90) degrees
  * into *out. Returns 0, or -1 after a usage message naming cmd. */
 int pdr_cli_merge_angle(const char *cmd, const char *arg, double *out);
+/* --facet-tol T of 'pdr mesh' and 'pdr check': T in [0, 1e-3] into *out.
+ * Returns 0, or -1 after a usage message naming cmd. */
+int pdr_cli_facet_tol(const char *cmd, const char *arg, double *out);
 
 /* When nonzero, the commands mesh, check, delaunay and domain stop after
  * parsing their command line: they print the same usage errors and return

@@ -76,12 +76,21 @@ static void cross(const double *u, const double *w, double *n)
 typedef struct fm_work {
     plc *p;
     double cos_min;     /* merge when the dihedral cosine is at most this */
-    double plane_tol;   /* absolute distance to the seed plane */
+    double exact_tol;   /* absolute distance to the seed plane that counts
+                           as coplanar (the PLC's planar tolerance) */
+    double bend_tol;    /* ... that a bent facet allows (> exact_tol: the
+                           exact groups are then joined into bent ones) */
+    double seed_n[3], seed_x[3]; /* the bent group's plane: normal, point */
     uint32_t *group;    /* per facet: first facet of its group, or NONE */
     uint32_t (*ot)[3];  /* per triangle facet: corners, oriented in group */
     uint32_t *next;     /* per facet: next member of its group, or NONE */
     uint32_t *size;     /* per facet (group leader): members */
     uint8_t *merged;    /* per facet (group leader): group becomes a facet */
+    uint8_t *bent;      /* per facet (group leader): a bent group, made of
+                           more than one exact group */
+    /* the exact groups, kept while bent groups are made of them */
+    uint32_t *egroup, *enext, *esize;
+    uint32_t (*eot)[3];
     uint32_t *queue;
     hmap explicit_segs; /* undirected keys of the input's own segments */
     /* one group at a time */
@@ -114,9 +123,13 @@ static uint32_t seg_between(const plc *p, uint32_t a, uint32_t b)
     return NONE;
 }
 
-/* Whether the triangle facet across edge a->b of oriented triangle (a, b,
- * c) of group g joins g; if so returns it with its far corner in *d. */
-static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c, uint32_t *d)
+/* The triangle facet across edge a->b of oriented triangle (a, b, c) of
+ * group lead that may join it as far as the edge tells (not in a group
+ * yet, same marker, an edge of no other facet and no explicit segment,
+ * a dihedral angle within the tolerance), with its far corner in *d; or
+ * NONE. */
+static uint32_t neighbour(const fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c,
+                          uint32_t *d)
 {
     const plc *p = w->p;
     uint32_t s = seg_between(p, a, b);
@@ -135,9 +148,21 @@ static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_
     int flat = pred_orient3d(pa, pb, pc, pd) == 0 && cs < 0;
     if (!flat && !(cs <= w->cos_min))
         return NONE;
+    return u;
+}
+
+/* Whether the triangle facet across edge a->b of oriented triangle (a, b,
+ * c) of group lead joins it with the exact criterion; if so returns it
+ * with its far corner in *d. */
+static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_t c, uint32_t *d)
+{
+    const plc *p = w->p;
+    uint32_t u = neighbour(w, lead, a, b, c, d);
+    if (u == NONE)
+        return NONE;
     /* Against the plane of the group's first triangle. */
     const uint32_t *s0 = w->ot[lead];
-    const double *q0 = p->xyz[s0[0]], *q1 = p->xyz[s0[1]], *q2 = p->xyz[s0[2]];
+    const double *q0 = p->xyz[s0[0]], *q1 = p->xyz[s0[1]], *q2 = p->xyz[s0[2]], *pd = p->xyz[*d];
     if (pred_orient3d(q0, q1, q2, pd) != 0) {
         double u1[3], u2[3], n[3], x[3];
         v3_sub(q1, q0, u1);
@@ -145,7 +170,7 @@ static uint32_t joins(fm_work *w, uint32_t lead, uint32_t a, uint32_t b, uint32_
         cross(u1, u2, n);
         v3_sub(pd, q0, x);
         double nn = sqrt(v3_dot(n, n));
-        if (!(nn > 0) || fabs(v3_dot(x, n)) / nn > w->plane_tol)
+        if (!(nn > 0) || fabs(v3_dot(x, n)) / nn > w->exact_tol)
             return NONE;
     }
     return u;
@@ -174,6 +199,103 @@ static void grow_group(fm_work *w, uint32_t lead)
             last = u;
             w->size[lead]++;
             w->queue[n++] = u;
+        }
+    }
+}
+
+/* The distance of point x from the bent group's plane. */
+static double seed_distance(const fm_work *w, const double *x)
+{
+    double v[3];
+    v3_sub(x, w->seed_x, v);
+    return fabs(v3_dot(v, w->seed_n));
+}
+
+/* Sets the bent group's plane to that of the largest triangle of exact
+ * group e (a thin triangle's plane is tilted most by rounding). */
+static void seed_plane(fm_work *w, uint32_t e)
+{
+    const plc *p = w->p;
+    double best = -1;
+    for (uint32_t t = e; t != NONE; t = w->enext[t]) {
+        const double *a = p->xyz[w->eot[t][0]], *b = p->xyz[w->eot[t][1]],
+                     *c = p->xyz[w->eot[t][2]];
+        double u1[3], u2[3], n[3];
+        v3_sub(b, a, u1);
+        v3_sub(c, a, u2);
+        cross(u1, u2, n);
+        double nn = v3_dot(n, n);
+        if (nn > best) {
+            best = nn;
+            for (int k = 0; k < 3; k++) {
+                w->seed_n[k] = n[k] / sqrt(nn);
+                w->seed_x[k] = a[k];
+            }
+        }
+    }
+}
+
+/* Whether every corner of exact group e lies within bend_tol of the bent
+ * group's plane. */
+static int exact_group_fits(const fm_work *w, uint32_t e)
+{
+    for (uint32_t t = e; t != NONE; t = w->enext[t])
+        for (int k = 0; k < 3; k++)
+            if (!(seed_distance(w, w->p->xyz[w->eot[t][k]]) <= w->bend_tol))
+                return 0;
+    return 1;
+}
+
+/* Adds exact group e to bent group lead (flip: its triangles turn the
+ * other way in lead), queueing its triangles at queue[*n]. A group made of
+ * more than one exact group is bent, even where its corners happen to lie
+ * within exact_tol of one plane: it is then validated as one (bent_group_ok,
+ * the PLC's tolerance, the intersection tests). */
+static void absorb(fm_work *w, uint32_t lead, uint32_t e, int flip, size_t *n, uint32_t *last)
+{
+    if (e != lead)
+        w->bent[lead] = 1;
+    for (uint32_t t = e; t != NONE; t = w->enext[t]) {
+        w->group[t] = lead;
+        w->ot[t][0] = w->eot[t][0];
+        w->ot[t][1] = w->eot[t][flip ? 2 : 1];
+        w->ot[t][2] = w->eot[t][flip ? 1 : 2];
+        if (*last != NONE)
+            w->next[*last] = t;
+        w->next[t] = NONE;
+        *last = t;
+        w->size[lead]++;
+        w->queue[(*n)++] = t;
+    }
+}
+
+/* Grows bent group lead, the leader of an exact group, breadth first over
+ * whole exact groups: a neighbouring exact group joins when the edge
+ * allows it (neighbour) and all its corners lie within bend_tol of the
+ * plane of lead's largest triangle. */
+static void grow_bent(fm_work *w, uint32_t lead)
+{
+    size_t head = 0, n = 0;
+    uint32_t last = NONE;
+    seed_plane(w, lead);
+    w->size[lead] = 0;
+    absorb(w, lead, lead, 0, &n, &last);
+    while (head < n) {
+        uint32_t t = w->queue[head++];
+        for (int k = 0; k < 3; k++) {
+            uint32_t a = w->ot[t][k], b = w->ot[t][(k + 1) % 3], c = w->ot[t][(k + 2) % 3], d;
+            uint32_t u = neighbour(w, lead, a, b, c, &d);
+            if (u == NONE)
+                continue;
+            uint32_t e = w->egroup[u];
+            if (!exact_group_fits(w, e))
+                continue;
+            /* u must run along b->a in lead: flip its exact group if it
+             * runs along a->b there */
+            const uint32_t *o = w->eot[u];
+            int flip = (o[0] == a && o[1] == b) || (o[1] == a && o[2] == b) ||
+                       (o[2] == a && o[0] == b);
+            absorb(w, lead, e, flip, &n, &last);
         }
     }
 }
@@ -275,6 +397,44 @@ static void hole_point(const plc *p, uint32_t a, uint32_t b, const double n[3], 
         x[k] = 0.5 * (p->xyz[a][k] + p->xyz[b][k]) - 1e-3 * left[k];
 }
 
+/* Whether bent group lead, emitted as the last facet of w with its outer
+ * loop first, may stay one facet: every corner of the group within
+ * bend_tol of the plane plc_derive will give the facet (Newell's, of the
+ * outer loop), and every triangle of the group turning the same way about
+ * that plane's normal in the projection that drops its dominant axis
+ * (exact), so that the facet is a graph over its projection. */
+static int bent_group_ok(const fm_work *w, uint32_t lead)
+{
+    const plc *p = w->p;
+    const plc_polygon *q = &w->polys[w->facets[w->nfacet - 1].poly_first];
+    double n[3], c[3];
+    plc__newell_ring((const double(*)[3])p->xyz, w->corners + q->first, q->n, n, c);
+    double len = sqrt(v3_dot(n, n));
+    if (!(len > 0))
+        return 0;
+    int axis = 0;
+    for (int k = 0; k < 3; k++) {
+        n[k] /= len;
+        if (fabs(n[k]) > fabs(n[axis]))
+            axis = k;
+    }
+    double off = v3_dot(n, c);
+    int i = (axis + 1) % 3, j = (axis + 2) % 3, turn = n[axis] > 0 ? 1 : -1;
+    for (uint32_t t = lead; t != NONE; t = w->next[t]) {
+        double x[3][2];
+        for (int k = 0; k < 3; k++) {
+            const double *v = p->xyz[w->ot[t][k]];
+            if (!(fabs(v3_dot(n, v) - off) <= w->bend_tol))
+                return 0;
+            x[k][0] = v[i];
+            x[k][1] = v[j];
+        }
+        if (pred_orient2d(x[0], x[1], x[2]) != turn)
+            return 0;
+    }
+    return 1;
+}
+
 /* Emits group lead as one facet: loops (outer first), hole points,
  * isolated vertices. Returns 0, 1 when the group cannot be one facet
  * (nothing emitted), or PDR_ENOMEM. */
@@ -348,6 +508,8 @@ static int emit_group(fm_work *w, uint32_t lead)
     if (!rc)
         rc = put_polygon(w, w->queue + start[outer], (uint32_t)(start[outer + 1] - start[outer]),
                          p->polys[p->facets[lead].poly_first].line);
+    if (!rc && w->bent[lead] && !bent_group_ok(w, lead))
+        rc = 1;
     for (size_t l = 0; l < nloop && !rc; l++) {
         if (l == outer)
             continue;
@@ -380,6 +542,11 @@ static void work_free(fm_work *w)
     pr_free(w->next);
     pr_free(w->size);
     pr_free(w->merged);
+    pr_free(w->bent);
+    pr_free(w->egroup);
+    pr_free(w->enext);
+    pr_free(w->esize);
+    pr_free(w->eot);
     pr_free(w->queue);
     hmap_free(&w->explicit_segs);
     hmap_free(&w->edges);
@@ -408,7 +575,64 @@ static int make_groups(fm_work *w)
     for (size_t f = 0; f < p->nfacet; f++)
         if (w->group[f] == NONE && facet_tri(p, f, w->ot[f]))
             grow_group(w, (uint32_t)f);
+    if (!(w->bend_tol > w->exact_tol))
+        return 0;
+    /* Bent groups, made of whole exact groups. */
+    size_t nf = p->nfacet;
+    w->egroup = pr_malloc(nf * sizeof *w->egroup);
+    w->enext = pr_malloc(nf * sizeof *w->enext);
+    w->esize = pr_malloc(nf * sizeof *w->esize);
+    w->eot = pr_malloc(nf * sizeof *w->eot);
+    if (!w->egroup || !w->enext || !w->esize || !w->eot)
+        return PDR_ENOMEM;
+    memcpy(w->egroup, w->group, nf * sizeof *w->egroup);
+    memcpy(w->enext, w->next, nf * sizeof *w->enext);
+    memcpy(w->esize, w->size, nf * sizeof *w->esize);
+    memcpy(w->eot, w->ot, nf * sizeof *w->eot);
+    for (size_t f = 0; f < nf; f++)
+        if (w->egroup[f] != NONE)
+            w->group[f] = NONE;
+    for (size_t f = 0; f < nf; f++)
+        if (w->egroup[f] == f && w->group[f] == NONE)
+            grow_bent(w, (uint32_t)f);
     return 0;
+}
+
+/* Puts the members of refused bent group lead back into their exact
+ * groups (lead is the lowest-numbered of them all, so each exact group's
+ * leader comes at or after it). */
+static void regroup_exact(fm_work *w, uint32_t lead)
+{
+    uint32_t t = lead;
+    while (t != NONE) {
+        uint32_t nx = w->next[t];
+        w->group[t] = w->egroup[t];
+        w->next[t] = w->enext[t];
+        w->size[t] = w->esize[t];
+        w->bent[t] = 0;
+        memcpy(w->ot[t], w->eot[t], sizeof w->ot[t]);
+        t = nx;
+    }
+}
+
+/* Emits group f (its leader) as one facet; returns 0, 1 when it stays
+ * triangles (nothing emitted), or PDR_ENOMEM. */
+static int try_group(fm_work *w, uint32_t f, fm_stats *s)
+{
+    size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
+    int rc = emit_group(w, f);
+    if (rc == 0) {
+        w->merged[f] = 1;
+        s->triangles_merged += w->size[f];
+        s->bent_facets += w->bent[f];
+        return 0;
+    }
+    /* Keep the group's triangles: undo what was emitted. */
+    w->nfacet = nf;
+    w->npoly = np;
+    w->ncorner = nc;
+    w->nfhole = nh;
+    return rc;
 }
 
 /* Writes the new facets into w: merged groups in place of their first
@@ -422,21 +646,17 @@ static int rebuild(fm_work *w, fm_stats *s)
         if (g != NONE && g != f && w->merged[g])
             continue;
         if (g == f && w->size[f] > 1) {
-            size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
-            rc = emit_group(w, (uint32_t)f);
-            if (rc == 0) {
-                w->merged[f] = 1;
-                s->triangles_merged += w->size[f];
-                continue;
+            rc = try_group(w, (uint32_t)f, s);
+            if (rc == 1 && w->bent[f]) {
+                s->bent_regrouped++;
+                regroup_exact(w, (uint32_t)f);
+                rc = w->size[f] > 1 ? try_group(w, (uint32_t)f, s) : 2;
             }
+            if (rc == 0)
+                continue;
             if (rc < 0)
                 return rc;
-            /* Keep the group's triangles: undo what was emitted. */
-            w->nfacet = nf;
-            w->npoly = np;
-            w->ncorner = nc;
-            w->nfhole = nh;
-            s->groups_kept++;
+            s->groups_kept += rc == 1;
             rc = 0;
         }
         rc = copy_facet(w, f);
@@ -444,10 +664,58 @@ static int rebuild(fm_work *w, fm_stats *s)
     return rc;
 }
 
-int fm_merge(plc *p, double angle_tol, fm_stats *st)
+/* The facet arrays a merge replaced, kept so that fm_prepare can undo a
+ * bent merge. */
+typedef struct fm_saved {
+    plc_facet *facets;
+    size_t nfacet, cap_facet;
+    plc_polygon *polys;
+    size_t npoly, cap_poly;
+    uint32_t *corners;
+    size_t ncorner, cap_corner;
+    plc_point *fholes;
+    size_t nfhole, cap_fhole;
+    double planar_tol;
+} fm_saved;
+
+static void saved_free(fm_saved *sv)
+{
+    pr_free(sv->facets);
+    pr_free(sv->polys);
+    pr_free(sv->corners);
+    pr_free(sv->fholes);
+    memset(sv, 0, sizeof *sv);
+}
+
+/* Exchanges the facet arrays of p and sv. */
+static void swap_facets(plc *p, fm_saved *sv)
+{
+    fm_saved t = {p->facets, p->nfacet, p->cap_facet, p->polys, p->npoly, p->cap_poly,
+                  p->corners, p->ncorner, p->cap_corner, p->fholes, p->nfhole, p->cap_fhole,
+                  p->planar_tol};
+    p->facets = sv->facets;
+    p->nfacet = sv->nfacet;
+    p->cap_facet = sv->cap_facet;
+    p->polys = sv->polys;
+    p->npoly = sv->npoly;
+    p->cap_poly = sv->cap_poly;
+    p->corners = sv->corners;
+    p->ncorner = sv->ncorner;
+    p->cap_corner = sv->cap_corner;
+    p->fholes = sv->fholes;
+    p->nfhole = sv->nfhole;
+    p->cap_fhole = sv->cap_fhole;
+    p->planar_tol = sv->planar_tol;
+    *sv = t;
+}
+
+/* fm_merge, handing the replaced facet arrays to old (emptied first;
+ * still empty when nothing was merged). */
+static int merge_keep(plc *p, double angle_tol, double facet_tol, fm_stats *st, fm_saved *old)
 {
     fm_stats s;
     memset(&s, 0, sizeof s);
+    memset(old, 0, sizeof *old);
     s.facets_before = s.facets_after = p->nfacet;
     if (!p->derived || !p->nfacet) {
         if (st)
@@ -463,49 +731,49 @@ int fm_merge(plc *p, double angle_tol, fm_stats *st)
     double d2 = 0;
     for (int k = 0; k < 3; k++)
         d2 += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
-    w.plane_tol = p->planar_tol * sqrt(d2);
+    w.exact_tol = p->planar_tol * sqrt(d2);
+    w.bend_tol = facet_tol > p->planar_tol ? facet_tol * sqrt(d2) : w.exact_tol;
     size_t nf = p->nfacet;
     w.group = pr_malloc(nf * sizeof *w.group);
     w.ot = pr_malloc(nf * sizeof *w.ot);
     w.next = pr_malloc(nf * sizeof *w.next);
     w.size = pr_malloc(nf * sizeof *w.size);
     w.merged = pr_calloc(nf, 1);
+    w.bent = pr_calloc(nf, 1);
     w.queue = pr_malloc((nf * 3 + 1) * sizeof *w.queue);
     w.vstamp = pr_calloc(p->nv ? p->nv : 1, sizeof *w.vstamp);
-    int rc = w.group && w.ot && w.next && w.size && w.merged && w.queue && w.vstamp ? 0
-                                                                                      : PDR_ENOMEM;
+    int rc = w.group && w.ot && w.next && w.size && w.merged && w.bent && w.queue && w.vstamp
+                 ? 0
+                 : PDR_ENOMEM;
     if (!rc)
         rc = make_groups(&w);
     if (!rc)
         rc = rebuild(&w, &s);
     if (!rc && s.triangles_merged) {
-        /* Swap the new facet arrays in; the old ones go with w. */
-        plc_facet *fa = p->facets;
-        plc_polygon *po = p->polys;
-        uint32_t *co = p->corners;
-        plc_point *fh = p->fholes;
-        p->facets = w.facets;
-        p->nfacet = w.nfacet;
-        p->cap_facet = w.cap_facet;
-        p->polys = w.polys;
-        p->npoly = w.npoly;
-        p->cap_poly = w.cap_poly;
-        p->corners = w.corners;
-        p->ncorner = w.ncorner;
-        p->cap_corner = w.cap_corner;
-        p->fholes = w.fholes;
-        p->nfhole = w.nfhole;
-        p->cap_fhole = w.cap_fhole;
-        w.facets = fa;
-        w.polys = po;
-        w.corners = co;
-        w.fholes = fh;
+        /* Swap the new facet arrays in; the old ones go to old. */
+        fm_saved nw = {w.facets, w.nfacet, w.cap_facet, w.polys, w.npoly, w.cap_poly,
+                       w.corners, w.ncorner, w.cap_corner, w.fholes, w.nfhole, w.cap_fhole,
+                       s.bent_facets ? facet_tol : p->planar_tol};
+        w.polys = NULL;
+        w.corners = NULL;
+        w.fholes = NULL;
+        w.facets = NULL;
+        swap_facets(p, &nw);
+        *old = nw;
         plc__drop_derived(p);
         s.facets_after = p->nfacet;
     }
     work_free(&w);
     if (st)
         *st = s;
+    return rc;
+}
+
+int fm_merge(plc *p, double angle_tol, double facet_tol, fm_stats *st)
+{
+    fm_saved old;
+    int rc = merge_keep(p, angle_tol, facet_tol, st, &old);
+    saved_free(&old);
     return rc;
 }
 
@@ -620,20 +888,55 @@ int fm_features(plc *p, fm_stats *st)
     return 0;
 }
 
-int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag)
+/* Validates p after a merge that made bent facets, with the
+ * intersection tests. On failure puts the facets of old back, merges them
+ * exactly (angle_tol) and validates that; *undone says so. */
+static int validate_bent(plc *p, double angle_tol, fm_saved *old, fm_stats *st, pdr_diag *diag)
 {
-    memset(st, 0, sizeof *st);
-    st->facets_before = st->facets_after = p->nfacet;
-    int rc = merge_angle >= 0 ? fm_merge(p, merge_angle, st) : 0;
+    pdr_diag bent_diag = {0};
+    int rc = plc_validate(p, &bent_diag);
+    if (rc != PDR_EGEOMETRY) {
+        pdr_diag_move(diag, &bent_diag);
+        pdr_diag_free(&bent_diag);
+        return rc;
+    }
+    pdr_diag_free(&bent_diag);
+    swap_facets(p, old);
+    saved_free(old);
+    plc__drop_derived(p);
+    rc = plc_derive(p, diag);
+    if (!rc)
+        rc = merge_keep(p, angle_tol, 0.0, st, old);
+    st->bent_undone = 1;
     if (!rc && st->triangles_merged) {
         p->skip_intersections = 1;
         rc = plc_validate(p, diag);
         p->skip_intersections = 0;
-        if (rc == PDR_EGEOMETRY)
-            pdr_diag_add(diag, p->path, 0,
-                         "the facets made by merging coplanar triangles are not valid "
-                         "(a defect of the merge: try --no-merge)");
+    } else if (!rc) {
+        rc = plc_validate(p, diag);
     }
+    return rc;
+}
+
+int fm_prepare(plc *p, double merge_angle, double facet_tol, fm_stats *st, pdr_diag *diag)
+{
+    memset(st, 0, sizeof *st);
+    st->facets_before = st->facets_after = p->nfacet;
+    fm_saved old;
+    memset(&old, 0, sizeof old);
+    int rc = merge_angle >= 0 ? merge_keep(p, merge_angle, facet_tol, st, &old) : 0;
+    if (!rc && st->bent_facets) {
+        rc = validate_bent(p, merge_angle, &old, st, diag);
+    } else if (!rc && st->triangles_merged) {
+        p->skip_intersections = 1;
+        rc = plc_validate(p, diag);
+        p->skip_intersections = 0;
+    }
+    saved_free(&old);
+    if (rc == PDR_EGEOMETRY)
+        pdr_diag_add(diag, p->path, 0,
+                     "the facets made by merging coplanar triangles are not valid "
+                     "(a defect of the merge: try --no-merge)");
     if (!rc)
         rc = fm_features(p, st);
     return rc;

@@ -38,6 +38,65 @@
  * boundary touches itself at a vertex, or that has no single outer loop,
  * is left as it was (its triangles stay facets).
  *
+ * Near-planar facets (facet_tol > 0, 'pdr mesh --facet-tol T'). CAD
+ * files tessellate curved faces into thin strips whose two triangles lie
+ * off one plane only by the rounding of the file's coordinates (six
+ * significant digits; a thin triangle magnifies it: up to 1e-5 of the
+ * part's size). Exactly, they are two facets; the diagonal between them
+ * is then a segment whose corners of 1-4 degrees force tetrahedra of
+ * radius-edge ratio far above 2 whatever the mesher does
+ * (fm_thin_corners), where TetGen, merging on the dihedral angle alone,
+ * treats the strip as one surface and flips or splits its diagonal
+ * freely. With facet_tol the groups of the exact criterion above are
+ * joined, whole, into bent groups: across an edge that the merge's own
+ * tests allow (same marker, no explicit segment, dihedral angle at least
+ * 180 - angle_tol: TetGen's 179.9 degrees by default), a neighbouring
+ * exact group joins when every corner of it lies within facet_tol times
+ * the bounding-box diagonal of the plane of the bent group's first exact
+ * group's largest triangle. The distance bound is what TetGen does not
+ * have: the angle alone would fold a finely tessellated cylinder into one
+ * facet; the distance keeps a facet within T of a plane. What stays
+ * exact and consistent:
+ *  - Representation. A bent facet is an ordinary facet (polygons, holes,
+ *    one plane by Newell's method, a dominant axis), whose corners lie
+ *    within T of its plane; plc_derive records the distance of the
+ *    farthest as the facet's bend, and the PLC's planar_tol becomes T,
+ *    which plc_validate checks and 'pdr check --plc' uses. No input
+ *    vertex moves.
+ *  - The projection is one-to-one. Everything two-dimensional about a
+ *    facet is decided exactly in its projection that drops the dominant
+ *    axis (plc_tri's constrained Delaunay triangulation, the refinement's
+ *    ref__orient_facet and its point location on facets). A bent group is
+ *    accepted only if every one of its triangles turns the same way about
+ *    the facet's normal in that projection (exact orient2d) and every
+ *    corner lies within T of the facet's own plane (the one plc_derive
+ *    computes); otherwise it falls back to its exact groups. So the facet
+ *    is the graph of a function over its projected polygons, and any
+ *    triangulation of its vertices in the projection lifts to a surface
+ *    that covers the same projected region, within T of the input's
+ *    triangles.
+ *  - The surface is a valid PLC. A merge of exactly coplanar triangles
+ *    covers the same points, so fm_prepare skips the intersection tests
+ *    when it validates the result; with bent facets it runs them (exact
+ *    predicates on the facets' new triangulations), and if the result
+ *    does not validate it undoes the whole merge and merges with the
+ *    exact criterion only.
+ *  - The diagonals inside a bent facet are no segments: no subsegment,
+ *    no encroachment protects them, and the mesh's subfacets on the facet
+ *    are any triangulation of its vertices (Steiner points included) in
+ *    the projection: the boundary of the mesh lies within T of the input
+ *    surface, not on it. 'pdr check --plc' compares areas in the
+ *    projection on the facet's plane (equal for every triangulation of
+ *    the same projected region) and the volume with an allowance of each
+ *    bent facet's area times 2T.
+ *  - Bent facets are unions of exact facets, so a mesh of the exact
+ *    facets conforms to them too and passes the same check: 'pdr mesh'
+ *    meshes again with exact facets when the recovery or the refinement
+ *    fails with bent ones (cli/cmd_mesh.c; refine/QUALITY.md says where
+ *    they are not yet safe).
+ * Without facet_tol nothing changes: groups are those of the exact
+ * criterion, the PLC's planar_tol stays.
+ *
  * Features (fm_features). On a validated PLC: for every segment the
  * smallest dihedral angle between two of its facets (180 for a segment
  * of a single facet or none), and for every vertex the smallest angle
@@ -60,6 +119,14 @@
 
 /* Default angular tolerance of the merge, degrees (TetGen: 179.9). */
 #define FM_MERGE_ANGLE 0.1
+/* Default distance tolerance of near-planar facets, relative to the
+ * bounding-box diagonal (see above); 0: exactly coplanar merges only.
+ * 1e-6 takes in most strips of six-digit CAD files (their rounding,
+ * magnified by the strips' thinness, puts 70-90 % of them within it) and
+ * is safe on both corpora of tools/bench-surfaces; at 1e-5 and above the
+ * refinement runs on (sh2.stl) or leaves tetrahedra above the bound where
+ * it left none (bear_bis.off): refine/QUALITY.md. */
+#define FM_FACET_TOL 1e-6
 /* Thresholds of fm_features, degrees. */
 #define FM_SHARP_DIH 72.0
 #define FM_ACUTE_ANG 60.0
@@ -86,14 +153,21 @@ typedef struct fm_stats {
     size_t sharp_segments;   /* after fm_features */
     size_t acute_vertices;
     size_t smooth_segments;  /* at FM_SMOOTH_DIH or more, between two facets */
+    size_t bent_facets;      /* merged facets planar only within facet_tol */
+    size_t bent_regrouped;   /* bent groups refused (projection, plane) and
+                                grouped again exactly */
+    int bent_undone;         /* the bent merge made an invalid PLC: undone */
 } fm_stats;
 
 /* Merges coplanar neighbouring triangle facets of p (see above), with the
- * angular tolerance angle_tol in degrees, >= 0. p must be derived
- * (plc_derive or plc_validate); afterwards its derived data is dropped:
- * call plc_validate again. st (may be NULL) receives the counts. Returns
- * 0 or PDR_ENOMEM (p then unchanged). */
-int fm_merge(plc *p, double angle_tol, fm_stats *st);
+ * angular tolerance angle_tol in degrees, >= 0, and the distance
+ * tolerance facet_tol (relative to the bounding-box diagonal; at most
+ * p->planar_tol: exactly coplanar only). p must be derived (plc_derive or
+ * plc_validate); afterwards its derived data is dropped: call
+ * plc_validate again. When bent facets were made, p->planar_tol becomes
+ * facet_tol. st (may be NULL) receives the counts. Returns 0 or
+ * PDR_ENOMEM (p then unchanged). */
+int fm_merge(plc *p, double angle_tol, double facet_tol, fm_stats *st);
 
 /* Fills p->seg_mindih and p->v_minang of the validated PLC p and counts
  * the sharp segments and acute vertices into st (may be NULL). Returns 0
@@ -103,10 +177,12 @@ int fm_features(plc *p, fm_stats *st);
 /* The whole preparation of a validated PLC p, as 'pdr mesh' does it and
  * 'pdr check --plc' repeats it (so that a mesh is compared with the
  * facets the mesher was given): fm_merge with merge_angle degrees (none
- * when merge_angle is negative), plc_validate again when anything was
- * merged, fm_features. st receives the counts. Returns 0, PDR_EGEOMETRY
- * (messages in diag) or PDR_ENOMEM. */
-int fm_prepare(plc *p, double merge_angle, fm_stats *st, pdr_diag *diag);
+ * when merge_angle is negative) and facet_tol, plc_validate again when
+ * anything was merged (with the intersection tests when facets are
+ * bent; if they fail, the merge again without facet_tol), fm_features.
+ * st receives the counts. Returns 0, PDR_EGEOMETRY (messages in diag) or
+ * PDR_ENOMEM. */
+int fm_prepare(plc *p, double merge_angle, double facet_tol, fm_stats *st, pdr_diag *diag);
 
 /* The corners of facets of p whose angle inside the facet is below
  * max_angle degrees, counted on facets bounded by one polygon of three

@@ -257,25 +257,31 @@ int plc_add_region(plc *p, const double xyz[3], double attr, double maxvol,
 
 /* ----------------------------------------------------------- derived data */
 
-void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3])
+void plc__newell_ring(const double (*xyz)[3], const uint32_t *c, uint32_t n, double nrm[3],
+                      double cen[3])
 {
-    n[0] = n[1] = n[2] = 0.0;
-    c[0] = c[1] = c[2] = 0.0;
-    for (uint32_t i = 0; i < q->n; i++) {
-        const double *a = p->xyz[p->corners[q->first + i]];
-        const double *b = p->xyz[p->corners[q->first + (i + 1) % q->n]];
+    nrm[0] = nrm[1] = nrm[2] = 0.0;
+    cen[0] = cen[1] = cen[2] = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        const double *a = xyz[c[i]];
+        const double *b = xyz[c[(i + 1) % n]];
         /* Newell's method: the sum over the edges of (a - b) x (a + b)
          * components gives twice the area vector of the polygon, for any
          * simple polygon, and is well defined even if it is nearly
          * degenerate or slightly non-planar. */
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
         for (int k = 0; k < 3; k++)
-            c[k] += a[k];
+            cen[k] += a[k];
     }
     for (int k = 0; k < 3; k++)
-        c[k] /= q->n;
+        cen[k] /= n;
+}
+
+void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3])
+{
+    plc__newell_ring((const double(*)[3])p->xyz, p->corners + q->first, q->n, n, c);
 }
 
 /* Computes each facet's plane from its polygon of largest area. */
@@ -313,8 +319,43 @@ static int derive_planes(plc *p, pdr_diag *diag)
         fa->axis = axis;
         fa->offset = fa->normal[0] * bc[0] + fa->normal[1] * bc[1] +
                      fa->normal[2] * bc[2];
+        fa->bend = 0.0;
+        for (size_t k = 0; k < fa->npoly; k++) {
+            const plc_polygon *q = &p->polys[fa->poly_first + k];
+            for (uint32_t i = 0; i < q->n; i++) {
+                const double *x = p->xyz[p->corners[q->first + i]];
+                double d = fabs(fa->normal[0] * x[0] + fa->normal[1] * x[1] +
+                                fa->normal[2] * x[2] - fa->offset);
+                fa->bend = d > fa->bend ? d : fa->bend;
+            }
+        }
     }
     return rc;
+}
+
+int plc_facet_bent(const plc *p, size_t f)
+{
+    if (!(p->planar_tol > PLC_PLANAR_TOL))
+        return 0;
+    double s = 0;
+    for (int k = 0; k < 3; k++)
+        s += (p->bbox[1][k] - p->bbox[0][k]) * (p->bbox[1][k] - p->bbox[0][k]);
+    return p->facets[f].bend > PLC_PLANAR_TOL * sqrt(s);
+}
+
+double plc_facet_proj_area(const plc *p, size_t f, const double *a, const double *b,
+                           const double *c)
+{
+    double u[3], v[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = b[k] - a[k];
+        v[k] = c[k] - a[k];
+    }
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    const double *N = p->facets[f].normal;
+    return 0.5 * fabs(n[0] * N[0] + n[1] * N[1] + n[2] * N[2]);
 }
 
 struct edge_rec {

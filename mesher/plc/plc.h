@@ -33,7 +33,9 @@
  *  - facets[f].normal is a unit vector (Newell's method on the polygon of
  *    largest area), offset = normal . x on that polygon's centroid, and
  *    axis = argmax |normal[i]| (the coordinate dropped to project the facet
- *    to 2D without degeneracy);
+ *    to 2D without degeneracy), and bend the largest distance of a corner
+ *    from that plane (near-planar facets, plc/fm.h, have one above
+ *    rounding: plc_facet_bent);
  *  - segs holds every explicit segment and every polygon edge of every
  *    facet, once each, with v[0] < v[1], sorted by (v[0], v[1]);
  *    seg_facets[seg_fstart[s] .. seg_fstart[s+1]-1] are the facets (sorted,
@@ -74,6 +76,7 @@ typedef struct plc_facet {
     double normal[3]; /* unit normal */
     double offset;    /* plane: normal . x == offset */
     int axis;         /* dominant axis of normal */
+    double bend;      /* largest distance of a corner from the plane */
 } plc_facet;
 
 typedef struct plc_segment {
@@ -248,6 +251,18 @@ int plc_derive(plc *p, pdr_diag *diag);
  * data and facet triangulations are then valid), PDR_EGEOMETRY or
  * PDR_ENOMEM. */
 int plc_validate(plc *p, pdr_diag *diag);
+
+/* 1 if facet f of the derived PLC p is near-planar (plc/fm.h): p's
+ * planar_tol is above PLC_PLANAR_TOL (a merge with a facet tolerance made
+ * it so) and a corner of f lies farther than PLC_PLANAR_TOL times the
+ * bounding-box diagonal from its plane. Mesh faces on such a facet lie
+ * within planar_tol of it, not on its triangles. */
+int plc_facet_bent(const plc *p, size_t f);
+/* The area of the projection of triangle abc on facet f's plane: how a
+ * near-planar facet's coverage is measured (the same for every
+ * triangulation of one projected region). */
+double plc_facet_proj_area(const plc *p, size_t f, const double *a, const double *b,
+                           const double *c);
 
 /* The number the input file uses for vertex v (index plus base). */
 static inline long plc_vnum(const plc *p, uint32_t v)

@@ -20,6 +20,9 @@ int plc__enable_vattr(plc *p, size_t nattr);
 /* Newell area vector (twice the area times the unit normal) and corner
  * centroid of polygon q. */
 void plc__newell(const plc *p, const plc_polygon *q, double n[3], double c[3]);
+/* The same for the n >= 1 corners c of a ring of vertices xyz. */
+void plc__newell_ring(const double (*xyz)[3], const uint32_t *c, uint32_t n, double nrm[3],
+                      double cen[3]);
 int plc__cmp_u64(const void *x, const void *y);
 /* Gives vertex v (the last one added) the number num (0-based, the base
  * is added) in its file, where some vertex before it was merged away;
