@@ -359,6 +359,7 @@ int mp_initial_mesh(mp_ctx *c)
         printf(" (%.3f s)\n", c->sec[MP_MO]);
     }
     c->v0 = c->r.m.nv;
+    c->st_mo = c->r.st;
     return 0;
 }
 
@@ -391,8 +392,10 @@ void mp_print_mesh_summary(const mp_ctx *c)
         printf("refinement: %zu vertices added (%zu tetrahedra, %zu subfacet, %zu "
                "subsegment points), %zu circumcentres rejected (%.3f s, %.0f "
                "tetrahedra/s)\n",
-               c->v_added, c->st.tet_points, c->st.fac_points, c->st.seg_points,
-               c->st.rejected, tref, tref > 0 ? (double)v->nt / tref : 0.0);
+               c->v_added, c->st.tet_points - c->st_mo.tet_points,
+               c->st.fac_points - c->st_mo.fac_points, c->st.seg_points - c->st_mo.seg_points,
+               c->st.rejected - c->st_mo.rejected, tref,
+               tref > 0 ? (double)v->nt / tref : 0.0);
     }
     printf("mesh: %zu vertices, %zu tetrahedra, %zu boundary triangles\n", v->nv, v->nt,
            v->nf);

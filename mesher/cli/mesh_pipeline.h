@@ -98,6 +98,8 @@ typedef struct mp_ctx {
     im_stats is;         /* what building Mo did */
     fm_stats fm;         /* what the input preparation did */
     size_t v0;           /* mesh vertices of Mo */
+    ref_stats st_mo;     /* the refinement's counts when Mo was done (the
+                            summary's refinement line counts from there) */
     int refined;         /* a refinement ran (its summary line is due) */
     size_t v_added;      /* vertices the refinement added */
     ref_stats st;        /* the refinement's counts, with those left above

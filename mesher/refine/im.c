@@ -429,8 +429,6 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         r->narrow_recovery = 0;
         return recovery_end(r, rc, cap, save_max);
     }
-    s.seg_points = r->st.seg_points - seg0;
-    s.fac_points = r->st.fac_points - fac0;
     double t2 = pdr_now();
     s.recovery_seconds = t2 - t1;
     rc = ref_classify(r, &s.unreached_regions, NULL, diag);
@@ -445,6 +443,10 @@ int im_build(ref_mesher *r, const im_opts *o, im_stats *st, pdr_diag *diag)
         rc = ref_run(r, 0);
     rc = recovery_end(r, rc, cap, save_max);
     r->narrow_recovery = 0;
+    /* the points of the whole stage: the recovery's and, in the
+     * constrained mode, those of the repair after the classification */
+    s.seg_points = r->st.seg_points - seg0;
+    s.fac_points = r->st.fac_points - fac0;
     s.classify_seconds = pdr_now() - t2;
     s.tets = ref_interior_tets(r);
     if (st)
