@@ -7,12 +7,9 @@
 # until the facets were recovered by cavity retriangulation
 # (mesher/refine/refine_facrec.c): the first attempt stops, and the one
 # with segments first meshes them. For each, with the default options:
-#  - pdr mesh exits 0 within 60 s, with at most 2.5 times the tetrahedra
+#  - pdr mesh exits 0 within 60 s, with at most twice the tetrahedra
 #    TetGen makes of it with -pq2.0 (TetGen 1.6's figures kept here, so
-#    that a change that refines a part over and over fails; 2.5, not 2:
-#    with near-planar facets, plc/fm.h, the refinement no longer gives up
-#    next to joint's strips and makes 18,033, leaving 5 above ratio 2 as
-#    TetGen does, where it left 633 in 10,328);
+#    that a change that refines a part over and over fails);
 #  - pdr check --plc IN --max-ratio 2 finds no defect but tetrahedra above
 #    ratio 2 and faces not locally Delaunay: the mesh covers every input
 #    triangle, has the input's volume, and no tetrahedron is inverted,
@@ -70,7 +67,7 @@ while read -r name tetgen; do
     rc=$?
     [ "$rc" -eq 0 ] || { cat "$tmp/$name.out"; fail "$name: pdr mesh exited $rc"; }
     cad_tets "$name" "$tmp/$name.out"
-    [ "$nt" -le $((5 * tetgen / 2)) ] || fail "$name: $nt tetrahedra, TetGen $tetgen"
+    [ "$nt" -le $((2 * tetgen)) ] || fail "$name: $nt tetrahedra, TetGen $tetgen"
     cad_check "$name" "$in" "$tmp/$name" "$tmp/$name.out"
     cad_check_cover "$name" "$tmp/$name" "$tmp/$name.out"
     echo "$name: $nt tetrahedra (TetGen $tetgen), $nd faces not locally Delaunay, $left left" \
@@ -103,7 +100,7 @@ for run in "part 2 3340" "joint 3 7742 --latency 100us-1ms"; do
     rc=$?
     [ "$rc" -eq 0 ] || { cat "$tmp/par.out"; fail "$name -n $np: exit $rc"; }
     cad_tets "$name -n $np" "$tmp/par.out"
-    [ "$nt" -le $((5 * tetgen / 2)) ] || fail "$name -n $np: '$nt' tetrahedra, TetGen $tetgen"
+    [ "$nt" -le $((2 * tetgen)) ] || fail "$name -n $np: '$nt' tetrahedra, TetGen $tetgen"
     cad_check "$name -n $np" "$data/$name.off" "$tmp/par" "$tmp/par.out"
     echo "$name -n $np $*: $nt tetrahedra, $nd faces not locally Delaunay"
 done
