@@ -1360,6 +1360,11 @@ int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf
     return put_tets(s, NULL, tets, n, b);
 }
 
+int par_cav_encode_left_tets(const par_cav_ctx *cc, const uint32_t *tets, size_t n, pr_buf *b)
+{
+    return put_tets(cc->s, &cc->left, tets, n, b);
+}
+
 int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src)
 {
     pr_reader rd;

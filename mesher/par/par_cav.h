@@ -251,5 +251,9 @@ void par_cav_release(par_cav *c);
  * par_cav_ctx whose am is NULL. */
 int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf *b);
 int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src);
+/* par_cav_encode_tets as cc's PE replies: a tetrahedron it left for the
+ * merge (par_cav_mark_left) goes with flag bit 0 set (proto/PROTOCOL.md,
+ * Reply). */
+int par_cav_encode_left_tets(const par_cav_ctx *cc, const uint32_t *tets, size_t n, pr_buf *b);
 
 #endif /* PDR_PAR_CAV_H */
