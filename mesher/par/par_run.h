@@ -91,7 +91,7 @@
  * their circumcentres far off), each time for a split that then lay on
  * the other PE. */
 #define PAR_RUN_MAX_IMPORT 1024
-#define PAR_RUN_STALL_WINDOW 1048576.0
+#define PAR_RUN_STALL_WINDOW 262144.0
 #define PAR_RUN_STALL_RATIO 1024.0
 /* Handler ids used by the parallel refinement (4 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
