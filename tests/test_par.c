@@ -946,6 +946,72 @@ static int try_cavity_tets(const uint8_t *b, size_t len)
     return rc;
 }
 
+/* A bad tetrahedron left for the merge on one PE (par_cav_mark_left)
+ * travels marked so, and only while it is that tetrahedron, still marked
+ * queued: without the mark a PE that a cavity brought it to queued it
+ * again, and turbine.off on 2 PEs moved cavities back and forth for
+ * minutes (issue 12). */
+START_TEST(cavity_reply_left)
+{
+    plc p;
+    domain_plc(&p, DOM_CUBE_IN_CUBE);
+    ref_mesher mo;
+    build_mo(&p, NULL, 3000, &mo);
+    par_decomp d;
+    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 3, &d), 0);
+    par_sub s;
+    ck_assert_int_eq(par_wire_load(d.msg[0].data, d.msg[0].len, &p, &mo.o, &s), 0);
+    tm_mesh *m = &s.r.m;
+    uint32_t tets[3];
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots && n < 3; t++)
+        if (!tm_is_dead(m, t) && !tm_is_ghost(m, t))
+            tets[n++] = t;
+    ck_assert_uint_eq(n, 3);
+    par_cav_ctx cc;
+    memset(&cc, 0, sizeof cc);
+    cc.s = &s;
+    /* 0: left; 1: queued, not left; 2: recorded but no longer marked */
+    m->flags[tets[0]] |= TM_F_QUEUED;
+    m->flags[tets[1]] |= TM_F_QUEUED;
+    m->flags[tets[2]] &= (uint16_t)~TM_F_QUEUED;
+    ck_assert_int_eq(par_cav_mark_left(&cc, tets[0]), 0);
+    ck_assert_int_eq(par_cav_mark_left(&cc, tets[2]), 0);
+    for (int pass = 0; pass < 2; pass++) {
+        pr_buf b = PR_BUF_INIT;
+        ck_assert_int_eq(par_cav_encode_left_tets(&cc, tets, n, &b), 0);
+        par_cav c;
+        par_cav_init(&c, &cc);
+        ck_assert_int_eq(par_cav_decode_tets(&c, b.data, b.len, 1), 0);
+        ck_assert_uint_eq(c.ngt, n);
+        /* pass 1: slot tets[0] holds another tetrahedron (its vertices
+         * in another order): not the one left */
+        ck_assert_int_eq((c.gt[0].flags & TM_F_DEAD) != 0, pass == 0);
+        ck_assert(c.gt[0].flags & TM_F_QUEUED);
+        ck_assert(!(c.gt[1].flags & TM_F_DEAD));
+        ck_assert(c.gt[1].flags & TM_F_QUEUED);
+        ck_assert(!(c.gt[2].flags & (TM_F_DEAD | TM_F_QUEUED)));
+        /* the plain encoder knows of no PE's marks */
+        pr_buf_free(&b);
+        ck_assert_int_eq(par_cav_encode_tets(&s, tets, 1, &b), 0);
+        par_cav_free(&c);
+        par_cav_init(&c, &cc);
+        ck_assert_int_eq(par_cav_decode_tets(&c, b.data, b.len, 1), 0);
+        ck_assert(!(c.gt[0].flags & TM_F_DEAD));
+        par_cav_free(&c);
+        pr_buf_free(&b);
+        uint32_t *v = m->tets[tets[0]].v, x = v[0];
+        v[0] = v[1];
+        v[1] = x;
+    }
+    hmap_free(&cc.left);
+    par_sub_free(&s);
+    par_decomp_free(&d);
+    ref_free(&mo);
+    plc_free(&p);
+}
+END_TEST
+
 /* The tetrahedra of a REPLY: a round trip keeps every vertex, marker and
  * region and brings each subsegment and subfacet once; a cut anywhere or
  * a byte too many is refused; damaged bytes never crash the decoder. */
@@ -1754,6 +1820,7 @@ static Suite *suite(void)
     tcase_add_test(t, links_checked);
     tcase_add_test(t, facet_gaps_found);
     tcase_add_test(t, cavity_reply_tets);
+    tcase_add_test(t, cavity_reply_left);
     suite_add_tcase(s, t);
     t = tcase_create("merge");
     tcase_set_timeout(t, 120);

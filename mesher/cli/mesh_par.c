@@ -201,7 +201,9 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             "  \"tets_migrated_in\": %llu,\n"
             "  \"tets_migrated_out\": %llu,\n  \"messages_sent\": %llu,\n"
             "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu,\n"
-            "  \"tet_slots_at_end\": %llu,\n  \"peak_rss_bytes\": %llu\n}\n",
+            "  \"tet_slots_at_end\": %llu,\n  \"peak_rss_bytes\": %llu,\n"
+            "  \"work_units\": %llu,\n  \"points_inserted\": %llu,\n"
+            "  \"cavities_too_big\": %llu\n}\n",
             rank, size, t->exec_s, t->completed_s, t->masked_local_s, t->masked_dist_s,
             t->setback_s, par_table1_tolerance(t), t->cpu_clock ? "cpu" : "wall",
             t->completed_wall_s, t->masked_wall_s, t->setback_wall_s,
@@ -211,7 +213,9 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             (unsigned long long)t->deferred, (unsigned long long)t->backoffs, (unsigned long long)t->tets_in,
             (unsigned long long)t->tets_out, (unsigned long long)t->msgs_sent,
             (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end,
-            (unsigned long long)t->slots_end, (unsigned long long)t->peak_rss);
+            (unsigned long long)t->slots_end, (unsigned long long)t->peak_rss,
+            (unsigned long long)t->work, (unsigned long long)t->points,
+            (unsigned long long)t->too_big);
     return outfile_commit(&of, NULL) ? PDR_EIO : 0;
 }
 
@@ -489,6 +493,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
+    /* --max-points bounds the points of each PE too (par_run.h) */
+    s.r.o.max_points = mo->max_points < 0 ? ref_point_limit(&p, &s.r.o) : (size_t)mo->max_points;
     pr_free(j.data);
     j.data = NULL;
 
@@ -514,6 +520,16 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                                               : REF_ORDER_FIFO;
     const char *reach = getenv("PDR_PAR_BUSY_REACH");
     ro_run.busy_reach = reach ? atof(reach) : -1;
+    /* PDR_PAR_STALL=WINDOW[,RATIO]: the progress bound's stretch of work
+     * and the units allowed per point (par_run.h, PAR_RUN_STALL_WINDOW),
+     * for tests. */
+    const char *stall = getenv("PDR_PAR_STALL");
+    if (stall) {
+        char *end;
+        ro_run.stall_window = strtod(stall, &end);
+        if (*end == ',')
+            ro_run.stall_ratio = strtod(end + 1, NULL);
+    }
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;
@@ -525,6 +541,25 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         char why[512];
         mp_recovery_stuck_text(&s.r, 9, why, sizeof why);
         fprintf(stderr, "pdr mesh: PE %d: %s\n", rank, why);
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL); /* as below */
+    }
+    if (rc && row.point_limit) {
+        fprintf(stderr,
+                "pdr mesh: PE %d: inserted %llu points, the bound of --max-points; stopped\n",
+                rank, (unsigned long long)row.points);
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL); /* as below */
+    }
+    if (rc && row.stalled) {
+        fprintf(stderr,
+                "pdr mesh: PE %d: the parallel refinement makes no progress: its last %llu "
+                "units of work (%d per cavity attempt, 1 per tetrahedron migrated in or "
+                "created) inserted %llu points, fewer than one per %g units (cavities moved "
+                "between PEs or failing over and over); stopped\n",
+                rank, (unsigned long long)row.stall_work, PAR_RUN_WORK_ATTEMPT,
+                (unsigned long long)row.stall_points,
+                ro_run.stall_ratio > 0 ? ro_run.stall_ratio : PAR_RUN_STALL_RATIO);
         fflush(stderr);
         _exit(PDR_EXIT_FAIL); /* as below */
     }

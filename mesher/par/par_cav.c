@@ -23,11 +23,20 @@ enum {
 };
 
 /* Reply status. */
-enum { REPLY_OK = 0, REPLY_LOCKED = 1, REPLY_STALE = 2, REPLY_DUPLICATE = 3 };
+enum {
+    REPLY_OK = 0,
+    REPLY_LOCKED = 1,
+    REPLY_STALE = 2,
+    REPLY_DUPLICATE = 3,
+    REPLY_TOO_BIG = 4, /* more cavity tetrahedra than the origin's max */
+};
 
 /* The flags that travel with a tetrahedron: everything but the transient
  * DEAD and CAVITY bits. */
 #define TRAVEL_FLAGS ((uint16_t) ~(TM_F_DEAD | TM_F_CAVITY))
+/* On the wire only, in the place of TM_F_DEAD (never sent): the
+ * tetrahedron was left for the merge where it was (par_cav_ctx.left). */
+#define WIRE_LEFT ((uint16_t)TM_F_DEAD)
 
 /* Bounds a decoder accepts before it allocates (a cavity of a few
  * thousand tetrahedra is already unusual). */
@@ -90,6 +99,40 @@ void par_part_box(const tm_mesh *m, par_part *p)
     for (; p->boxed < p->held.n; p->boxed++)
         if (p->held.a[p->boxed] < m->nslots)
             par_box_tet(m, p->held.a[p->boxed], p->lo, p->hi);
+}
+
+/* ------------------------------------------------- left for the merge */
+
+/* A check of tetrahedron t's vertices, so that an entry of par_cav_ctx.left
+ * names the tetrahedron it was made for and not a later one in its slot. */
+static uint32_t tet_check(const tm_mesh *m, uint32_t t)
+{
+    const uint32_t *v = m->tets[t].v;
+    uint32_t h = 2166136261u;
+    for (int k = 0; k < 4; k++)
+        h = (h ^ v[k]) * 16777619u;
+    return h == HMAP_NONE ? 0 : h;
+}
+
+static void left_forget(hmap *left, uint32_t t)
+{
+    uint32_t x;
+    while ((x = hmap_get(left, (uint64_t)t + 1)) != HMAP_NONE)
+        hmap_del(left, (uint64_t)t + 1, x);
+}
+
+/* 1 if tetrahedron t was left for the merge here and is still that bad
+ * tetrahedron (marked TM_F_QUEUED with no queue holding it). */
+static int is_left(const hmap *left, const tm_mesh *m, uint32_t t)
+{
+    return left && left->n && (m->flags[t] & TM_F_QUEUED) &&
+           hmap_get(left, (uint64_t)t + 1) == tet_check(m, t);
+}
+
+int par_cav_mark_left(par_cav_ctx *cc, uint32_t t)
+{
+    left_forget(&cc->left, t);
+    return hmap_put(&cc->left, (uint64_t)t + 1, tet_check(&cc->s->r.m, t));
 }
 
 static void unlock_held(tm_mesh *m, uint32_t owner, const u32list *held)
@@ -226,8 +269,10 @@ static void rec_drop(par_cav_ctx *cc, uint32_t i)
 /* --------------------------------------------------------- encoding */
 
 /* Appends tetrahedra tets[0..nt-1] of this PE, with their vertices and
- * the subsegments and subfacets on them, to a reply. */
-static int put_tets(const par_sub *s, const uint32_t *tets, size_t nt, pr_buf *b)
+ * the subsegments and subfacets on them, to a reply; those in left (if not
+ * NULL) go with WIRE_LEFT. */
+static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, size_t nt,
+                    pr_buf *b)
 {
     const tm_mesh *m = &s->r.m;
     const bd_set *bd = &s->r.bd;
@@ -280,7 +325,10 @@ static int put_tets(const par_sub *s, const uint32_t *tets, size_t nt, pr_buf *b
                 pe = s->ifc[l - TM_LINK_SPECIAL].pe;
             pr_put_u32(b, pe);
         }
-        pr_put_u16(b, (uint16_t)(fl & TRAVEL_FLAGS));
+        uint16_t wire = (uint16_t)(fl & TRAVEL_FLAGS);
+        if (is_left(left, m, t))
+            wire |= WIRE_LEFT;
+        pr_put_u16(b, wire);
         pr_put_u16(b, s->r.region ? s->r.region[t] : 0);
         /* Pieces on this tetrahedron, each once per reply. */
         for (int e = 0; e < 6 && !rc; e++) {
@@ -653,7 +701,12 @@ static int import(par_cav *c)
             T->n[k] = TM_LINK_UNSET;
             m->marker[4 * (size_t)t + (size_t)k] = g->marker[k];
         }
-        m->flags[t] = (uint16_t)(g->flags & ~TM_F_QUEUED);
+        /* A tetrahedron left for the merge stays so (marked, in no queue):
+         * tried again here, its cavity would come back and forth between
+         * the PEs without end (turbine.off on 2 PEs, issue 12). */
+        int left = (g->flags & WIRE_LEFT) && (g->flags & TM_F_QUEUED);
+        uint16_t keep = left ? TRAVEL_FLAGS : (uint16_t)(TRAVEL_FLAGS & ~TM_F_QUEUED);
+        m->flags[t] = (uint16_t)(g->flags & keep);
         m->nghost += (uint32_t)tm_is_ghost(m, t);
         m->lock[t] = c->owner;
         c->own.held.a[c->own.held.n++] = t;
@@ -741,9 +794,15 @@ static int import(par_cav *c)
             }
         }
     }
-    for (size_t i = 0; i < c->ngt && !rc; i++)
-        if ((c->gt[i].flags & TM_F_QUEUED) && cc->requeue)
+    for (size_t i = 0; i < c->ngt && !rc; i++) {
+        uint16_t fl = c->gt[i].flags;
+        if (!(fl & TM_F_QUEUED))
+            continue;
+        if (fl & WIRE_LEFT)
+            rc = par_cav_mark_left(cc, newt[i]);
+        else if (cc->requeue)
             rc = cc->requeue(cc->requeue_arg, 0, newt[i]);
+    }
     cc->st.tets_in += c->ngt;
     if (r->o.check_each_step)
         dbg_report(s, problems0, "import", c->owner, c->ngt);
@@ -941,6 +1000,7 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
             pr_msg_begin(&b, MSG_GATHER);
             pr_put_u32(&b, c->owner);
             pr_put_f64_array(&b, p, 3);
+            pr_put_u32(&b, (uint32_t)(c->max_import < UINT32_MAX ? c->max_import : 0));
             pr_put_u32(&b, (uint32_t)(j - i));
             for (size_t q = i; q < j; q++)
                 pr_put_u64_array(&b, c->face[c->req[q].face].key, 3);
@@ -987,6 +1047,8 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
             st = c->failed;
         else
             rc = add_gathered_faces(c, ngt0);
+        if (!rc && st == REPLY_OK && c->max_import && c->ngt > c->max_import)
+            st = REPLY_TOO_BIG;
     }
     if (c->slot != UINT32_MAX) {
         /* Unregister: move the last registered attempt into our slot. */
@@ -1018,6 +1080,10 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
     par_cav_release(c);
     if (rc)
         return rc;
+    if (st == REPLY_TOO_BIG) {
+        cc->st.too_big++;
+        return PAR_CAV_TOO_BIG;
+    }
     if (st == REPLY_STALE)
         cc->st.setbacks_stale++;
     else
@@ -1034,11 +1100,12 @@ static void on_gather(am_ctx_t *am, const am_msg_t *msg, void *arg)
     tm_mesh *m = &s->r.m;
     am_time_begin(am, cc->cat_service);
     pr_reader rd;
-    uint32_t owner, nkeys;
+    uint32_t owner, nkeys, max;
     double p[3];
     pr_msg_open(&rd, msg->data, msg->len, MSG_GATHER);
     pr_get_u32(&rd, &owner);
     pr_get_f64_array(&rd, p, 3);
+    pr_get_u32(&rd, &max);
     if (rd.err || owner == 0 || pr_get_count(&rd, MAX_CAV_KEYS, 24, &nkeys) ||
         !isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) {
         am_time_end(am, cc->cat_service);
@@ -1075,6 +1142,8 @@ static void on_gather(am_ctx_t *am, const am_msg_t *msg, void *arg)
         mark_cavity(m, &pt->cav, 0);
         if (st < 0)
             st = REPLY_STALE; /* out of memory here: the origin backs off */
+        if (st == REPLY_OK && max && pt->cav.n - from > max)
+            st = REPLY_TOO_BIG; /* not sent: the origin gives it up */
     } else {
         st = REPLY_STALE;
     }
@@ -1086,7 +1155,7 @@ static void on_gather(am_ctx_t *am, const am_msg_t *msg, void *arg)
     pr_msg_begin(&b, MSG_REPLY);
     pr_put_u32(&b, owner);
     pr_put_u8(&b, (uint8_t)st);
-    if (st == REPLY_OK && put_tets(cc->s, cc->recs[ri].part.cav.a + from,
+    if (st == REPLY_OK && put_tets(cc->s, &cc->left, cc->recs[ri].part.cav.a + from,
                                      cc->recs[ri].part.cav.n - from, &b))
         b.err = PR_ENOMEM;
     if (!b.err)
@@ -1113,7 +1182,7 @@ static void on_reply(am_ctx_t *am, const am_msg_t *msg, void *arg)
     par_cav *c = cc->cavs[slot];
     if (st != REPLY_OK) {
         if (!c->failed)
-            c->failed = st == REPLY_STALE ? REPLY_STALE : REPLY_LOCKED;
+            c->failed = st == REPLY_STALE || st == REPLY_TOO_BIG ? st : REPLY_LOCKED;
     } else if (!c->err) {
         int rc = get_tets(c, &rd, (uint32_t)msg->src);
         if (!rc && pr_reader_finish(&rd))
@@ -1176,6 +1245,7 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             if (tm_is_special(l) && l != TM_LINK_NONE && l != TM_LINK_UNSET)
                 par_sub_drop_iface(s, l - TM_LINK_SPECIAL);
         }
+        left_forget(&cc->left, t); /* it went with WIRE_LEFT if it was */
         tm_free_tet(m, t);
     }
     for (size_t i = 0; i < pt->repoint.n; i++) {
@@ -1271,6 +1341,7 @@ void par_cav_ctx_free(par_cav_ctx *cc)
     pr_free(cc->cavs);
     hmap_free(&cc->origin);
     hmap_free(&cc->served);
+    hmap_free(&cc->left);
     dt_cavity_free(&cc->scratch);
     memset(cc, 0, sizeof *cc);
 }
@@ -1286,7 +1357,12 @@ void par_cav_init(par_cav *c, par_cav_ctx *cc)
 
 int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf *b)
 {
-    return put_tets(s, tets, n, b);
+    return put_tets(s, NULL, tets, n, b);
+}
+
+int par_cav_encode_left_tets(const par_cav_ctx *cc, const uint32_t *tets, size_t n, pr_buf *b)
+{
+    return put_tets(cc->s, &cc->left, tets, n, b);
 }
 
 int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src)

@@ -64,6 +64,8 @@ enum par_cav_status {
     PAR_CAV_LOCAL = 0,   /* the cavity is local and locked: go on */
     PAR_CAV_SETBACK = 1, /* locked elsewhere or stale: try again later */
     PAR_CAV_SEARCHED = 2, /* local, and the caller's search is done */
+    PAR_CAV_TOO_BIG = 3, /* more than max_import tetrahedra to migrate:
+                            given up as a setback is (nothing changed) */
 };
 
 /* A gathered tetrahedron, as a participant sent it. */
@@ -141,6 +143,9 @@ typedef struct par_cav {
     int failed;         /* first setback status a reply gave, 0 none */
     int err;            /* a reply could not be decoded */
     int distributed;    /* the current attempt involved another PE */
+    size_t max_import;  /* set by the caller: an attempt that gathers more
+                           tetrahedra from other PEs is given up
+                           (PAR_CAV_TOO_BIG); 0 no bound */
     uint32_t slot;      /* index in par_cav_ctx.cavs while waiting, else
                            UINT32_MAX */
 } par_cav;
@@ -169,6 +174,7 @@ typedef struct par_cav_stats {
     uint64_t rounds;          /* scatter-gather rounds */
     uint64_t tets_in, tets_out; /* tetrahedra imported / migrated away */
     uint64_t served;          /* GATHER requests served */
+    uint64_t too_big;         /* attempts given up past max_import */
 } par_cav_stats;
 
 /* Per-PE protocol state: handlers, the participant-side records. */
@@ -181,6 +187,10 @@ typedef struct par_cav_ctx {
     par_cav **cavs;
     size_t ncavs, cap_cavs;
     hmap served;         /* owner -> index into recs */
+    hmap left;           /* tetrahedron slot + 1 -> a check of its vertices:
+                            bad tetrahedra left here for the merge
+                            (par_cav_mark_left); they travel marked so
+                            and are not queued again where they arrive */
     struct par_rec *recs;
     size_t nrecs, cap_recs;
     uint32_t rec_free;
@@ -220,8 +230,14 @@ void par_cav_free(par_cav *c);
  * PE, locked by c->owner, until par_cav_release), PAR_CAV_SEARCHED (the
  * same, and the cavity lay on this PE alone: search, if not NULL, holds
  * its pending search from start, ready to commit or abandon),
- * PAR_CAV_SETBACK, or a negative code. */
+ * PAR_CAV_SETBACK, PAR_CAV_TOO_BIG (c->max_import), or a negative code. */
 int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *search);
+
+/* Records that bad tetrahedron t of this PE is left for the merge (its
+ * split lies on another PE; ref_hooks.left): it keeps TM_F_QUEUED, and a
+ * cavity that migrates it takes it as left, not as work to queue (see
+ * proto/PROTOCOL.md, Reply). Returns 0 or PDR_ENOMEM. */
+int par_cav_mark_left(par_cav_ctx *cc, uint32_t t);
 
 /* Releases every lock the thread's last attempt holds on this PE. */
 void par_cav_release(par_cav *c);
@@ -235,5 +251,9 @@ void par_cav_release(par_cav *c);
  * par_cav_ctx whose am is NULL. */
 int par_cav_encode_tets(const par_sub *s, const uint32_t *tets, size_t n, pr_buf *b);
 int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src);
+/* par_cav_encode_tets as cc's PE replies: a tetrahedron it left for the
+ * merge (par_cav_mark_left) goes with flag bit 0 set (proto/PROTOCOL.md,
+ * Reply). */
+int par_cav_encode_left_tets(const par_cav_ctx *cc, const uint32_t *tets, size_t n, pr_buf *b);
 
 #endif /* PDR_PAR_CAV_H */

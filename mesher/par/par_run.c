@@ -25,6 +25,7 @@ typedef struct par_item {
     double masked;     /* ... of it while another thread was blocked */
     double work_wall, masked_wall; /* the same on the monotonic clock */
     int blocked;       /* waiting for replies */
+    int too_big;       /* the step gave up a cavity past PAR_RUN_MAX_IMPORT */
     struct par_item *next_free;
 } par_item;
 
@@ -42,6 +43,10 @@ typedef struct par_run {
     int err;            /* first error of a thread */
     hmap tries;         /* item key -> setbacks in a row (live-lock guard) */
     double next_progress;
+    /* the progress bound (PAR_RUN_STALL_WINDOW) */
+    uint64_t work, points;  /* units of work and points inserted so far */
+    uint64_t win_work, win_points; /* ... when the current stretch began */
+    uint64_t seen_in;       /* cc.st.tets_in already counted as work */
 } par_run;
 
 static uint64_t item_key(int kind, uint32_t id)
@@ -118,10 +123,15 @@ static int hook_cavity(void *arg, const double p[3], uint32_t start, dt_cavity *
 {
     par_run *pr = arg;
     par_item *it = pr->current;
+    it->cav.max_import = it->kind == REF_TET ? PAR_RUN_MAX_IMPORT : 0;
     int rc = par_cav_gather(&it->cav, p, start, c);
     pr->current = it; /* other threads ran while this one waited */
     if (rc < 0)
         return rc;
+    if (rc == PAR_CAV_TOO_BIG) {
+        it->too_big = 1;
+        return REF_SETBACK;
+    }
     if (rc == PAR_CAV_SEARCHED && pr->o.strict_local && near_interface(&pr->s->r.m, c))
         pr->s->r.step_remote = 1;
     return rc == PAR_CAV_SETBACK ? REF_SETBACK : rc == PAR_CAV_SEARCHED ? REF_SEARCHED : 0;
@@ -156,6 +166,8 @@ static int hook_committed(void *arg, uint32_t v, const dt_cavity *c)
 {
     par_run *pr = arg;
     par_sub *s = pr->s;
+    pr->points++;
+    pr->work += c->nbnd; /* the new tetrahedra */
     tm_mesh *m = &s->r.m;
     uint64_t gid = par_sub_new_gid(s);
     m->gid[v] = gid;
@@ -193,6 +205,14 @@ static int hook_busy(void *arg, uint32_t t)
     par_box_tet(m, t, lo, hi);
     double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     return par_cav_near_locks(&pr->cc, lo, hi, pr->o.busy_reach * ext);
+}
+
+/* ref_hooks.left: t is left for the merge (par_cav_mark_left). */
+static void hook_left(void *arg, uint32_t t)
+{
+    par_run *pr = arg;
+    if (par_cav_mark_left(&pr->cc, t) && !pr->err)
+        pr->err = PDR_ENOMEM;
 }
 
 static int requeue(void *arg, int kind, uint32_t id)
@@ -240,6 +260,55 @@ static int check_sub(par_run *pr, const char *when)
 
 /* ------------------------------------------------------------ threads */
 
+/* 1 (and row->point_limit) once this PE has inserted r->o.max_points
+ * points (--max-points; 0 none): the whole run has then inserted more. */
+static int past_point_limit(par_run *pr)
+{
+    size_t max = pr->s->r.o.max_points;
+    if (!max || pr->points < max)
+        return 0;
+    pr->row->point_limit = 1;
+    return 1;
+}
+
+/* Counts an attempt at an item and the tetrahedra imported since the
+ * last call as work, and checks the progress bound (PAR_RUN_STALL_WINDOW):
+ * 1 when the stretch that just ended inserted too few points (the figures
+ * go to the row), else 0. */
+static int stalled(par_run *pr)
+{
+    pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in);
+    pr->seen_in = pr->cc.st.tets_in;
+    uint64_t w = pr->work - pr->win_work, pts = pr->points - pr->win_points;
+    if ((double)w < pr->o.stall_window)
+        return 0;
+    if ((double)pts * pr->o.stall_ratio < (double)w) {
+        pr->row->stalled = 1;
+        pr->row->stall_work = w;
+        pr->row->stall_points = pts;
+        return 1;
+    }
+    pr->win_work = pr->work;
+    pr->win_points = pr->points;
+    return 0;
+}
+
+/* A bad tetrahedron whose step gave up a cavity too large to migrate
+ * (PAR_RUN_MAX_IMPORT) is left for the merge, as one whose split lies on
+ * another PE is (ref_hooks.left). Returns 0 or PDR_ENOMEM. */
+static int leave_too_big(par_run *pr, uint32_t t)
+{
+    ref_mesher *r = &pr->s->r;
+    tm_mesh *m = &r->m;
+    pr->row->too_big++;
+    if (t >= m->nslots || tm_is_dead(m, t) || tm_is_ghost(m, t) ||
+        (m->flags[t] & (REF_F_EXTERIOR | REF_F_GIVEUP | TM_F_QUEUED)))
+        return 0;
+    m->flags[t] |= TM_F_QUEUED;
+    r->st.left_elsewhere++;
+    return par_cav_mark_left(&pr->cc, t);
+}
+
 /* Refine(item). A setback puts the item back on the queue and ends the
  * thread (the paper's L.append), so that the PE goes on with other work,
  * away from the cavity that blocked it; once the same item has failed
@@ -255,9 +324,12 @@ static void refine_thread(am_ctx_t *am, void *arg)
         pr->current = it;
         it->work = it->masked = it->work_wall = it->masked_wall = 0;
         segment_start(pr, it);
+        it->too_big = 0;
         int rc = ref_step(&pr->s->r, it->kind, it->id, it->rmin);
         pr->current = it;
         segment_end(pr, it);
+        if (rc == REF_SETBACK && it->too_big)
+            rc = leave_too_big(pr, it->id); /* a step done, not a setback */
         int dist = it->cav.distributed;
         par_cav_release(&it->cav);
         uint32_t n = hmap_get(&pr->tries, key);
@@ -282,6 +354,11 @@ static void refine_thread(am_ctx_t *am, void *arg)
         if (rc < 0) {
             if (!pr->err)
                 pr->err = rc;
+            break;
+        }
+        if (stalled(pr) || past_point_limit(pr)) {
+            if (!pr->err)
+                pr->err = PDR_ELIMIT;
             break;
         }
         if (rc >= 0 && check_sub(pr, rc == REF_SETBACK ? "after a setback" : "after a step")) {
@@ -403,6 +480,10 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         pr->o.busy_reach = PAR_RUN_BUSY_REACH;
     if (!(pr->o.backoff_s > 0))
         pr->o.backoff_s = 200e-6;
+    if (!(pr->o.stall_window > 0))
+        pr->o.stall_window = PAR_RUN_STALL_WINDOW;
+    if (!(pr->o.stall_ratio > 0))
+        pr->o.stall_ratio = PAR_RUN_STALL_RATIO;
     pr->rng = (o->seed ^ 0x9E3779B97F4A7C15ULL) * (s->rank + 1) | 1;
     pr->row = row;
     int rc = par_cav_ctx_init(&pr->cc, am, s, PAR_RUN_HANDLER_BASE);
@@ -419,6 +500,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->hooks.committed = hook_committed;
     pr->hooks.owner = hook_owner;
     pr->hooks.relink = hook_relink;
+    pr->hooks.left = hook_left;
     if (pr->o.busy_reach > 0)
         pr->hooks.busy = hook_busy;
     pr->hooks.arg = pr;
@@ -475,6 +557,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_end = ref_interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
+    row->work = pr->work;
+    row->points = pr->points;
     if (rc && pr->nthreads > 0)
         return rc; /* see par_run.h: the state stays for the handlers */
     s->r.hooks = NULL;

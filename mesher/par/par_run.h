@@ -66,6 +66,35 @@
  * worst PE's tolerance 98.0% instead of 97.0%, as fast. Reach 2 or more
  * holds back most of the work (29 million deferrals, twice the time). */
 #define PAR_RUN_BUSY_REACH 0.5
+/* The progress bound (issue 12: nothing runs forever). A PE counts its
+ * work in units: PAR_RUN_WORK_ATTEMPT per attempt at an item (a step or a
+ * setback), one per tetrahedron its cavities import from other PEs and
+ * one per tetrahedron its insertions create. Over every stretch of
+ * PAR_RUN_STALL_WINDOW units it must insert at least one point per
+ * PAR_RUN_STALL_RATIO units, else it stops with PDR_ELIMIT (row->stalled
+ * and the stretch's figures), and the others with it: a run that moves
+ * tetrahedra back and forth between PEs, retries cavities that keep
+ * failing or builds ever larger cavities around a few points goes on no
+ * longer than a few windows. Measured: a terminating run spends 30 to 150
+ * units per point (cube-in-cube and turbine.off on 2 PEs); turbine.off
+ * once spent more than 10,000 (2.4 million tetrahedra migrated for a few
+ * hundred points) and another time 2,500 (splits that each made 2,500
+ * tetrahedra). A PE that only waits (a message that never comes) does no
+ * work and is not caught here, nor one whose splits cascade, each cheap
+ * (turbine.off: 323,000 subfacet points on one PE): --max-points bounds
+ * each PE's points (row->point_limit). */
+#define PAR_RUN_WORK_ATTEMPT 16
+/* A bad tetrahedron whose cavity would bring more than this many
+ * tetrahedra from other PEs is left for the merge (par_cav.max_import):
+ * rank 0 refines it in the whole mesh. A cavity of cube-in-cube brings at
+ * most 27, one of turbine.off 250 when the run goes well; runs of
+ * turbine.off on 2 PEs that went on for minutes moved cavities of 2,000
+ * to 96,000 tetrahedra back and forth (flat tetrahedra by the boundary,
+ * their circumcentres far off), each time for a split that then lay on
+ * the other PE. */
+#define PAR_RUN_MAX_IMPORT 1024
+#define PAR_RUN_STALL_WINDOW 262144.0
+#define PAR_RUN_STALL_RATIO 1024.0
 /* Handler ids used by the parallel refinement (4 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
@@ -99,6 +128,15 @@ typedef struct par_table1 {
                                 or exterior flag (ref_mesher.region_doubts) */
     uint64_t left_elsewhere; /* bad tetrahedra dropped: their split lay on
                                 another PE (ref_stats.left_elsewhere) */
+    /* The progress bound (PAR_RUN_STALL_WINDOW; not sent to rank 0): */
+    uint64_t work;           /* units of work of the whole run */
+    uint64_t points;         /* points this PE inserted */
+    uint64_t too_big;        /* cavities given up past PAR_RUN_MAX_IMPORT */
+    int point_limit;         /* 1: stopped after s->r.o.max_points points
+                                (of this PE alone: a bound for the job) */
+    int stalled;             /* 1: stopped by the bound, after stall_work
+                                units that inserted stall_points points */
+    uint64_t stall_work, stall_points;
 } par_table1;
 
 typedef struct par_run_opts {
@@ -119,6 +157,9 @@ typedef struct par_run_opts {
     void (*progress)(void *arg, const par_sub *s, const par_table1 *row);
     void *progress_arg;
     double progress_s;
+    /* The progress bound: units per stretch and units allowed per point
+     * (0: PAR_RUN_STALL_WINDOW, PAR_RUN_STALL_RATIO). */
+    double stall_window, stall_ratio;
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when

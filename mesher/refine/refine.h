@@ -359,6 +359,10 @@ typedef struct ref_hooks {
      * likely meet a cavity in progress (a setback), so that it waits;
      * NULL: the locks within busy_depth neighbour steps tell. */
     int (*busy)(void *arg, uint32_t t);
+    /* Called when bad tetrahedron t is left for the merge (its split lies
+     * on another PE: ref_stats.left_elsewhere); it keeps TM_F_QUEUED,
+     * though no queue holds it. NULL: nothing to do. */
+    void (*left)(void *arg, uint32_t t);
     void *arg;
 } ref_hooks;
 

@@ -120,6 +120,8 @@ static void leave_to_merge(ref_mesher *r, uint32_t t)
 {
     r->m.flags[t] |= TM_F_QUEUED;
     r->st.left_elsewhere++;
+    if (r->hooks && r->hooks->left)
+        r->hooks->left(r->hooks->arg, t);
 }
 
 /* -------------------------------------------------------- tet quality */
@@ -1557,6 +1559,7 @@ static int tet_busy(const tm_mesh *m, uint32_t t, uint32_t from, int depth)
  * entries: dead slots, tetrahedra no longer queued, exterior ones and
  * those given up. Returns 0 when no queue holds one, or when every one
  * is busy (busy_depth). */
+#define REF_DEFER_MAX 256
 static int pop_tet(ref_mesher *r, uint32_t *t)
 {
     tm_mesh *m = &r->m;
@@ -1568,6 +1571,12 @@ static int pop_tet(ref_mesher *r, uint32_t *t)
     size_t defer_left = r->busy_depth > 0 && !lifo
                             ? (r->tetq.n - r->tetq.head) + (r->tetq_local.n - r->tetq_local.head)
                             : 0;
+    /* ... and at most REF_DEFER_MAX of them per call: where a cavity's
+     * locks span a PE's whole part, every entry is busy, and a PE that
+     * went through its whole queue (200,000 entries on turbine.off) each
+     * time it looked for work spent its time there while it waited. */
+    if (defer_left > REF_DEFER_MAX)
+        defer_left = REF_DEFER_MAX;
     for (;;) {
         int local = !q_empty(&r->tetq_local);
         if (!local && q_empty(&r->tetq))
