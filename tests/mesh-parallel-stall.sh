@@ -5,6 +5,9 @@
 #    is too much (a stretch of 4,096 units, one point per unit), every PE
 #    stops: exit 1, the message naming the cause, no output file, no PE
 #    left running; with the defaults the same run meshes;
+#  - its other leg, on the clock (PAR_RUN_STALL_SECONDS): with the
+#    seconds set below any step's time, the first attempt that inserts
+#    nothing stops every PE the same way, the message naming that cause;
 #  - --max-points bounds each PE's points: past it every PE stops the
 #    same way, with the bound named.
 # Each run is bounded by timeout; the job's PEs are children of pdr mesh,
@@ -38,6 +41,7 @@ stops() {
 }
 
 PDR_PAR_STALL=4096,1 stops stall 'the parallel refinement makes no progress: its last' -a 1e-5
+PDR_PAR_STALL=1e12,1,1e-9 stops clock 'it inserted no point in the last' -a 1e-5
 # The default bound leaves the same run alone.
 timeout 60 "$PDR" mesh -n 2 -q 2 -a 1e-5 -o "$tmp/free" "$tmp/cic.poly" >"$tmp/free.out" 2>&1 ||
     { cat "$tmp/free.out"; fail "free: the default bound stopped an ordinary run"; }

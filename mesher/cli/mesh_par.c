@@ -520,15 +520,17 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                                               : REF_ORDER_FIFO;
     const char *reach = getenv("PDR_PAR_BUSY_REACH");
     ro_run.busy_reach = reach ? atof(reach) : -1;
-    /* PDR_PAR_STALL=WINDOW[,RATIO]: the progress bound's stretch of work
-     * and the units allowed per point (par_run.h, PAR_RUN_STALL_WINDOW),
-     * for tests. */
+    /* PDR_PAR_STALL=WINDOW[,RATIO[,SECONDS]]: the progress bound's
+     * stretch of work, the units allowed per point and the seconds without
+     * a point (par_run.h, PAR_RUN_STALL_WINDOW), for tests. */
     const char *stall = getenv("PDR_PAR_STALL");
     if (stall) {
         char *end;
         ro_run.stall_window = strtod(stall, &end);
         if (*end == ',')
-            ro_run.stall_ratio = strtod(end + 1, NULL);
+            ro_run.stall_ratio = strtod(end + 1, &end);
+        if (*end == ',')
+            ro_run.stall_seconds = strtod(end + 1, NULL);
     }
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
@@ -548,6 +550,15 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         fprintf(stderr,
                 "pdr mesh: PE %d: inserted %llu points, the bound of --max-points; stopped\n",
                 rank, (unsigned long long)row.points);
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL); /* as below */
+    }
+    if (rc && row.stalled == 2) {
+        fprintf(stderr,
+                "pdr mesh: PE %d: the parallel refinement makes no progress: it inserted no "
+                "point in the last %.3g s while it kept attempting steps (each step slow, or "
+                "failing over and over); stopped\n",
+                rank, row.stall_s);
         fflush(stderr);
         _exit(PDR_EXIT_FAIL); /* as below */
     }

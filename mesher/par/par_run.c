@@ -47,6 +47,8 @@ typedef struct par_run {
     uint64_t work, points;  /* units of work and points inserted so far */
     uint64_t win_work, win_points; /* ... when the current stretch began */
     uint64_t seen_in;       /* cc.st.tets_in already counted as work */
+    uint64_t clock_points;  /* pr->points when last_point_at was taken */
+    double last_point_at;   /* pdr_now() when a point was last seen */
 } par_run;
 
 static uint64_t item_key(int kind, uint32_t id)
@@ -277,6 +279,16 @@ static int past_point_limit(par_run *pr)
  * go to the row), else 0. */
 static int stalled(par_run *pr)
 {
+    double now = pdr_now();
+    if (pr->points != pr->clock_points) {
+        pr->clock_points = pr->points;
+        pr->last_point_at = now;
+    } else if (now - pr->last_point_at > pr->o.stall_seconds) {
+        pr->row->stalled = 2;
+        pr->row->stall_s = now - pr->last_point_at;
+        pr->row->stall_points = 0;
+        return 1;
+    }
     pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in);
     pr->seen_in = pr->cc.st.tets_in;
     uint64_t w = pr->work - pr->win_work, pts = pr->points - pr->win_points;
@@ -484,6 +496,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         pr->o.stall_window = PAR_RUN_STALL_WINDOW;
     if (!(pr->o.stall_ratio > 0))
         pr->o.stall_ratio = PAR_RUN_STALL_RATIO;
+    if (!(pr->o.stall_seconds > 0))
+        pr->o.stall_seconds = PAR_RUN_STALL_SECONDS;
     pr->rng = (o->seed ^ 0x9E3779B97F4A7C15ULL) * (s->rank + 1) | 1;
     pr->row = row;
     int rc = par_cav_ctx_init(&pr->cc, am, s, PAR_RUN_HANDLER_BASE);
@@ -530,6 +544,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     rc = am_barrier(am);
     am_stats_get(am, &a0);
     double t0 = pdr_now();
+    pr->last_point_at = t0;
     if (!rc)
         rc = am_run_until_done(am, start_work, pr);
     if (!rc && pr->err)

@@ -95,6 +95,15 @@
 #define PAR_RUN_MAX_IMPORT 1024
 #define PAR_RUN_STALL_WINDOW 262144.0
 #define PAR_RUN_STALL_RATIO 1024.0
+/* The bound's other leg, on the clock: a PE that keeps attempting items
+ * and inserts no point for this many seconds stops the same way
+ * (row->stalled 2). Steps that each take long, and so few units, escape
+ * the stretch of units: CGAL's pinion.off on 2 PEs spent some 120 ms per
+ * attempt on exact insphere tests of far-off circumcentres and inserted
+ * nothing for minutes (about 30 minutes to one stretch). A terminating
+ * run inserts a point every few milliseconds, under injected latency
+ * too. */
+#define PAR_RUN_STALL_SECONDS 60.0
 /* Handler ids used by the parallel refinement (4 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
@@ -135,8 +144,11 @@ typedef struct par_table1 {
     int point_limit;         /* 1: stopped after s->r.o.max_points points
                                 (of this PE alone: a bound for the job) */
     int stalled;             /* 1: stopped by the bound, after stall_work
-                                units that inserted stall_points points */
+                                units that inserted stall_points points;
+                                2: after stall_s seconds of attempts that
+                                inserted none */
     uint64_t stall_work, stall_points;
+    double stall_s;
 } par_table1;
 
 typedef struct par_run_opts {
@@ -160,6 +172,8 @@ typedef struct par_run_opts {
     /* The progress bound: units per stretch and units allowed per point
      * (0: PAR_RUN_STALL_WINDOW, PAR_RUN_STALL_RATIO). */
     double stall_window, stall_ratio;
+    /* ... and the seconds without a point (0: PAR_RUN_STALL_SECONDS). */
+    double stall_seconds;
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
