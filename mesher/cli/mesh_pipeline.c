@@ -413,6 +413,16 @@ static double tri_area(const double *a, const double *b, const double *c)
     return 0.5 * sqrt(x * x + y * y + z * z);
 }
 
+/* The mean of the n mesh vertices v (a point on the piece they span). */
+static void mean_of(const double *xyz, const uint32_t *v, int n, double at[3])
+{
+    for (int d = 0; d < 3; d++) {
+        at[d] = 0;
+        for (int k = 0; k < n; k++)
+            at[d] += xyz[3 * (size_t)v[k] + d] / n;
+    }
+}
+
 /* Says in c->missing which boundary pieces are still missing when the
  * refinement ends (their splits were refused: below the resolution, or
  * no valid constrained cavity) and where the first one is: the place
@@ -420,40 +430,34 @@ static double tri_area(const double *a, const double *b, const double *c)
 static void note_missing(mp_ctx *c)
 {
     const bd_set *b = &c->r.bd;
-    const plc *p = &c->p;
     size_t ns, nf;
     c->missing[0] = 0;
     bd_count_missing(b, &ns, &nf);
     if (!ns && !nf)
         return;
-    const double *xyz = c->r.m.xyz;
     double at[3] = {0, 0, 0};
-    char what[160] = "";
+    char where[160] = "";
+    const char *what = "";
     for (size_t i = 0; i < b->nfacs && !what[0]; i++) {
         const bd_subfac *f = &b->facs[i];
         if ((f->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
             continue;
-        for (int k = 0; k < 3; k++)
-            for (int d = 0; d < 3; d++)
-                at[d] += xyz[3 * (size_t)f->v[k] + d] / 3;
-        char fl[64];
-        facet_label(p, f->facet, fl, sizeof fl);
-        snprintf(what, sizeof what, "a subfacet of %s", fl);
+        mean_of(c->r.m.xyz, f->v, 3, at);
+        feature_name(&c->p, BD_V_FACET, f->facet, where, sizeof where);
+        what = "a subfacet";
     }
     for (size_t i = 0; i < b->nsegs && !what[0]; i++) {
         const bd_subseg *s = &b->segs[i];
         if ((s->flags & (BD_F_DEAD | BD_F_MISSING)) != BD_F_MISSING)
             continue;
-        for (int k = 0; k < 2; k++)
-            for (int d = 0; d < 3; d++)
-                at[d] += xyz[3 * (size_t)s->v[k] + d] / 2;
-        snprintf(what, sizeof what, "a subsegment of the segment between input vertices %ld "
-                 "and %ld", plc_vnum(p, p->segs[s->seg].v[0]), plc_vnum(p, p->segs[s->seg].v[1]));
+        mean_of(c->r.m.xyz, s->v, 2, at);
+        feature_name(&c->p, BD_V_SEGMENT, s->seg, where, sizeof where);
+        what = "a subsegment";
     }
     snprintf(c->missing, sizeof c->missing,
              "; %zu subsegment%s and %zu subfacet%s stayed missing, their splits refused "
-             "(the first: %s, near (%.9g, %.9g, %.9g))",
-             ns, ns == 1 ? "" : "s", nf, nf == 1 ? "" : "s", what, at[0], at[1], at[2]);
+             "(the first: %s%s, near (%.9g, %.9g, %.9g))",
+             ns, ns == 1 ? "" : "s", nf, nf == 1 ? "" : "s", what, where, at[0], at[1], at[2]);
 }
 
 /* The area of triangle abc as facet f's coverage counts it: on a
