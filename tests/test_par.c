@@ -946,6 +946,25 @@ static int try_cavity_tets(const uint8_t *b, size_t len)
     return rc;
 }
 
+/* Part 0 of cube-in-cube's Mo of 3,000 tetrahedra, cut in two, loaded as
+ * a PE's submesh s (with the PLC p, Mo and the decomposition it came
+ * from); free_cic_part releases the four. */
+static void load_cic_part(plc *p, ref_mesher *mo, par_decomp *d, par_sub *s)
+{
+    domain_plc(p, DOM_CUBE_IN_CUBE);
+    build_mo(p, NULL, 3000, mo);
+    ck_assert_int_eq(par_decomp_run(mo, 2, 2, 3, d), 0);
+    ck_assert_int_eq(par_wire_load(d->msg[0].data, d->msg[0].len, p, &mo->o, s), 0);
+}
+
+static void free_cic_part(plc *p, ref_mesher *mo, par_decomp *d, par_sub *s)
+{
+    par_sub_free(s);
+    par_decomp_free(d);
+    ref_free(mo);
+    plc_free(p);
+}
+
 /* A bad tetrahedron left for the merge on one PE (par_cav_mark_left)
  * travels marked so, and only while it is that tetrahedron, still marked
  * queued: without the mark a PE that a cavity brought it to queued it
@@ -954,13 +973,10 @@ static int try_cavity_tets(const uint8_t *b, size_t len)
 START_TEST(cavity_reply_left)
 {
     plc p;
-    domain_plc(&p, DOM_CUBE_IN_CUBE);
     ref_mesher mo;
-    build_mo(&p, NULL, 3000, &mo);
     par_decomp d;
-    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 3, &d), 0);
     par_sub s;
-    ck_assert_int_eq(par_wire_load(d.msg[0].data, d.msg[0].len, &p, &mo.o, &s), 0);
+    load_cic_part(&p, &mo, &d, &s);
     tm_mesh *m = &s.r.m;
     uint32_t tets[3];
     size_t n = 0;
@@ -1005,10 +1021,7 @@ START_TEST(cavity_reply_left)
         v[1] = x;
     }
     hmap_free(&cc.left);
-    par_sub_free(&s);
-    par_decomp_free(&d);
-    ref_free(&mo);
-    plc_free(&p);
+    free_cic_part(&p, &mo, &d, &s);
 }
 END_TEST
 
@@ -1018,13 +1031,10 @@ END_TEST
 START_TEST(cavity_reply_tets)
 {
     plc p;
-    domain_plc(&p, DOM_CUBE_IN_CUBE);
     ref_mesher mo;
-    build_mo(&p, NULL, 3000, &mo);
     par_decomp d;
-    ck_assert_int_eq(par_decomp_run(&mo, 2, 2, 3, &d), 0);
     par_sub s;
-    ck_assert_int_eq(par_wire_load(d.msg[0].data, d.msg[0].len, &p, &mo.o, &s), 0);
+    load_cic_part(&p, &mo, &d, &s);
     const tm_mesh *m = &s.r.m;
     /* 200 live tetrahedra, ghosts and boundary ones among them */
     uint32_t tets[200];
@@ -1121,10 +1131,7 @@ START_TEST(cavity_reply_tets)
     ck_assert_uint_gt(refused, 0);
     free(bad);
     pr_buf_free(&b);
-    par_sub_free(&s);
-    par_decomp_free(&d);
-    ref_free(&mo);
-    plc_free(&p);
+    free_cic_part(&p, &mo, &d, &s);
 }
 END_TEST
 
