@@ -72,6 +72,30 @@ static void cross(const double *u, const double *w, double *n)
 
 /* ------------------------------------------------------------- merging */
 
+/* A PLC's facet arrays (plc.h) and its planar tolerance: those a merge
+ * builds (fm_work.made), and those it replaced, kept so that fm_prepare
+ * can undo a bent merge. */
+typedef struct fm_saved {
+    plc_facet *facets;
+    size_t nfacet, cap_facet;
+    plc_polygon *polys;
+    size_t npoly, cap_poly;
+    uint32_t *corners;
+    size_t ncorner, cap_corner;
+    plc_point *fholes;
+    size_t nfhole, cap_fhole;
+    double planar_tol;
+} fm_saved;
+
+static void saved_free(fm_saved *sv)
+{
+    pr_free(sv->facets);
+    pr_free(sv->polys);
+    pr_free(sv->corners);
+    pr_free(sv->fholes);
+    memset(sv, 0, sizeof *sv);
+}
+
 /* The merge's working state. */
 typedef struct fm_work {
     plc *p;
@@ -101,15 +125,8 @@ typedef struct fm_work {
     uint8_t *used;      /* per boundary edge: chained */
     size_t cap_used;
     uint32_t *vstamp;   /* per vertex: group leader + 1 that listed it */
-    /* the new facet arrays */
-    plc_facet *facets;
-    size_t nfacet, cap_facet;
-    plc_polygon *polys;
-    size_t npoly, cap_poly;
-    uint32_t *corners;
-    size_t ncorner, cap_corner;
-    plc_point *fholes;
-    size_t nfhole, cap_fhole;
+    fm_saved made;      /* the new facet arrays (planar_tol set when they
+                           are handed over) */
 } fm_work;
 
 /* The segment joining a and b, or NONE. */
@@ -303,38 +320,38 @@ static void grow_bent(fm_work *w, uint32_t lead)
 /* Appends a polygon of the given corners to the new arrays. */
 static int put_polygon(fm_work *w, const uint32_t *c, uint32_t n, long line)
 {
-    if (pdr_grow((void **)&w->polys, &w->cap_poly, w->npoly + 1, sizeof *w->polys) ||
-        pdr_grow((void **)&w->corners, &w->cap_corner, w->ncorner + n, sizeof *w->corners))
+    if (pdr_grow((void **)&w->made.polys, &w->made.cap_poly, w->made.npoly + 1, sizeof *w->made.polys) ||
+        pdr_grow((void **)&w->made.corners, &w->made.cap_corner, w->made.ncorner + n, sizeof *w->made.corners))
         return PDR_ENOMEM;
-    plc_polygon *q = &w->polys[w->npoly++];
-    q->first = w->ncorner;
+    plc_polygon *q = &w->made.polys[w->made.npoly++];
+    q->first = w->made.ncorner;
     q->n = n;
     q->line = line;
-    memcpy(w->corners + w->ncorner, c, n * sizeof *c);
-    w->ncorner += n;
-    w->facets[w->nfacet - 1].npoly++;
+    memcpy(w->made.corners + w->made.ncorner, c, n * sizeof *c);
+    w->made.ncorner += n;
+    w->made.facets[w->made.nfacet - 1].npoly++;
     return 0;
 }
 
 static int put_hole(fm_work *w, const double x[3], long line)
 {
-    if (pdr_grow((void **)&w->fholes, &w->cap_fhole, w->nfhole + 1, sizeof *w->fholes))
+    if (pdr_grow((void **)&w->made.fholes, &w->made.cap_fhole, w->made.nfhole + 1, sizeof *w->made.fholes))
         return PDR_ENOMEM;
-    memcpy(w->fholes[w->nfhole].xyz, x, sizeof w->fholes[0].xyz);
-    w->fholes[w->nfhole++].line = line;
-    w->facets[w->nfacet - 1].nhole++;
+    memcpy(w->made.fholes[w->made.nfhole].xyz, x, sizeof w->made.fholes[0].xyz);
+    w->made.fholes[w->made.nfhole++].line = line;
+    w->made.facets[w->made.nfacet - 1].nhole++;
     return 0;
 }
 
 /* Starts a new facet like facet f of the input (marker, line). */
 static int begin_facet(fm_work *w, size_t f)
 {
-    if (pdr_grow((void **)&w->facets, &w->cap_facet, w->nfacet + 1, sizeof *w->facets))
+    if (pdr_grow((void **)&w->made.facets, &w->made.cap_facet, w->made.nfacet + 1, sizeof *w->made.facets))
         return PDR_ENOMEM;
-    plc_facet *F = &w->facets[w->nfacet++];
+    plc_facet *F = &w->made.facets[w->made.nfacet++];
     memset(F, 0, sizeof *F);
-    F->poly_first = w->npoly;
-    F->hole_first = w->nfhole;
+    F->poly_first = w->made.npoly;
+    F->hole_first = w->made.nfhole;
     F->marker = w->p->facets[f].marker;
     F->line = w->p->facets[f].line;
     return 0;
@@ -406,9 +423,9 @@ static void hole_point(const plc *p, uint32_t a, uint32_t b, const double n[3], 
 static int bent_group_ok(const fm_work *w, uint32_t lead)
 {
     const plc *p = w->p;
-    const plc_polygon *q = &w->polys[w->facets[w->nfacet - 1].poly_first];
+    const plc_polygon *q = &w->made.polys[w->made.facets[w->made.nfacet - 1].poly_first];
     double n[3], c[3];
-    plc__newell_ring((const double(*)[3])p->xyz, w->corners + q->first, q->n, n, c);
+    plc__newell_ring((const double(*)[3])p->xyz, w->made.corners + q->first, q->n, n, c);
     double len = sqrt(v3_dot(n, n));
     if (!(len > 0))
         return 0;
@@ -554,10 +571,7 @@ static void work_free(fm_work *w)
     pr_free(w->bnd);
     pr_free(w->used);
     pr_free(w->vstamp);
-    pr_free(w->facets);
-    pr_free(w->polys);
-    pr_free(w->corners);
-    pr_free(w->fholes);
+    saved_free(&w->made);
 }
 
 /* Groups every triangle facet; returns 0 or PDR_ENOMEM. */
@@ -619,7 +633,7 @@ static void regroup_exact(fm_work *w, uint32_t lead)
  * triangles (nothing emitted), or PDR_ENOMEM. */
 static int try_group(fm_work *w, uint32_t f, fm_stats *s)
 {
-    size_t nf = w->nfacet, np = w->npoly, nc = w->ncorner, nh = w->nfhole;
+    size_t nf = w->made.nfacet, np = w->made.npoly, nc = w->made.ncorner, nh = w->made.nfhole;
     int rc = emit_group(w, f);
     if (rc == 0) {
         w->merged[f] = 1;
@@ -628,10 +642,10 @@ static int try_group(fm_work *w, uint32_t f, fm_stats *s)
         return 0;
     }
     /* Keep the group's triangles: undo what was emitted. */
-    w->nfacet = nf;
-    w->npoly = np;
-    w->ncorner = nc;
-    w->nfhole = nh;
+    w->made.nfacet = nf;
+    w->made.npoly = np;
+    w->made.ncorner = nc;
+    w->made.nfhole = nh;
     return rc;
 }
 
@@ -662,29 +676,6 @@ static int rebuild(fm_work *w, fm_stats *s)
         rc = copy_facet(w, f);
     }
     return rc;
-}
-
-/* The facet arrays a merge replaced, kept so that fm_prepare can undo a
- * bent merge. */
-typedef struct fm_saved {
-    plc_facet *facets;
-    size_t nfacet, cap_facet;
-    plc_polygon *polys;
-    size_t npoly, cap_poly;
-    uint32_t *corners;
-    size_t ncorner, cap_corner;
-    plc_point *fholes;
-    size_t nfhole, cap_fhole;
-    double planar_tol;
-} fm_saved;
-
-static void saved_free(fm_saved *sv)
-{
-    pr_free(sv->facets);
-    pr_free(sv->polys);
-    pr_free(sv->corners);
-    pr_free(sv->fholes);
-    memset(sv, 0, sizeof *sv);
 }
 
 /* Exchanges the facet arrays of p and sv. */
@@ -751,13 +742,9 @@ static int merge_keep(plc *p, double angle_tol, double facet_tol, fm_stats *st, 
         rc = rebuild(&w, &s);
     if (!rc && s.triangles_merged) {
         /* Swap the new facet arrays in; the old ones go to old. */
-        fm_saved nw = {w.facets, w.nfacet, w.cap_facet, w.polys, w.npoly, w.cap_poly,
-                       w.corners, w.ncorner, w.cap_corner, w.fholes, w.nfhole, w.cap_fhole,
-                       s.bent_facets ? facet_tol : p->planar_tol};
-        w.polys = NULL;
-        w.corners = NULL;
-        w.fholes = NULL;
-        w.facets = NULL;
+        fm_saved nw = w.made;
+        nw.planar_tol = s.bent_facets ? facet_tol : p->planar_tol;
+        memset(&w.made, 0, sizeof w.made);
         swap_facets(p, &nw);
         *old = nw;
         plc__drop_derived(p);
