@@ -274,12 +274,13 @@ static int past_point_limit(par_run *pr)
 }
 
 /* Counts an attempt at an item and the tetrahedra imported since the
- * last call as work, and checks the progress bound (PAR_RUN_STALL_WINDOW):
- * 1 when the stretch that just ended inserted too few points (the figures
- * go to the row), else 0. */
-static int stalled(par_run *pr)
+ * last call as work, and checks the progress bound (PAR_RUN_STALL_WINDOW),
+ * and its leg on the clock at now (the attempt's end, read by
+ * segment_end: PAR_RUN_STALL_SECONDS): 1 when the stretch that just ended
+ * inserted too few points, or no point came for too long (the figures go
+ * to the row), else 0. */
+static int stalled(par_run *pr, double now)
 {
-    double now = pdr_now();
     if (pr->points != pr->clock_points) {
         pr->clock_points = pr->points;
         pr->last_point_at = now;
@@ -368,7 +369,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
                 pr->err = rc;
             break;
         }
-        if (stalled(pr) || past_point_limit(pr)) {
+        if (stalled(pr, it->seg_wall) || past_point_limit(pr)) {
             if (!pr->err)
                 pr->err = PDR_ELIMIT;
             break;
