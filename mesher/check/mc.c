@@ -27,29 +27,11 @@ static int fkey_cmp(const void *pa, const void *pb)
     return 0;
 }
 
-
-static double tri_area(const double *a, const double *b, const double *c)
-{
-    double u[3], v[3], n[3];
-    v3_sub(b, a, u);
-    v3_sub(c, a, v);
-    v3_cross(u, v, n);
-    return 0.5 * sqrt(v3_dot(n, n));
-}
-
 /* The distance a mesh face may lie off facet f beyond rounding: 2T for a
  * near-planar facet (planar_tol T, see check/mc.h), else 0. */
 static double bend_allowance(const plc *p, size_t f, double diag)
 {
     return plc_facet_bent(p, f) ? 2.0 * p->planar_tol * diag : 0.0;
-}
-
-/* The area of triangle abc as facet f's coverage counts it (bend: the
- * facet's allowance): on a near-planar facet that of its projection. */
-static double facet_area(const plc *p, size_t f, double bend, const double *a, const double *b,
-                         const double *c)
-{
-    return bend > 0 ? plc_facet_proj_area(p, f, a, b, c) : tri_area(a, b, c);
 }
 
 /* x inside triangle abc of facet f's plane, up to a relative tolerance,
@@ -230,8 +212,8 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
             r->faces_off_facet++;
             continue;
         }
-        am[f] += facet_area(p, (size_t)f, bend[f], P(c, c->tri[i][0]), P(c, c->tri[i][1]),
-                            P(c, c->tri[i][2]));
+        am[f] += plc_facet_proj_area(p, (size_t)f, P(c, c->tri[i][0]), P(c, c->tri[i][1]),
+                                     P(c, c->tri[i][2]));
         c->fstart[f + 1]++;
     }
     for (size_t f = 0; f < p->nfacet; f++)
@@ -252,8 +234,8 @@ static int check_plc(struct ctx *c, size_t ntri, mc_report *r)
     for (size_t f = 0; f < p->nfacet; f++) {
         double ap = 0;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
-            ap += facet_area(p, f, bend[f], p->xyz[p->ftri[t][0]],
-                             p->xyz[p->ftri[t][1]], p->xyz[p->ftri[t][2]]);
+            ap += plc_facet_proj_area(p, f, p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]],
+                                      p->xyz[p->ftri[t][2]]);
         r->volume_allow += ap * bend[f];
         if (am[f] == 0) {
             /* no boundary triangle on it: a facet with the outside or a

@@ -24,16 +24,19 @@
  * Tolerances are relative: 1e-9 of the facet area or domain volume (the
  * mesh's vertices on facets that are not axis-aligned are off the plane by
  * rounding errors), and 1e-9 of the bounding-box diagonal for "on the
- * facet's plane". A PLC whose facets are planar only within a larger
- * tolerance T (near-planar facets, plc/fm.h: its planar_tol is T) has
- * mesh faces that may take other diagonals than its triangles, within T
- * of them: a triangle then lies in a facet when its corners are within 2T
- * (a subfacet's circumcentre may lie off its subfacet) of the facet's
- * plane, areas are compared in projection on the facet's plane (the same
- * for every triangulation of the same projected region), and the volumes
- * may differ by the facets' areas times 2T besides. Locating a triangle's facet tests the facets whose
- * bounding box holds it: fast for the model problems, quadratic in the
- * worst case (an STL surface of many thousand facets).
+ * facet's plane". Areas are compared in projection on the facet's plane,
+ * the same for every triangulation of one projected region: a facet's
+ * corners may lie off one plane within that 1e-9 of the diagonal, which
+ * on a small facet is far more than 1e-9 of its size, and mesh faces that
+ * take other diagonals than its triangles then have another area in
+ * space. A PLC whose facets are planar only within a larger tolerance T
+ * (near-planar facets, plc/fm.h: its planar_tol is T) has mesh faces
+ * within T of its triangles: a triangle then lies in a facet when its
+ * corners are within 2T (a subfacet's circumcentre may lie off its
+ * subfacet) of the facet's plane, and the volumes may differ by the
+ * facets' areas times 2T besides. Locating a triangle's facet tests the
+ * facets whose bounding box holds it: fast for the model problems,
+ * quadratic in the worst case (an STL surface of many thousand facets).
  */
 #ifndef PDR_MESHCHECK_H
 #define PDR_MESHCHECK_H

@@ -401,18 +401,6 @@ void mp_print_mesh_summary(const mp_ctx *c)
            v->nf);
 }
 
-static double tri_area(const double *a, const double *b, const double *c)
-{
-    double u[3], w[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = b[k] - a[k];
-        w[k] = c[k] - a[k];
-    }
-    double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2],
-           z = u[0] * w[1] - u[1] * w[0];
-    return 0.5 * sqrt(x * x + y * y + z * z);
-}
-
 /* The mean of the n mesh vertices v (a point on the piece they span). */
 static void mean_of(const double *xyz, const uint32_t *v, int n, double at[3])
 {
@@ -460,16 +448,6 @@ static void note_missing(mp_ctx *c)
              ns, ns == 1 ? "" : "s", nf, nf == 1 ? "" : "s", what, where, at[0], at[1], at[2]);
 }
 
-/* The area of triangle abc as facet f's coverage counts it: on a
- * near-planar facet (plc/fm.h), that of its projection on the facet's
- * plane, since the mesh may take other diagonals than the facet's own
- * triangulation. */
-static double facet_area(const plc *p, size_t f, const double *a, const double *b,
-                         const double *c)
-{
-    return plc_facet_bent(p, f) ? plc_facet_proj_area(p, f, a, b, c) : tri_area(a, b, c);
-}
-
 /* The guard against a mesh that does not cover its input: no tetrahedra
  * at all, open (> 0) faces that bound the interior on no input facet, or
  * a facet whose subfacets in the output do not add up to its area. A facet may have no subfacet at all only when the input has hole
@@ -503,15 +481,16 @@ static int guard_output(mp_ctx *c, size_t open)
     if (!got)
         return fail(c, PDR_ENOMEM);
     for (size_t i = 0; i < o->view.nf; i++)
-        got[o->tri_facet[i]] += facet_area(p, (size_t)o->tri_facet[i], o->xyz[o->tri[i][0]],
-                                           o->xyz[o->tri[i][1]], o->xyz[o->tri[i][2]]);
+        got[o->tri_facet[i]] += plc_facet_proj_area(p, (size_t)o->tri_facet[i],
+                                                    o->xyz[o->tri[i][0]], o->xyz[o->tri[i][1]],
+                                                    o->xyz[o->tri[i][2]]);
     size_t bad = 0, first = 0;
     double worst = 0;
     for (size_t f = 0; f < p->nfacet; f++) {
         double want = 0;
         for (size_t t = p->ftri_start[f]; t < p->ftri_start[f + 1]; t++)
-            want += facet_area(p, f, p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]],
-                               p->xyz[p->ftri[t][2]]);
+            want += plc_facet_proj_area(p, f, p->xyz[p->ftri[t][0]], p->xyz[p->ftri[t][1]],
+                                        p->xyz[p->ftri[t][2]]);
         double err = want > 0 ? fabs(got[f] - want) / want : 0.0;
         if (err > 1e-6 && (got[f] > 0 || !p->nhole)) {
             if (!bad++)

@@ -259,8 +259,11 @@ int plc_validate(plc *p, pdr_diag *diag);
  * within planar_tol of it, not on its triangles. */
 int plc_facet_bent(const plc *p, size_t f);
 /* The area of the projection of triangle abc on facet f's plane: how a
- * near-planar facet's coverage is measured (the same for every
- * triangulation of one projected region). */
+ * facet's coverage is measured, the same for every triangulation of one
+ * projected region. A facet's corners may lie off one plane by rounding
+ * or by a merge's tolerance (a bent facet, or one within PLC_PLANAR_TOL),
+ * and triangles that take other diagonals than the input's then have
+ * another area in space; on an exactly planar facet it is the area. */
 double plc_facet_proj_area(const plc *p, size_t f, const double *a, const double *b,
                            const double *c);
 
