@@ -1391,6 +1391,29 @@ static int recovered_meanwhile(const ref_mesher *r, uint16_t flags, int too_big)
     return r->o.constrained && !r->classified && !(flags & BD_F_MISSING) && !too_big;
 }
 
+/* 1 if subfacet id is bad as a triangle: its circumradius is at least
+ * the ratio bound times its shortest side (or cannot be computed). Every
+ * tetrahedron on such a face is above the bound, and the quality
+ * refinement seldom mends it: the splits its tetrahedra ask for lie
+ * beyond the face's short side or next to it, under their floors, or
+ * their constrained cavities cannot be made. So the recovery splits it
+ * even when it is present by the time it is popped (recovered_meanwhile),
+ * as it did before that rule, but with the floor of its shortest side (as
+ * unfloored_present): with no floor, the splits cascaded on CGAL's
+ * handle.off until a missing piece could not be split (an empty mesh).
+ * On joint.off 77 tetrahedra are left above ratio 2 instead of 472
+ * (TetGen 5), oblong 239 instead of 793, and pinion's mesh has 30,072
+ * tetrahedra instead of 56,039 (mesher/refine/QUALITY.md). */
+static int bad_subfac(const ref_mesher *r, uint32_t id)
+{
+    if (!(r->b2 > 0))
+        return 0;
+    const bd_subfac *s = &r->bd.facs[id];
+    const double *a = X(&r->m, s->v[0]), *b = X(&r->m, s->v[1]), *c = X(&r->m, s->v[2]);
+    double l2 = dmin(v3_dist2(b, c), dmin(v3_dist2(a, c), v3_dist2(a, b))), cc[3], r2;
+    return ref__tri_circumcentre(a, b, c, cc, &r2) || !(r2 < r->b2 * l2);
+}
+
 /* 1 if a queued subfacet (flags, too_big as above, rmin its floor) is
  * present and has no floor in the constrained mode: after the recovery,
  * a face that no flip mends asked for its split (ref__cdt_flip, against
@@ -1499,7 +1522,7 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
         }
     }
     int too_big = fac_too_big(r, id);
-    if (recovered_meanwhile(r, s->flags, too_big)) {
+    if (recovered_meanwhile(r, s->flags, too_big) && !bad_subfac(r, id)) {
         s->flags &= (uint16_t)~BD_F_QUEUED;
         return 0;
     }
@@ -1507,7 +1530,10 @@ static int process_fac(ref_mesher *r, uint32_t id, float rmin)
         return PDR_ELIMIT;
     s->flags &= (uint16_t)~BD_F_QUEUED;
     int outcome;
-    if (unfloored_present(r, s->flags, too_big, rmin))
+    /* A present piece split here (bad_subfac in the recovery, or one a
+     * face no flip mends asked for) has the floor of its shortest side. */
+    if (unfloored_present(r, s->flags, too_big, rmin) ||
+        (recovered_meanwhile(r, s->flags, too_big) && rmin == 0.0f))
         rmin = (float)shortest_side(r, id);
     int rc = split_subfac(r, id, rmin, &outcome);
     if (!rc && outcome == SPLIT_DEFERRED)
