@@ -52,7 +52,7 @@ while read -r name tetgen maxleft; do
     [ "$bad" -le "$left" ] || fail "$name: pdr check finds $bad above ratio 2, the summary $left"
     if [ "$left" -gt 0 ]; then
         grep -Eq '^  next to: (input vertex|segment|facet|the interior)' "$tmp/$name.out" ||
-            [ "$(sed -n 's/.*(\([0-9]*\) next to input angles.*/\1/p' "$tmp/$name.out")" = 0 ] ||
+            [ "$(sed -n 's/.*(\([0-9]*\) next to small input angles.*/\1/p' "$tmp/$name.out")" = 0 ] ||
             fail "$name: the summary does not say where the $left tetrahedra are"
     fi
     echo "$name: $nt tetrahedra (TetGen $tetgen), $left left above ratio 2"

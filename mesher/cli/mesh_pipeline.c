@@ -698,9 +698,11 @@ static void print_left(const mp_ctx *c)
     printf("left above the bound: %zu tetrahedra with radius-edge >= %g", st->left_ratio,
            c->o.ref.ratio);
     if (st->left_ratio)
-        printf(" (%zu next to input angles too small to refine, %zu degenerate, %zu other)",
-               st->left_ratio_angle, st->left_ratio_degenerate,
-               st->left_ratio - st->left_ratio_angle - st->left_ratio_degenerate);
+        printf(" (%zu next to small input angles, %zu given up elsewhere (their splits "
+               "refused), %zu degenerate, %zu other)",
+               st->left_ratio_angle, st->left_ratio_refused, st->left_ratio_degenerate,
+               st->left_ratio - st->left_ratio_angle - st->left_ratio_refused -
+                   st->left_ratio_degenerate);
     if (st->left_size)
         printf(", %zu above the size bound", st->left_size);
     if (st->left_sliver)
@@ -718,7 +720,7 @@ static void print_left(const mp_ctx *c)
         printf("  the input's facets have %zu corners below %.1f degrees: any mesh of them has "
                "a tetrahedron with radius-edge >= %g at each (on a face at such a corner)\n",
                thin, asin(0.5 / B) * 180.0 / M_PI, B);
-    /* Where the ones next to small angles are (input numbering). */
+    /* Where the given-up ones are (input numbering). */
     for (int s = 0; s < REF_LEFT_SITES && c->have_plc && st->left_site[s].count; s++) {
         const struct ref_left_site *ls = &st->left_site[s];
         printf(s ? "; " : "  next to: ");

@@ -274,15 +274,23 @@ typedef struct ref_stats {
                             up: the merged mesh is refined once more) */
     /* after ref_count_bad() */
     size_t left_ratio;   /* interior tetrahedra with ratio >= bound */
-    size_t left_ratio_angle;  /* ... left because their split needed a
-                                 boundary split the safety net refused */
+    size_t left_ratio_angle;  /* ... given up (the split they needed was
+                                 refused) next to a small input angle: a
+                                 vertex on an acute input vertex or a
+                                 segment that is sharp or ends at one
+                                 (plc/fm.h thresholds), or, constrained,
+                                 across a seditious small angle */
+    size_t left_ratio_refused; /* ... given up away from those: their
+                                  splits refused by the floors and bounds
+                                  of the constrained mode or the safety net */
     size_t left_ratio_degenerate; /* ... circumcentre unusable */
     size_t left_stuck;   /* constrained: faces off the facets left not
                             locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
     size_t left_sliver;  /* ... with a dihedral angle below the bound */
-    /* Where the left_ratio_angle tetrahedra are: the input features they
-     * touch, most tetrahedra first (count 0: unused). */
+    /* Where the given-up tetrahedra (left_ratio_angle and
+     * left_ratio_refused) are: the input features they touch, most
+     * tetrahedra first (count 0: unused). */
     struct ref_left_site {
         int kind;        /* BD_V_INPUT (feature: PLC vertex), BD_V_SEGMENT
                             (plc.segs index), BD_V_FACET, BD_V_VOLUME */

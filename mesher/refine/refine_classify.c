@@ -18,6 +18,7 @@
 #include "base/fj.h"
 #include "base/pdr_util.h"
 #include "mesh/vf.h"
+#include "plc/fm.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
 
@@ -359,6 +360,39 @@ static void left_site(const ref_mesher *r, uint32_t t, int *kind, uint32_t *feat
     *feature = 0;
 }
 
+/* Whether given-up tetrahedron t is next to a small input angle: across a
+ * seditious small angle (constrained mode), or with a vertex on an acute
+ * input vertex, on a sharp segment or on a segment that ends at an acute
+ * vertex (the thresholds the input preparation reports, plc/fm.h). Without
+ * the PLC's feature angles every one counts as next to a small angle. */
+static int at_small_angle(const ref_mesher *r, uint32_t t)
+{
+    const plc *p = r->p;
+    if (!p->v_minang || !p->seg_mindih)
+        return 1;
+    if (r->o.constrained && ref__cdt_seditious_tet(r, t) != UINT32_MAX)
+        return 1;
+    const uint32_t *v = r->m.tets[t].v;
+    for (int k = 0; k < 4; k++) {
+        uint32_t f = r->bd.vfeat[v[k]];
+        switch (r->bd.vkind[v[k]]) {
+        case BD_V_INPUT:
+            if (f < p->nv && p->v_minang[f] < FM_ACUTE_ANG)
+                return 1;
+            break;
+        case BD_V_SEGMENT:
+            if (f < p->nseg &&
+                (p->seg_mindih[f] < FM_SHARP_DIH || p->v_minang[p->segs[f].v[0]] < FM_ACUTE_ANG ||
+                 p->v_minang[p->segs[f].v[1]] < FM_ACUTE_ANG))
+                return 1;
+            break;
+        default:
+            break;
+        }
+    }
+    return 0;
+}
+
 /* Counts tetrahedra per site and keeps the REF_LEFT_SITES largest. */
 static void tally_sites(ref_mesher *r, const uint64_t *keys, size_t n)
 {
@@ -393,8 +427,8 @@ static int cmp_u64(const void *a, const void *b)
 typedef struct count_share {
     const ref_mesher *r;
     uint32_t lo, hi;          /* slots [lo, hi) */
-    size_t ratio, angle, degenerate, size, sliver;
-    uint64_t *keys;           /* (kind, feature) of each left at an angle */
+    size_t ratio, angle, refused, degenerate, size, sliver;
+    uint64_t *keys;           /* (kind, feature) of each given up */
     size_t nkeys, cap;
 } count_share;
 
@@ -416,7 +450,10 @@ static int count_share_run(void *arg)
                 if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0])) {
                     c->degenerate++;
                 } else {
-                    c->angle++;
+                    if (at_small_angle(r, t))
+                        c->angle++;
+                    else
+                        c->refused++;
                     int kind;
                     uint32_t f;
                     left_site(r, t, &kind, &f);
@@ -454,6 +491,7 @@ void ref_count_bad(ref_mesher *r)
     }
     fj_run(ft, n, n);
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
+    r->st.left_ratio_refused = 0;
     r->st.left_size = r->st.left_sliver = 0;
     /* Also without keep_stuck: a split that a face no flip mends asks for
      * may be refused (the floor, a cavity that cannot be made), and the
@@ -462,6 +500,7 @@ void ref_count_bad(ref_mesher *r)
     for (unsigned i = 0; i < n; i++) {
         r->st.left_ratio += sh[i].ratio;
         r->st.left_ratio_angle += sh[i].angle;
+        r->st.left_ratio_refused += sh[i].refused;
         r->st.left_ratio_degenerate += sh[i].degenerate;
         r->st.left_size += sh[i].size;
         r->st.left_sliver += sh[i].sliver;
