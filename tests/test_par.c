@@ -1598,6 +1598,105 @@ START_TEST(merge_shares_agree)
 }
 END_TEST
 
+/* par_merge_build on one processor or on all of them, the mesh kept. */
+static int merge_mesh_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
+                         int one_cpu, ref_mesher *out)
+{
+    cpu_set_t all, one;
+    ck_assert_int_eq(sched_getaffinity(0, sizeof all, &all), 0);
+    if (one_cpu) {
+        CPU_ZERO(&one);
+        for (int c = 0; c < CPU_SETSIZE; c++)
+            if (CPU_ISSET(c, &all)) {
+                CPU_SET(c, &one);
+                break;
+            }
+        ck_assert_int_eq(sched_setaffinity(0, sizeof one, &one), 0);
+    }
+    const void *msg[8];
+    size_t len[8];
+    for (uint32_t k = 0; k < P; k++) {
+        msg[k] = b[k].data;
+        len[k] = b[k].len;
+    }
+    int rc = par_merge_build(msg, len, P, p, NULL, out, rep);
+    ck_assert_int_eq(sched_setaffinity(0, sizeof all, &all), 0);
+    return rc;
+}
+
+/* The merge of a large mesh decodes and stores the messages a message
+ * per task and runs the face checks beside the boundary tables
+ * (par_merge.c): on the processors of the machine it builds the very mesh
+ * one processor builds -- the same slots, vertices, links, markers,
+ * flags, regions and boundary tables -- and counts the same. */
+START_TEST(merge_threads_same_mesh)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 4e-6;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    ck_assert_uint_ge(mo.m.nlive, 420000); /* above MERGE_THREADS_FROM */
+    par_sub subs[3];
+    subs_of(&mo, 3, subs);
+    pr_buf b[3];
+    const void *msg[3];
+    size_t len[3];
+    encode_subs(subs, NULL, 3, b, msg, len);
+    par_merge_report r1, r2;
+    ref_mesher m1, m2;
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), 0);
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r2, 0, &m2), 0);
+    ck_assert(!memcmp(&r1, &r2, sizeof r1));
+    const tm_mesh *a = &m1.m, *c = &m2.m;
+    ck_assert_uint_eq(a->nslots, c->nslots);
+    ck_assert_uint_eq(a->nlive, c->nlive);
+    ck_assert_uint_eq(a->nghost, c->nghost);
+    ck_assert_uint_eq(a->nv, c->nv);
+    size_t ns = a->nslots;
+    ck_assert(!memcmp(a->tets, c->tets, ns * sizeof *a->tets));
+    ck_assert(!memcmp(a->flags, c->flags, ns * sizeof *a->flags));
+    ck_assert(!memcmp(a->marker, c->marker, 4 * ns * sizeof *a->marker));
+    ck_assert(!memcmp(a->xyz, c->xyz, 3 * (size_t)a->nv * sizeof *a->xyz));
+    ck_assert(!memcmp(a->gid, c->gid, (size_t)a->nv * sizeof *a->gid));
+    ck_assert_int_eq(m1.region != NULL, m2.region != NULL);
+    if (m1.region)
+        ck_assert(!memcmp(m1.region, m2.region, ns * sizeof *m1.region));
+    ck_assert_uint_eq(m1.bd.nsegs, m2.bd.nsegs);
+    ck_assert_uint_eq(m1.bd.nfacs, m2.bd.nfacs);
+    /* field by field: the structures have padding */
+    for (size_t i = 0; i < m1.bd.nsegs; i++) {
+        const bd_subseg *e = &m1.bd.segs[i], *f = &m2.bd.segs[i];
+        ck_assert(e->v[0] == f->v[0] && e->v[1] == f->v[1] && e->seg == f->seg &&
+                  e->flags == f->flags);
+    }
+    for (size_t i = 0; i < m1.bd.nfacs; i++) {
+        const bd_subfac *e = &m1.bd.facs[i], *f = &m2.bd.facs[i];
+        ck_assert(!memcmp(e->v, f->v, sizeof e->v) && e->facet == f->facet &&
+                  e->flags == f->flags);
+    }
+    ck_assert(!memcmp(m1.bd.vkind, m2.bd.vkind, (size_t)a->nv * sizeof *m1.bd.vkind));
+    ref_free(&m1);
+    ref_free(&m2);
+    /* a fault: a link of PE 1 that does not come back */
+    uint8_t *keep = b[1].data;
+    uint32_t nt;
+    link_offset(keep, b[1].len, &nt);
+    uint32_t x, u, y, z;
+    two_linked_pairs(keep, b[1].len, nt, &x, &u, &y, &z);
+    b[1].data = with_link(keep, b[1].len, x, y);
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), PDR_ETOPOLOGY);
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r2, 0, &m2), PDR_ETOPOLOGY);
+    ck_assert(!memcmp(&r1, &r2, sizeof r1));
+    free(b[1].data);
+    b[1].data = keep;
+    free_merge_case(b, subs, 3, &mo, &p);
+}
+END_TEST
+
 START_TEST(merge_counts_link_faults)
 {
     plc p;
@@ -1837,6 +1936,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_reclassifies);
     tcase_add_test(t, merge_finishes_left);
     tcase_add_test(t, merge_shares_agree);
+    tcase_add_test(t, merge_threads_same_mesh);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

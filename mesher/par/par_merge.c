@@ -29,7 +29,14 @@
  *  7. the subsegments and subfacets, as sent.
  * A mesh that fits takes no sort and no hash table of all faces or
  * tetrahedra: the repeats are searched in cache-sized partitions, and
- * only a repeat (a fault, or a rare chance) is looked at one by one. */
+ * only a repeat (a fault, or a rare chance) is looked at one by one.
+ *
+ * Rank 0 merges alone, the other PEs done: on a large mesh the steps
+ * that split cleanly use the other cores (base/fj) -- the messages are
+ * decoded and their tetrahedra stored a message per task (step 2 takes
+ * the slots first, in order, and joins the tasks' loose faces in message
+ * order), step 4 runs in shares of the slots, and steps 5-6 run beside
+ * step 7. The mesh, the lists and the counts are those of one pass. */
 #include "config.h"
 
 #include <stdlib.h>
@@ -325,9 +332,95 @@ static int add_loose(merge *g, uint32_t f, uint32_t pe)
     return 0;
 }
 
+/* From this many tetrahedra in all, the messages are decoded and their
+ * tetrahedra stored on the machine's cores, a message per task (below,
+ * threads cost more than they save). */
+#define MERGE_THREADS_FROM 200000
+
+/* Threads for the per-message steps of a merge of total tetrahedra. */
+static unsigned merge_threads(uint32_t n, size_t total)
+{
+    if (n < 2 || total < MERGE_THREADS_FROM)
+        return 1;
+    unsigned c = fj_cores();
+    return c < n ? c : n;
+}
+
+/* One message's tetrahedra (step 2), a task of base/fj: message k into
+ * the slots from g->base[k], taken already; its loose faces into lf (in
+ * the order of its faces), its ghosts counted. Writes only its own slots
+ * and its own lf. */
+typedef struct tet_task {
+    merge *g;
+    ref_mesher *r;
+    uint32_t k;
+    loose *lf;       /* its faces for g->lf, owned until handed over */
+    size_t nlf, caplf;
+    uint32_t nghost;
+} tet_task;
+
+static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
+{
+    if (pdr_grow((void **)&a->lf, &a->caplf, a->nlf + 1, sizeof *a->lf))
+        return PDR_ENOMEM;
+    a->lf[a->nlf].f = f;
+    a->lf[a->nlf++].pe = pe;
+    return 0;
+}
+
+static int tet_task_run(void *arg)
+{
+    tet_task *a = arg;
+    const merge *g = a->g;
+    ref_mesher *r = a->r;
+    tm_mesh *m = &r->m;
+    const par_wire *w = &g->w[a->k];
+    const pr_submesh *sm = w->sm;
+    const uint32_t *loc = g->loc[a->k];
+    uint32_t b = g->base[a->k], q = 0;
+    for (uint32_t j = 0; j < sm->tet.n; j++) {
+        uint32_t t = b + j;
+        tm_tet *T = &m->tets[t];
+        uint16_t fl = par_wire_tflags(w, j);
+        for (int i = 0; i < 4; i++) {
+            size_t x = 4 * (size_t)j + (size_t)i;
+            T->v[i] = loc[sm->tet.v[x]];
+            uint32_t c = par_wire_link(w, x);
+            if (c < PAR_WIRE_LINK_IFACE) {
+                T->n[i] = tm_mklink(b + (c >> 2), (int)(c & 3));
+            } else {
+                /* IFACE faces are the listed ones, in the same ascending
+                 * order (the decoder checked it). */
+                uint32_t pe = PAR_PE_NONE;
+                if (c == PAR_WIRE_LINK_IFACE && q < sm->iface.n)
+                    pe = sm->iface.remote[q++];
+                T->n[i] = TM_LINK_UNSET;
+                int rc = put_loose(a, tm_mklink(t, i), pe);
+                if (rc)
+                    return rc;
+            }
+            int32_t mk = sm->tet.marker[x];
+            m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
+            if (mk != PR_MARKER_NONE)
+                fl |= TM_F_FACEMARK(i);
+        }
+        fl |= (uint16_t)((sm->tet.subseg[j] & PR_SUBSEG_MASK) * TM_F_SUBSEG0);
+        m->flags[t] = fl;
+        a->nghost += (uint32_t)tm_is_ghost(m, t);
+        if (r->region)
+            r->region[t] = par_wire_region(w, j);
+        if (g->careful)
+            g->hash[t] = tet_hash(g->vk, T->v);
+    }
+    return 0;
+}
+
 /* Every message's tetrahedra with their links, flags, markers,
- * subsegment bits and regions; the faces not linked go to g->lf, and when
- * careful the tetrahedra's hashes to g->hash. */
+ * subsegment bits and regions; the faces not linked go to g->lf (message
+ * by message, face by face), and when careful the tetrahedra's hashes to
+ * g->hash. The slots are taken first, in order, then each message is
+ * stored by a task of its own (on several threads for a large mesh, see
+ * merge_threads): the same mesh and the same g->lf either way. */
 static int add_tets(merge *g, ref_mesher *r)
 {
     tm_mesh *m = &r->m;
@@ -342,55 +435,46 @@ static int add_tets(merge *g, ref_mesher *r)
     g->base = pr_malloc(((size_t)g->n + 1) * sizeof *g->base);
     if (!rc && g->careful)
         rc = pdr_grow((void **)&g->hash, &g->caphash, total ? total : 1, sizeof *g->hash);
-    if (rc || !g->base)
-        return rc ? rc : PDR_ENOMEM;
-    for (uint32_t k = 0; k < g->n; k++) {
-        const par_wire *w = &g->w[k];
-        const pr_submesh *sm = w->sm;
-        const uint32_t *loc = g->loc[k];
-        uint32_t b = m->nslots, q = 0;
+    tet_task *a = pr_calloc(g->n ? g->n : 1, sizeof *a);
+    fj_task *ft = pr_calloc(g->n ? g->n : 1, sizeof *ft);
+    if (!rc && (!g->base || !a || !ft))
+        rc = PDR_ENOMEM;
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
+        uint32_t b = m->nslots;
         g->base[k] = b;
-        for (uint32_t j = 0; j < sm->tet.n; j++) {
+        for (uint32_t j = 0; j < g->w[k].sm->tet.n && !rc; j++)
             /* A fresh mesh hands out slots 0, 1, ... in order, which the
              * links' offsets assume. */
-            uint32_t t = tm_alloc_tet(m);
-            if (t != b + j)
-                return PDR_EINVAL;
-            tm_tet *T = &m->tets[t];
-            uint16_t fl = par_wire_tflags(w, j);
-            for (int i = 0; i < 4; i++) {
-                size_t x = 4 * (size_t)j + (size_t)i;
-                T->v[i] = loc[sm->tet.v[x]];
-                uint32_t c = par_wire_link(w, x);
-                if (c < PAR_WIRE_LINK_IFACE) {
-                    T->n[i] = tm_mklink(b + (c >> 2), (int)(c & 3));
-                } else {
-                    /* IFACE faces are the listed ones, in the same
-                     * ascending order (the decoder checked it). */
-                    uint32_t pe = PAR_PE_NONE;
-                    if (c == PAR_WIRE_LINK_IFACE && q < sm->iface.n)
-                        pe = sm->iface.remote[q++];
-                    T->n[i] = TM_LINK_UNSET;
-                    if ((rc = add_loose(g, tm_mklink(t, i), pe)))
-                        return rc;
-                }
-                int32_t mk = sm->tet.marker[x];
-                m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
-                if (mk != PR_MARKER_NONE)
-                    fl |= TM_F_FACEMARK(i);
-            }
-            fl |= (uint16_t)((sm->tet.subseg[j] & PR_SUBSEG_MASK) * TM_F_SUBSEG0);
-            m->flags[t] = fl;
-            m->nghost += (uint32_t)tm_is_ghost(m, t);
-            if (r->region)
-                r->region[t] = par_wire_region(w, j);
-            if (g->careful)
-                g->hash[t] = tet_hash(g->vk, T->v);
-        }
+            if (tm_alloc_tet(m) != b + j)
+                rc = PDR_EINVAL;
+        a[k] = (tet_task){.g = g, .r = r, .k = k};
+        ft[k] = (fj_task){.run = tet_task_run, .arg = &a[k]};
     }
-    g->base[g->n] = m->nslots;
+    if (!rc) {
+        g->base[g->n] = m->nslots;
+        fj_run(ft, g->n, merge_threads(g->n, total));
+    }
+    /* The first failure in message order, as one pass would stop at. */
+    for (uint32_t k = 0; k < g->n && !rc; k++)
+        rc = ft[k].rc;
+    size_t nlf = 0;
+    for (uint32_t k = 0; k < g->n && !rc; k++)
+        nlf += a[k].nlf;
+    if (!rc && nlf && pdr_grow((void **)&g->lf, &g->caplf, g->nlf + nlf, sizeof *g->lf))
+        rc = PDR_ENOMEM;
+    for (uint32_t k = 0; k < g->n && a; k++) {
+        if (!rc) {
+            if (a[k].nlf)
+                memcpy(g->lf + g->nlf, a[k].lf, a[k].nlf * sizeof *g->lf);
+            g->nlf += a[k].nlf;
+            m->nghost += a[k].nghost;
+        }
+        pr_free(a[k].lf);
+    }
+    pr_free(a);
+    pr_free(ft);
     g->nhash = g->careful ? m->nslots : 0;
-    return 0;
+    return rc;
 }
 
 /* The message a slot came from. */
@@ -847,21 +931,96 @@ static int add_bd(const merge *g, ref_mesher *r, par_merge_report *rep)
     return 0;
 }
 
+/* Steps 5 and 6, a task of base/fj: writes the loose faces' links, the
+ * face counts of rep and g's lists of faces. */
+typedef struct face_task {
+    merge *g;
+    tm_mesh *m;
+    par_merge_report *rep;
+} face_task;
+
+static int face_task_run(void *arg)
+{
+    face_task *a = arg;
+    int rc = match_loose(a->g, a->m, a->rep);
+    return rc ? rc : find_nonmanifold(a->g, a->m, a->rep);
+}
+
+/* Step 7 and the acute-segment table, a task of base/fj: writes only
+ * r's bd and seg_acute and rep->bd_conflicts. */
+typedef struct bd_task {
+    const merge *g;
+    ref_mesher *r;
+    par_merge_report *rep;
+} bd_task;
+
+static int bd_task_run(void *arg)
+{
+    bd_task *a = arg;
+    int rc = add_bd(a->g, a->r, a->rep);
+    return rc ? rc : par_wire_seg_acute(a->r);
+}
+
+/* Decoding one message, a task of base/fj. */
+typedef struct dec_task {
+    const void *msg;
+    size_t len;
+    const plc *p;
+    par_wire *out;
+} dec_task;
+
+static int dec_task_run(void *arg)
+{
+    dec_task *d = arg;
+    return par_wire_decode(d->msg, d->len, d->p, d->out);
+}
+
+/* Step 0: every message decoded, on several threads for a large mesh (a
+ * message per task). The first failure in message order is returned, as
+ * one pass would stop at. */
+static int decode_all(merge *g, const void *const *msg, const size_t *len, const plc *p)
+{
+    g->w = pr_calloc(g->n ? g->n : 1, sizeof *g->w);
+    dec_task *d = pr_calloc(g->n ? g->n : 1, sizeof *d);
+    fj_task *ft = pr_calloc(g->n ? g->n : 1, sizeof *ft);
+    int rc = g->w && d && ft ? 0 : PDR_ENOMEM;
+    size_t total = 0;
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
+        d[k] = (dec_task){msg[k], len[k], p, &g->w[k]};
+        ft[k] = (fj_task){.run = dec_task_run, .arg = &d[k]};
+        total += len[k] / 32; /* a tetrahedron takes more than 32 bytes */
+    }
+    if (!rc)
+        fj_run(ft, g->n, merge_threads(g->n, total));
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
+        rc = ft[k].rc;
+        if (!rc && (g->w[k].sm->rank != k || g->w[k].sm->size != g->n))
+            rc = PDR_EPARSE;
+    }
+    pr_free(d);
+    pr_free(ft);
+    return rc;
+}
+
+/* Steps 5-6 (the faces) and 7 (the boundary tables): they share nothing
+ * they write, so a large mesh has them side by side. */
+static int faces_and_bd(merge *g, ref_mesher *r, par_merge_report *rep)
+{
+    face_task fa = {g, &r->m, rep};
+    bd_task ba = {g, r, rep};
+    fj_task ft[2] = {{.run = face_task_run, .arg = &fa}, {.run = bd_task_run, .arg = &ba}};
+    fj_run(ft, 2, merge_threads(2, r->m.nslots));
+    return ft[0].rc ? ft[0].rc : ft[1].rc;
+}
+
 static int merge_all(merge *g, const void *const *msg, const size_t *len, const plc *p,
                      ref_mesher *out, par_merge_report *rep)
 {
-    g->w = pr_calloc(g->n ? g->n : 1, sizeof *g->w);
-    if (!g->w)
-        return PDR_ENOMEM;
-    for (uint32_t k = 0; k < g->n; k++) {
-        int rc = par_wire_decode(msg[k], len[k], p, &g->w[k]);
-        if (rc)
-            return rc;
-        if (g->w[k].sm->rank != k || g->w[k].sm->size != g->n)
-            return PDR_EPARSE;
-    }
+    int rc = decode_all(g, msg, len, p);
+    if (rc)
+        return rc;
     tm_mesh *m = &out->m;
-    int rc = tm_enable(m, TM_FEAT_GIDS);
+    rc = tm_enable(m, TM_FEAT_GIDS);
     if (!rc) {
         m->gid[0] = PAR_GID_INF;
         rc = add_vertices(g, out, rep);
@@ -873,13 +1032,7 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
     if (!rc)
         rc = check_links(g, m, rep);
     if (!rc)
-        rc = match_loose(g, m, rep);
-    if (!rc)
-        rc = find_nonmanifold(g, m, rep);
-    if (!rc)
-        rc = add_bd(g, out, rep);
-    if (!rc)
-        rc = par_wire_seg_acute(out);
+        rc = faces_and_bd(g, out, rep);
     if (rc)
         return rc;
     tm_rebuild_hints(m);
