@@ -20,6 +20,7 @@ enum {
     MSG_REPLY = 0x11,
     MSG_MIGRATE = 0x12,
     MSG_ABORT = 0x13,
+    MSG_BAND = 0x14,
 };
 
 /* Reply status. */
@@ -1262,8 +1263,12 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
         if (s->ifc[k].pe != PAR_PE_NONE)
             s->ifc[k].pe = origin;
     }
-    /* Vertex hints that pointed into the cavity: any closure tetrahedron
-     * still holding the vertex, else none (the vertex left this PE). */
+    /* Vertex hints that pointed into the cavity: the first closure
+     * tetrahedron (in held order) still holding the vertex, else none (the
+     * vertex left this PE). One pass over held for all of them: a band
+     * (par_cav_give) has thousands of tetrahedra. */
+    hmap lost = {0}; /* vertex + 1 -> 1: its hint pointed into the cavity */
+    int lost_err = 0;
     for (size_t i = 0; i < pt->cav.n; i++) {
         const uint32_t *v = m->tets[pt->cav.a[i]].v;
         for (int k = 0; k < 4; k++) {
@@ -1271,16 +1276,22 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             if (x == TM_VINF || m->vhint[x] == TM_NONE || !tm_is_dead(m, m->vhint[x]))
                 continue;
             m->vhint[x] = TM_NONE;
-            for (size_t j = 0; j < pt->held.n; j++) {
-                uint32_t w = pt->held.a[j];
-                const uint32_t *wv = m->tets[w].v;
-                if (!tm_is_dead(m, w) && (wv[0] == x || wv[1] == x || wv[2] == x || wv[3] == x)) {
-                    m->vhint[x] = w;
-                    break;
-                }
-            }
+            if (hmap_put(&lost, (uint64_t)x + 1, 1))
+                lost_err = 1;
         }
     }
+    for (size_t j = 0; j < pt->held.n && lost.n; j++) {
+        uint32_t w = pt->held.a[j];
+        if (tm_is_dead(m, w))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            uint32_t x = m->tets[w].v[k];
+            if (x != TM_VINF && m->vhint[x] == TM_NONE &&
+                (lost_err || hmap_get(&lost, (uint64_t)x + 1) != HMAP_NONE))
+                m->vhint[x] = w;
+        }
+    }
+    hmap_free(&lost);
     for (size_t i = 0; i < facs.n; i++)
         if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
@@ -1305,6 +1316,150 @@ static void on_abort(am_ctx_t *am, const am_msg_t *msg, void *arg)
         rec_drop(cc, (uint32_t)idx);
 }
 
+/* ------------------------------------------------------------ bands */
+
+int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
+{
+    par_sub *s = cc->s;
+    tm_mesh *m = &s->r.m;
+    if (!n || to == s->rank || to >= s->size)
+        return 0;
+    /* Every tetrahedron and every local neighbour free; every interface
+     * face leads to 'to'. */
+    for (size_t i = 0; i < n; i++) {
+        uint32_t t = tets[i];
+        if (t >= m->nslots || tm_is_dead(m, t) || m->lock[t] ||
+            (m->flags[t] & TM_F_CAVITY))
+            return 0;
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[t].n[k];
+            if (l == TM_LINK_NONE || l == TM_LINK_UNSET)
+                return 0;
+            if (tm_is_special(l) ? s->ifc[l - TM_LINK_SPECIAL].pe != to
+                                 : m->lock[tm_ltet(l)] != 0)
+                return 0;
+        }
+    }
+    uint32_t owner = new_owner(cc), ri;
+    int rc = rec_new(cc, owner, to, &ri);
+    if (rc)
+        return rc;
+    par_part *pt = &cc->recs[ri].part;
+    for (size_t i = 0; i < n && !rc; i++) {
+        m->lock[tets[i]] = owner;
+        rc = push(&pt->cav, tets[i]);
+        if (!rc)
+            rc = push(&pt->held, tets[i]);
+    }
+    /* The closure: the faces of local tetrahedra outside the band that
+     * face it will face 'to' (on_migrate). */
+    mark_cavity(m, &pt->cav, 1);
+    for (size_t i = 0; i < n && !rc; i++)
+        for (int k = 0; k < 4 && !rc; k++) {
+            tm_link l = m->tets[tets[i]].n[k];
+            if (tm_is_special(l))
+                continue;
+            uint32_t w = tm_ltet(l);
+            if (m->flags[w] & TM_F_CAVITY)
+                continue;
+            rc = push(&pt->repoint, l);
+            if (!rc && m->lock[w] != owner) {
+                m->lock[w] = owner;
+                rc = push(&pt->held, w);
+            }
+        }
+    mark_cavity(m, &pt->cav, 0);
+    pr_buf b = PR_BUF_INIT;
+    if (!rc) {
+        pr_msg_begin(&b, MSG_BAND);
+        pr_put_u32(&b, owner);
+        if (put_tets(s, &cc->left, pt->cav.a, pt->cav.n, &b))
+            b.err = PR_ENOMEM;
+        rc = b.err ? PDR_ENOMEM : 0;
+    }
+    if (!rc)
+        rc = am_send(cc->am, (int)to, cc->h_band, b.data, b.len);
+    pr_buf_free(&b);
+    if (rc) {
+        rec_drop(cc, ri);
+        return rc < 0 ? rc : PDR_ENOMEM;
+    }
+    cc->st.bands_out++;
+    return 1;
+}
+
+/* 1 if lock owner lk is a band this PE gives (par_cav_give): a record of
+ * its own rank in served. A tetrahedron behind a band that arrives may be
+ * held by a cavity in progress (its attempt then meets the band's locks or
+ * the moved faces: a setback), but not by a band of this PE, which goes
+ * away when its MIGRATE comes (the cut keeps two bands apart, see
+ * par_band.h; this is the check). */
+static int own_band(const par_cav_ctx *cc, uint32_t lk)
+{
+    return lk != 0 && lk >> 20 == cc->s->rank + 1 && rec_find(cc, lk) >= 0;
+}
+
+/* Takes a band another PE gives (par_cav_give): imports it, unlocked,
+ * and sends MIGRATE, or ABORT when one of this PE's tetrahedra next to it
+ * is held by a band of this PE's own (own_band). */
+static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
+{
+    par_cav_ctx *cc = arg;
+    par_sub *s = cc->s;
+    tm_mesh *m = &s->r.m;
+    pr_reader rd;
+    uint32_t owner, src = (uint32_t)msg->src;
+    pr_msg_open(&rd, msg->data, msg->len, MSG_BAND);
+    pr_get_u32(&rd, &owner);
+    if (rd.err || owner == 0)
+        return;
+    am_time_begin(am, cc->cat_service);
+    int rc = 0;
+    if (!cc->band) {
+        cc->band = pr_calloc(1, sizeof *cc->band);
+        if (!cc->band)
+            rc = PDR_ENOMEM;
+        else
+            par_cav_init(cc->band, cc);
+    }
+    par_cav *c = cc->band;
+    int take = 0;
+    if (!rc) {
+        reset_attempt(c);
+        rc = get_tets(c, &rd, src);
+        if (!rc && pr_reader_finish(&rd))
+            rc = PDR_EPARSE;
+        if (!rc)
+            rc = add_gathered_faces(c, 0);
+    }
+    if (!rc) {
+        take = 1;
+        for (size_t i = 0; i < c->nface && take; i++) {
+            const par_cav_face *f = &c->face[i];
+            if (f->count == 2 || f->pe == src)
+                continue;
+            uint32_t k = f->pe == s->rank ? par_sub_find_iface(s, f->key) : PAR_PE_NONE;
+            take = k != PAR_PE_NONE && s->ifc[k].pe == src &&
+                   !own_band(cc, m->lock[tm_ltet(s->ifc[k].local)]);
+        }
+    }
+    uint8_t out[5];
+    pr_store_u32(out + 1, owner);
+    if (take) {
+        c->owner = new_owner(cc);
+        rc = import(c);
+        par_cav_release(c);
+        if (!rc)
+            cc->st.bands_in++;
+    }
+    if (rc && !cc->err)
+        cc->err = rc; /* a band half imported: the run stops */
+    out[0] = (uint8_t)(take && !rc ? MSG_MIGRATE : MSG_ABORT);
+    if (!rc || !take)
+        am_send(am, (int)src, take ? cc->h_migrate : cc->h_abort, out, sizeof out);
+    am_time_end(am, cc->cat_service);
+}
+
 /* ------------------------------------------------------------ set-up */
 
 int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
@@ -1317,6 +1472,7 @@ int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
     cc->h_reply = base + 1;
     cc->h_migrate = base + 2;
     cc->h_abort = base + 3;
+    cc->h_band = base + 4;
     dt_cavity_init(&cc->scratch);
     int rc = am_register(am, cc->h_gather, "cavity-gather", on_gather, cc);
     if (!rc)
@@ -1325,6 +1481,8 @@ int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
         rc = am_register(am, cc->h_migrate, "cavity-migrate", on_migrate, cc);
     if (!rc)
         rc = am_register(am, cc->h_abort, "cavity-abort", on_abort, cc);
+    if (!rc)
+        rc = am_register(am, cc->h_band, "cavity-band", on_band, cc);
     if (!rc) {
         cc->cat_service = am_category(am, "cavity_service");
         if (cc->cat_service < 0)
@@ -1343,6 +1501,10 @@ void par_cav_ctx_free(par_cav_ctx *cc)
     hmap_free(&cc->served);
     hmap_free(&cc->left);
     dt_cavity_free(&cc->scratch);
+    if (cc->band) {
+        par_cav_free(cc->band);
+        pr_free(cc->band);
+    }
     memset(cc, 0, sizeof *cc);
 }
 
