@@ -533,14 +533,17 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (*end == ',')
             ro_run.stall_seconds = strtod(end + 1, NULL);
     }
-    /* PDR_PAR_BAND=DEPTH: the interface band of 2 PEs (par_run.h,
-     * PAR_RUN_BAND_DEPTH) that deep; 0 or less: off. */
+    /* PDR_PAR_BAND=MARGIN[,MAX]: the interface band of 2 PEs (par_run.h,
+     * PAR_RUN_BAND_MARGIN) with that margin and at most MAX bands per PE;
+     * 0 or less: off (for comparisons). */
     const char *band = getenv("PDR_PAR_BAND");
     if (band) {
         ro_run.band_depth = atoi(band) > 0 ? atoi(band) : -1;
         const char *comma = strchr(band, ',');
         if (comma)
             ro_run.band_max = atoi(comma + 1);
+        if (comma && (comma = strchr(comma + 1, ',')) != NULL)
+            ro_run.band_share = atoi(comma + 1);
     }
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {

@@ -5,7 +5,7 @@
  * Once a PE's local work is done, what is left lies along the interface,
  * and every cavity there spans both PEs (about 35 us of CPU against 4.5 us
  * for a local one, bench/parallel.md). A PE then hands the tetrahedra of
- * its side of the interface, a few neighbour steps deep, to the other PE,
+ * its side of the interface where work is left, and a margin, to the other PE,
  * in one transfer (par_cav_give), but only along one half of the
  * interface: the interface is cut across its longest extent, and each PE
  * receives the other's band in "its" half. Afterwards the old interface
@@ -40,12 +40,16 @@ typedef struct par_band_cut {
  * Returns 0 or PDR_ENOMEM. */
 int par_band_cut_init(const par_sub *s, uint32_t other, par_band_cut *cut);
 
-/* The band this PE gives PE to: its tetrahedra at most depth neighbour
- * steps (through local faces) from an interface face to PE to, on to's
- * side of the cut, free of locks, whose interface faces all lead to PE to
- * and lie on to's side too, and whose local neighbours are all free (what
- * par_cav_give requires). Appends them to *out. Returns 0 or PDR_ENOMEM. */
-int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int depth,
+/* The band this PE gives PE to: starting from its tetrahedra on an
+ * interface face to PE to, through local faces, every tetrahedron met at
+ * most margin neighbour steps past a bad one (TM_F_QUEUED; the interface
+ * counts as one), so that the work along the interface and the cavities
+ * of its points lie inside; but only tetrahedra on to's side of the cut,
+ * free of locks, whose interface faces all lead to PE to and lie on to's
+ * side too; and of those, the ones whose local neighbours are all free
+ * (what par_cav_give requires). Appends them to *out. Returns 0 or
+ * PDR_ENOMEM. */
+int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int margin,
                   par_u32list *out);
 
 #endif /* PDR_PAR_BAND_H */

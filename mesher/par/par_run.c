@@ -56,6 +56,7 @@ typedef struct par_run {
     unsigned win_steps, win_dist; /* finished steps in the window, and
                                      those that needed the other PE */
     int band_due;           /* give a band at the next start_work */
+    unsigned band_tries;    /* bands picked (given or found empty) */
     par_u32list band;       /* scratch */
 } par_run;
 
@@ -321,8 +322,9 @@ static void count_for_band(par_run *pr, int dist)
     pr->win_dist += dist != 0;
     if (pr->win_steps < PAR_RUN_BAND_WINDOW)
         return;
-    if (pr->win_dist * PAR_RUN_BAND_SHARE >= pr->win_steps &&
-        pr->row->bands_out < (uint64_t)(pr->o.band_max > 0 ? pr->o.band_max : PAR_RUN_BAND_MAX))
+    unsigned share = pr->o.band_share > 0 ? (unsigned)pr->o.band_share : PAR_RUN_BAND_SHARE;
+    if (pr->win_dist * share >= pr->win_steps &&
+        pr->band_tries < (unsigned)(pr->o.band_max > 0 ? pr->o.band_max : PAR_RUN_BAND_MAX))
         pr->band_due = 1;
     pr->win_steps = pr->win_dist = 0;
 }
@@ -333,6 +335,7 @@ static int give_band(par_run *pr)
     double t0 = pdr_now();
     uint32_t other = 1 - pr->s->rank;
     pr->band_due = 0;
+    pr->band_tries++;
     pr->band.n = 0;
     int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_depth, &pr->band);
     if (!rc)
@@ -476,7 +479,7 @@ static int start_work(am_ctx_t *am, void *arg)
         return pr->err = pr->cc.err;
     /* The other PE gave its half: give ours now, while its cavities
      * still find the interface where they left it. */
-    if (pr->band_depth && pr->cc.st.bands_in > 0 && pr->row->bands_out == 0)
+    if (pr->band_depth && pr->cc.st.bands_in > 0 && pr->band_tries == 0)
         pr->band_due = 1;
     if (pr->band_due) {
         int rc = give_band(pr);
@@ -577,7 +580,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     /* The band's cut, before any PE changes the interface (the barrier
      * below comes first on the other PE too). */
     if (s->size == 2 && o->band_depth >= 0) {
-        pr->band_depth = o->band_depth > 0 ? o->band_depth : PAR_RUN_BAND_DEPTH;
+        pr->band_depth = o->band_depth > 0 ? o->band_depth : PAR_RUN_BAND_MARGIN;
         rc = par_band_cut_init(s, 1 - s->rank, &pr->cut);
         if (rc) {
             par_cav_ctx_free(&pr->cc);

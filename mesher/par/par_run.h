@@ -105,14 +105,21 @@
  * too. */
 #define PAR_RUN_STALL_SECONDS 60.0
 /* The interface band of a 2-PE run (par_band.h): a PE gives its half of
- * the band once, in a window of PAR_RUN_BAND_WINDOW finished steps, at
- * least one in PAR_RUN_BAND_SHARE needed the other PE (its local work is
- * done: before, about one in 200 does; after, one in two), at most
- * PAR_RUN_BAND_MAX times, each PAR_RUN_BAND_DEPTH neighbour steps deep. */
+ * the band once its local work is done, which it sees as a window of
+ * PAR_RUN_BAND_WINDOW finished steps of which at least one in
+ * PAR_RUN_BAND_SHARE needed the other PE (before, about one in 200 does,
+ * after, one in two), or as soon as the other PE's half has come. The band
+ * reaches PAR_RUN_BAND_MARGIN neighbour steps past the last bad
+ * tetrahedron met from the interface; a PE gives at most PAR_RUN_BAND_MAX
+ * bands. Measured on cube-in-cube at 10^6, 2 PEs, SCHED_FIFO (margin,
+ * bands: refinement s): 2, 1: 0.48-0.51; 3, 1: 0.44-0.54, median 0.47
+ * of 25; 4, 1: 0.48-0.50; 6, 1: 0.49-0.51; without: 0.57-0.66. A band of
+ * all tetrahedra 10 or 16 steps deep: 0.47-0.52; 24: 0.62-0.70 (150,000
+ * tetrahedra moved); four bands 6 deep: 0.59-0.72. */
 #define PAR_RUN_BAND_WINDOW 256
 #define PAR_RUN_BAND_SHARE 4
-#define PAR_RUN_BAND_MAX 4
-#define PAR_RUN_BAND_DEPTH 6
+#define PAR_RUN_BAND_MAX 1
+#define PAR_RUN_BAND_MARGIN 3
 /* Handler ids used by the parallel refinement (5 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
@@ -187,9 +194,10 @@ typedef struct par_run_opts {
     /* ... and the seconds without a point (0: PAR_RUN_STALL_SECONDS). */
     double stall_seconds;
     /* The interface band (par_band.h): 0 the default (on with 2 PEs,
-     * PAR_RUN_BAND_DEPTH deep), > 0 that depth with 2 PEs, < 0 off. */
+     * PAR_RUN_BAND_MARGIN), > 0 that margin with 2 PEs, < 0 off. */
     int band_depth;
     int band_max;     /* bands a PE gives at most (0: PAR_RUN_BAND_MAX) */
+    int band_share;   /* the trigger's share (0: PAR_RUN_BAND_SHARE) */
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
