@@ -1388,20 +1388,24 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
     return 1;
 }
 
-/* 1 if lock owner lk is a band this PE gives (par_cav_give): a record of
- * its own rank in served. A tetrahedron behind a band that arrives may be
- * held by a cavity in progress (its attempt then meets the band's locks or
- * the moved faces: a setback), but not by a band of this PE, which goes
- * away when its MIGRATE comes (the cut keeps two bands apart, see
- * par_band.h; this is the check). */
-static int own_band(const par_cav_ctx *cc, uint32_t lk)
+/* Marks (on 1) or unmarks the tetrahedra of the bands this PE gives
+ * (par_cav_give) and that have not yet migrated: records in served with
+ * an owner of this PE's own rank. */
+static void mark_own_bands(par_cav_ctx *cc, int on)
 {
-    return lk != 0 && lk >> 20 == cc->s->rank + 1 && rec_find(cc, lk) >= 0;
+    for (size_t i = 0; i < cc->nrecs; i++)
+        if (cc->recs[i].owner && cc->recs[i].owner >> 20 == cc->s->rank + 1)
+            mark_cavity(&cc->s->r.m, &cc->recs[i].part.cav, on);
 }
 
 /* Takes a band another PE gives (par_cav_give): imports it, unlocked,
  * and sends MIGRATE, or ABORT when one of this PE's tetrahedra next to it
- * is held by a band of this PE's own (own_band). */
+ * belongs to a band this PE gives, whose MIGRATE will delete it (the cut
+ * keeps two bands from sharing a face, par_band.h: this is the check).
+ * A tetrahedron next to it may be held by a cavity in progress (that
+ * attempt then meets the band's locks or the moved faces, a setback) or
+ * be in the closure of this PE's own band (its faces towards that band
+ * are repointed, not this one). */
 static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
 {
     par_cav_ctx *cc = arg;
@@ -1434,14 +1438,16 @@ static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
     }
     if (!rc) {
         take = 1;
+        mark_own_bands(cc, 1);
         for (size_t i = 0; i < c->nface && take; i++) {
             const par_cav_face *f = &c->face[i];
             if (f->count == 2 || f->pe == src)
                 continue;
             uint32_t k = f->pe == s->rank ? par_sub_find_iface(s, f->key) : PAR_PE_NONE;
             take = k != PAR_PE_NONE && s->ifc[k].pe == src &&
-                   !own_band(cc, m->lock[tm_ltet(s->ifc[k].local)]);
+                   !(m->flags[tm_ltet(s->ifc[k].local)] & TM_F_CAVITY);
         }
+        mark_own_bands(cc, 0);
     }
     uint8_t out[5];
     pr_store_u32(out + 1, owner);

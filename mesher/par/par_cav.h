@@ -251,7 +251,7 @@ int par_cav_mark_left(par_cav_ctx *cc, uint32_t t);
  * its closure are locked for another PE, and PE to imports them and
  * answers MIGRATE (this PE deletes them, its faces towards them now face
  * PE to) or ABORT (nothing changes) when a tetrahedron of PE to behind
- * the band is held by a band of PE to's own. Returns 1 when sent, 0 when
+ * the band belongs to a band of PE to's own. Returns 1 when sent, 0 when
  * tets break a condition (nothing sent), or a negative code. */
 int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n);
 
