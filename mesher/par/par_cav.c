@@ -1368,15 +1368,31 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
                 rc = push(&pt->held, w);
             }
         }
-    mark_cavity(m, &pt->cav, 0);
     pr_buf b = PR_BUF_INIT;
+    hmap idx = {0}; /* tetrahedron + 1 -> its index in the band */
+    for (size_t i = 0; i < n && !rc; i++)
+        rc = hmap_put(&idx, (uint64_t)tets[i] + 1, (uint32_t)i);
     if (!rc) {
         pr_msg_begin(&b, MSG_BAND);
         pr_put_u32(&b, owner);
         if (put_tets(s, &cc->left, pt->cav.a, pt->cav.n, &b))
             b.err = PR_ENOMEM;
+        /* The band's own adjacency, so that the receiver links it without
+         * matching face keys: for face k of tetrahedron i, 4 j + k' when
+         * face k' of band tetrahedron j is across, else none. */
+        pr_put_u32(&b, (uint32_t)(4 * n));
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 4; k++) {
+                tm_link l = m->tets[tets[i]].n[k];
+                uint32_t j = tm_is_special(l) || !(m->flags[tm_ltet(l)] & TM_F_CAVITY)
+                                 ? HMAP_NONE
+                                 : hmap_get(&idx, (uint64_t)tm_ltet(l) + 1);
+                pr_put_u32(&b, j == HMAP_NONE ? UINT32_MAX : 4 * j + (uint32_t)tm_lface(l));
+            }
         rc = b.err ? PDR_ENOMEM : 0;
     }
+    hmap_free(&idx);
+    mark_cavity(m, &pt->cav, 0);
     if (!rc)
         rc = am_send(cc->am, (int)to, cc->h_band, b.data, b.len);
     pr_buf_free(&b);
@@ -1386,6 +1402,70 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
     }
     cc->st.bands_out++;
     return 1;
+}
+
+/* The face records of a band (import) from the adjacency that follows its
+ * tetrahedra (par_cav_give): a face inside the band once with both sides,
+ * every other face once with the PE across and its key. Returns 0,
+ * PDR_EPARSE (an adjacency that is not symmetric or does not match the
+ * vertices) or PDR_ENOMEM. */
+static int band_faces(par_cav *c, pr_reader *rd)
+{
+    uint32_t na;
+    if (pr_get_count(rd, MAX_CAV_TETS * 4, 4, &na) || na != 4 * c->ngt)
+        return PDR_EPARSE;
+    uint32_t *adj = pr_malloc(((size_t)na + 1) * sizeof *adj);
+    if (!adj)
+        return PDR_ENOMEM;
+    int rc = pr_get_u32_array(rd, adj, na) ? PDR_EPARSE : 0;
+    if (!rc && pdr_grow((void **)&c->face, &c->cap_face, c->nface + na, sizeof *c->face))
+        rc = PDR_ENOMEM;
+    for (uint32_t i = 0; i < c->ngt && !rc; i++) {
+        const par_gtet *g = &c->gt[i];
+        for (int k = 0; k < 4 && !rc; k++) {
+            uint32_t a = adj[4 * i + (uint32_t)k];
+            par_cav_face *f = &c->face[c->nface];
+            memset(f, 0, sizeof *f);
+            f->tet[0] = i;
+            f->face[0] = (uint8_t)k;
+            f->gathered[0] = 1;
+            if (a == UINT32_MAX) {
+                if (g->nbr[k] == PAR_PE_NONE || g->nbr[k] >= c->cc->s->size) {
+                    rc = PDR_ETOPOLOGY;
+                    break;
+                }
+                gathered_key(c, g, k, f->key);
+                f->count = 1;
+                f->pe = g->nbr[k];
+                c->nface++;
+                continue;
+            }
+            uint32_t j = a >> 2;
+            int kk = (int)(a & 3);
+            if (j >= c->ngt || j == i || adj[4 * j + (uint32_t)kk] != 4 * i + (uint32_t)k) {
+                rc = PDR_EPARSE;
+                break;
+            }
+            /* The shared face has the same three vertices on both sides. */
+            uint64_t ki[3], kj[3];
+            gathered_key(c, g, k, ki);
+            gathered_key(c, &c->gt[j], kk, kj);
+            if (!par_key_eq(ki, kj)) {
+                rc = PDR_EPARSE;
+                break;
+            }
+            if (j < i)
+                continue; /* recorded from j */
+            memcpy(f->key, ki, sizeof ki);
+            f->tet[1] = j;
+            f->face[1] = (uint8_t)kk;
+            f->gathered[1] = 1;
+            f->count = 2;
+            c->nface++;
+        }
+    }
+    pr_free(adj);
+    return rc;
 }
 
 /* Marks (on 1) or unmarks the tetrahedra of the bands this PE gives
@@ -1431,10 +1511,10 @@ static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
     if (!rc) {
         reset_attempt(c);
         rc = get_tets(c, &rd, src);
+        if (!rc)
+            rc = band_faces(c, &rd);
         if (!rc && pr_reader_finish(&rd))
             rc = PDR_EPARSE;
-        if (!rc)
-            rc = add_gathered_faces(c, 0);
     }
     if (!rc) {
         take = 1;
