@@ -1322,7 +1322,7 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
 {
     par_sub *s = cc->s;
     tm_mesh *m = &s->r.m;
-    if (!n || to == s->rank || to >= s->size)
+    if (!n || n > PAR_CAV_BAND_MAX || to == s->rank || to >= s->size)
         return 0;
     /* Every tetrahedron and every local neighbour free; every interface
      * face leads to 'to'. */

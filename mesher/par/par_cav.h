@@ -254,6 +254,9 @@ int par_cav_mark_left(par_cav_ctx *cc, uint32_t t);
  * the band belongs to a band of PE to's own. Returns 1 when sent, 0 when
  * tets break a condition (nothing sent), or a negative code. */
 int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n);
+/* The most tetrahedra par_cav_give sends in one band (more: 0, nothing
+ * sent); a receiver decodes up to 4 times as many tetrahedra. */
+#define PAR_CAV_BAND_MAX ((size_t)1 << 20)
 
 /* Releases every lock the thread's last attempt holds on this PE. */
 void par_cav_release(par_cav *c);

@@ -338,6 +338,10 @@ static int give_band(par_run *pr)
     pr->band_tries++;
     pr->band.n = 0;
     int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_depth, &pr->band);
+    /* Any part of a band is one too: the first ones, nearest the
+     * interface, within what a receiver decodes. */
+    if (pr->band.n > PAR_CAV_BAND_MAX)
+        pr->band.n = PAR_CAV_BAND_MAX;
     if (!rc)
         rc = par_cav_give(&pr->cc, other, pr->band.a, pr->band.n);
     if (rc == 1) {
