@@ -533,12 +533,13 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (*end == ',')
             ro_run.stall_seconds = strtod(end + 1, NULL);
     }
-    /* PDR_PAR_BAND=MARGIN[,MAX]: the interface band of 2 PEs (par_run.h,
-     * PAR_RUN_BAND_MARGIN) with that margin and at most MAX bands per PE;
-     * 0 or less: off (for comparisons). */
+    /* PDR_PAR_BAND=MARGIN[,MAX[,SHARE]]: the interface band of 2 PEs
+     * (par_run.h, PAR_RUN_BAND_MARGIN) with that margin, at most MAX
+     * bands per PE, due once 1/SHARE of a window's steps were distributed;
+     * MARGIN 0 or less: off (for comparisons and tests). */
     const char *band = getenv("PDR_PAR_BAND");
     if (band) {
-        ro_run.band_depth = atoi(band) > 0 ? atoi(band) : -1;
+        ro_run.band_margin = atoi(band) > 0 ? atoi(band) : -1;
         const char *comma = strchr(band, ',');
         if (comma)
             ro_run.band_max = atoi(comma + 1);

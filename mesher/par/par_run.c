@@ -51,7 +51,7 @@ typedef struct par_run {
     uint64_t clock_points;  /* pr->points when last_point_at was taken */
     double last_point_at;   /* pdr_now() when a point was last seen */
     /* the interface band (par_band.h; 2 PEs) */
-    int band_depth;         /* 0: off */
+    int band_margin;         /* 0: off */
     par_band_cut cut;
     unsigned win_steps, win_dist; /* finished steps in the window, and
                                      those that needed the other PE */
@@ -337,7 +337,7 @@ static int give_band(par_run *pr)
     pr->band_due = 0;
     pr->band_tries++;
     pr->band.n = 0;
-    int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_depth, &pr->band);
+    int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_margin, &pr->band);
     /* Any part of a band is one too: the first ones, nearest the
      * interface, within what a receiver decodes. */
     if (pr->band.n > PAR_CAV_BAND_MAX)
@@ -438,7 +438,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
             row->steps++;
             if (n != HMAP_NONE)
                 hmap_del(&pr->tries, key, n);
-            if (pr->band_depth)
+            if (pr->band_margin)
                 count_for_band(pr, dist);
             break;
         }
@@ -483,7 +483,7 @@ static int start_work(am_ctx_t *am, void *arg)
         return pr->err = pr->cc.err;
     /* The other PE gave its half: give ours now, while its cavities
      * still find the interface where they left it. */
-    if (pr->band_depth && pr->cc.st.bands_in > 0 && pr->band_tries == 0)
+    if (pr->band_margin && pr->cc.st.bands_in > 0 && pr->band_tries == 0)
         pr->band_due = 1;
     if (pr->band_due) {
         int rc = give_band(pr);
@@ -583,8 +583,8 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     pr->cc.search_flags = ref_cavity_flags(&s->r);
     /* The band's cut, before any PE changes the interface (the barrier
      * below comes first on the other PE too). */
-    if (s->size == 2 && o->band_depth >= 0) {
-        pr->band_depth = o->band_depth > 0 ? o->band_depth : PAR_RUN_BAND_MARGIN;
+    if (s->size == 2 && o->band_margin >= 0) {
+        pr->band_margin = o->band_margin > 0 ? o->band_margin : PAR_RUN_BAND_MARGIN;
         rc = par_band_cut_init(s, 1 - s->rank, &pr->cut);
         if (rc) {
             par_cav_ctx_free(&pr->cc);

@@ -195,7 +195,7 @@ typedef struct par_run_opts {
     double stall_seconds;
     /* The interface band (par_band.h): 0 the default (on with 2 PEs,
      * PAR_RUN_BAND_MARGIN), > 0 that margin with 2 PEs, < 0 off. */
-    int band_depth;
+    int band_margin;
     int band_max;     /* bands a PE gives at most (0: PAR_RUN_BAND_MAX) */
     int band_share;   /* the trigger's share (0: PAR_RUN_BAND_SHARE) */
 } par_run_opts;
