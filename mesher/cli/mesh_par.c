@@ -289,13 +289,14 @@ static void trace_line(void *arg, const par_sub *s, const par_table1 *t)
     pdr_line(stderr,
              "trace PE %u: nv %u live %u | q seg %zu fac %zu tet %zu | pts tet %zu fac %zu "
              "seg %zu miss %zu | steps %llu local %llu dist %llu setbacks %llu in %llu "
-             "out %llu\n",
+             "out %llu bands %llu/%llu %.3f s\n",
              s->rank, r->m.nv, r->m.nlive, r->segq.n - r->segq.head,
              r->facq.n - r->facq.head, r->tetq.n - r->tetq.head, r->st.tet_points,
              r->st.fac_points, r->st.seg_points, r->st.missing_recovered,
              (unsigned long long)t->steps, (unsigned long long)t->cav_local,
              (unsigned long long)t->cav_dist, (unsigned long long)t->setbacks,
-             (unsigned long long)t->tets_in, (unsigned long long)t->tets_out);
+             (unsigned long long)t->tets_in, (unsigned long long)t->tets_out,
+             (unsigned long long)t->bands_out, (unsigned long long)t->bands_in, t->band_s);
 }
 
 /* --------------------------------------------------------- submeshes */
@@ -531,6 +532,19 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
             ro_run.stall_ratio = strtod(end + 1, &end);
         if (*end == ',')
             ro_run.stall_seconds = strtod(end + 1, NULL);
+    }
+    /* PDR_PAR_BAND=MARGIN[,MAX[,SHARE]]: the interface band of 2 PEs
+     * (par_run.h, PAR_RUN_BAND_MARGIN) with that margin, at most MAX
+     * bands per PE, due once 1/SHARE of a window's steps were distributed;
+     * MARGIN 0 or less: off (for comparisons and tests). */
+    const char *band = getenv("PDR_PAR_BAND");
+    if (band) {
+        ro_run.band_margin = atoi(band) > 0 ? atoi(band) : -1;
+        const char *comma = strchr(band, ',');
+        if (comma)
+            ro_run.band_max = atoi(comma + 1);
+        if (comma && (comma = strchr(comma + 1, ',')) != NULL)
+            ro_run.band_share = atoi(comma + 1);
     }
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {

@@ -20,6 +20,7 @@ enum {
     MSG_REPLY = 0x11,
     MSG_MIGRATE = 0x12,
     MSG_ABORT = 0x13,
+    MSG_BAND = 0x14,
 };
 
 /* Reply status. */
@@ -1262,8 +1263,12 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
         if (s->ifc[k].pe != PAR_PE_NONE)
             s->ifc[k].pe = origin;
     }
-    /* Vertex hints that pointed into the cavity: any closure tetrahedron
-     * still holding the vertex, else none (the vertex left this PE). */
+    /* Vertex hints that pointed into the cavity: the first closure
+     * tetrahedron (in held order) still holding the vertex, else none (the
+     * vertex left this PE). One pass over held for all of them: a band
+     * (par_cav_give) has thousands of tetrahedra. */
+    hmap lost = {0}; /* vertex + 1 -> 1: its hint pointed into the cavity */
+    int lost_err = 0;
     for (size_t i = 0; i < pt->cav.n; i++) {
         const uint32_t *v = m->tets[pt->cav.a[i]].v;
         for (int k = 0; k < 4; k++) {
@@ -1271,16 +1276,22 @@ static void on_migrate(am_ctx_t *am, const am_msg_t *msg, void *arg)
             if (x == TM_VINF || m->vhint[x] == TM_NONE || !tm_is_dead(m, m->vhint[x]))
                 continue;
             m->vhint[x] = TM_NONE;
-            for (size_t j = 0; j < pt->held.n; j++) {
-                uint32_t w = pt->held.a[j];
-                const uint32_t *wv = m->tets[w].v;
-                if (!tm_is_dead(m, w) && (wv[0] == x || wv[1] == x || wv[2] == x || wv[3] == x)) {
-                    m->vhint[x] = w;
-                    break;
-                }
-            }
+            if (hmap_put(&lost, (uint64_t)x + 1, 1))
+                lost_err = 1;
         }
     }
+    for (size_t j = 0; j < pt->held.n && lost.n; j++) {
+        uint32_t w = pt->held.a[j];
+        if (tm_is_dead(m, w))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            uint32_t x = m->tets[w].v[k];
+            if (x != TM_VINF && m->vhint[x] == TM_NONE &&
+                (lost_err || hmap_get(&lost, (uint64_t)x + 1) != HMAP_NONE))
+                m->vhint[x] = w;
+        }
+    }
+    hmap_free(&lost);
     for (size_t i = 0; i < facs.n; i++)
         if (!(s->r.bd.facs[facs.a[i]].flags & BD_F_DEAD))
             bd_kill_subfac(&s->r.bd, facs.a[i]);
@@ -1305,6 +1316,236 @@ static void on_abort(am_ctx_t *am, const am_msg_t *msg, void *arg)
         rec_drop(cc, (uint32_t)idx);
 }
 
+/* ------------------------------------------------------------ bands */
+
+int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
+{
+    par_sub *s = cc->s;
+    tm_mesh *m = &s->r.m;
+    if (!n || n > PAR_CAV_BAND_MAX || to == s->rank || to >= s->size)
+        return 0;
+    /* Every tetrahedron and every local neighbour free; every interface
+     * face leads to 'to'. */
+    for (size_t i = 0; i < n; i++) {
+        uint32_t t = tets[i];
+        if (t >= m->nslots || tm_is_dead(m, t) || m->lock[t] ||
+            (m->flags[t] & TM_F_CAVITY))
+            return 0;
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[t].n[k];
+            if (l == TM_LINK_NONE || l == TM_LINK_UNSET)
+                return 0;
+            if (tm_is_special(l) ? s->ifc[l - TM_LINK_SPECIAL].pe != to
+                                 : m->lock[tm_ltet(l)] != 0)
+                return 0;
+        }
+    }
+    uint32_t owner = new_owner(cc), ri;
+    int rc = rec_new(cc, owner, to, &ri);
+    if (rc)
+        return rc;
+    par_part *pt = &cc->recs[ri].part;
+    for (size_t i = 0; i < n && !rc; i++) {
+        m->lock[tets[i]] = owner;
+        rc = push(&pt->cav, tets[i]);
+        if (!rc)
+            rc = push(&pt->held, tets[i]);
+    }
+    /* The closure: the faces of local tetrahedra outside the band that
+     * face it will face 'to' (on_migrate). */
+    mark_cavity(m, &pt->cav, 1);
+    for (size_t i = 0; i < n && !rc; i++)
+        for (int k = 0; k < 4 && !rc; k++) {
+            tm_link l = m->tets[tets[i]].n[k];
+            if (tm_is_special(l))
+                continue;
+            uint32_t w = tm_ltet(l);
+            if (m->flags[w] & TM_F_CAVITY)
+                continue;
+            rc = push(&pt->repoint, l);
+            if (!rc && m->lock[w] != owner) {
+                m->lock[w] = owner;
+                rc = push(&pt->held, w);
+            }
+        }
+    pr_buf b = PR_BUF_INIT;
+    hmap idx = {0}; /* tetrahedron + 1 -> its index in the band */
+    for (size_t i = 0; i < n && !rc; i++)
+        rc = hmap_put(&idx, (uint64_t)tets[i] + 1, (uint32_t)i);
+    if (!rc) {
+        pr_msg_begin(&b, MSG_BAND);
+        pr_put_u32(&b, owner);
+        if (put_tets(s, &cc->left, pt->cav.a, pt->cav.n, &b))
+            b.err = PR_ENOMEM;
+        /* The band's own adjacency, so that the receiver links it without
+         * matching face keys: for face k of tetrahedron i, 4 j + k' when
+         * face k' of band tetrahedron j is across, else none. */
+        pr_put_u32(&b, (uint32_t)(4 * n));
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 4; k++) {
+                tm_link l = m->tets[tets[i]].n[k];
+                uint32_t j = tm_is_special(l) || !(m->flags[tm_ltet(l)] & TM_F_CAVITY)
+                                 ? HMAP_NONE
+                                 : hmap_get(&idx, (uint64_t)tm_ltet(l) + 1);
+                pr_put_u32(&b, j == HMAP_NONE ? UINT32_MAX : 4 * j + (uint32_t)tm_lface(l));
+            }
+        rc = b.err ? PDR_ENOMEM : 0;
+    }
+    hmap_free(&idx);
+    mark_cavity(m, &pt->cav, 0);
+    if (!rc)
+        rc = am_send(cc->am, (int)to, cc->h_band, b.data, b.len);
+    pr_buf_free(&b);
+    if (rc) {
+        rec_drop(cc, ri);
+        return rc < 0 ? rc : PDR_ENOMEM;
+    }
+    cc->st.bands_out++;
+    return 1;
+}
+
+/* The face records of a band (import) from the adjacency that follows its
+ * tetrahedra (par_cav_give): a face inside the band once with both sides,
+ * every other face once with the PE across and its key. Returns 0,
+ * PDR_EPARSE (an adjacency that is not symmetric or does not match the
+ * vertices) or PDR_ENOMEM. */
+static int band_faces(par_cav *c, pr_reader *rd)
+{
+    uint32_t na;
+    if (pr_get_count(rd, MAX_CAV_TETS * 4, 4, &na) || na != 4 * c->ngt)
+        return PDR_EPARSE;
+    uint32_t *adj = pr_malloc(((size_t)na + 1) * sizeof *adj);
+    if (!adj)
+        return PDR_ENOMEM;
+    int rc = pr_get_u32_array(rd, adj, na) ? PDR_EPARSE : 0;
+    if (!rc && pdr_grow((void **)&c->face, &c->cap_face, c->nface + na, sizeof *c->face))
+        rc = PDR_ENOMEM;
+    for (uint32_t i = 0; i < c->ngt && !rc; i++) {
+        const par_gtet *g = &c->gt[i];
+        for (int k = 0; k < 4 && !rc; k++) {
+            uint32_t a = adj[4 * i + (uint32_t)k];
+            par_cav_face *f = &c->face[c->nface];
+            memset(f, 0, sizeof *f);
+            f->tet[0] = i;
+            f->face[0] = (uint8_t)k;
+            f->gathered[0] = 1;
+            if (a == UINT32_MAX) {
+                if (g->nbr[k] == PAR_PE_NONE || g->nbr[k] >= c->cc->s->size) {
+                    rc = PDR_ETOPOLOGY;
+                    break;
+                }
+                gathered_key(c, g, k, f->key);
+                f->count = 1;
+                f->pe = g->nbr[k];
+                c->nface++;
+                continue;
+            }
+            uint32_t j = a >> 2;
+            int kk = (int)(a & 3);
+            if (j >= c->ngt || j == i || adj[4 * j + (uint32_t)kk] != 4 * i + (uint32_t)k) {
+                rc = PDR_EPARSE;
+                break;
+            }
+            /* The shared face has the same three vertices on both sides. */
+            uint64_t ki[3], kj[3];
+            gathered_key(c, g, k, ki);
+            gathered_key(c, &c->gt[j], kk, kj);
+            if (!par_key_eq(ki, kj)) {
+                rc = PDR_EPARSE;
+                break;
+            }
+            if (j < i)
+                continue; /* recorded from j */
+            memcpy(f->key, ki, sizeof ki);
+            f->tet[1] = j;
+            f->face[1] = (uint8_t)kk;
+            f->gathered[1] = 1;
+            f->count = 2;
+            c->nface++;
+        }
+    }
+    pr_free(adj);
+    return rc;
+}
+
+/* Marks (on 1) or unmarks the tetrahedra of the bands this PE gives
+ * (par_cav_give) and that have not yet migrated: records in served with
+ * an owner of this PE's own rank. */
+static void mark_own_bands(par_cav_ctx *cc, int on)
+{
+    for (size_t i = 0; i < cc->nrecs; i++)
+        if (cc->recs[i].owner && cc->recs[i].owner >> 20 == cc->s->rank + 1)
+            mark_cavity(&cc->s->r.m, &cc->recs[i].part.cav, on);
+}
+
+/* Takes a band another PE gives (par_cav_give): imports it, unlocked,
+ * and sends MIGRATE, or ABORT when one of this PE's tetrahedra next to it
+ * belongs to a band this PE gives, whose MIGRATE will delete it (the cut
+ * keeps two bands from sharing a face, par_band.h: this is the check).
+ * A tetrahedron next to it may be held by a cavity in progress (that
+ * attempt then meets the band's locks or the moved faces, a setback) or
+ * be in the closure of this PE's own band (its faces towards that band
+ * are repointed, not this one). */
+static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
+{
+    par_cav_ctx *cc = arg;
+    par_sub *s = cc->s;
+    tm_mesh *m = &s->r.m;
+    pr_reader rd;
+    uint32_t owner, src = (uint32_t)msg->src;
+    pr_msg_open(&rd, msg->data, msg->len, MSG_BAND);
+    pr_get_u32(&rd, &owner);
+    if (rd.err || owner == 0)
+        return;
+    am_time_begin(am, cc->cat_service);
+    int rc = 0;
+    if (!cc->band) {
+        cc->band = pr_calloc(1, sizeof *cc->band);
+        if (!cc->band)
+            rc = PDR_ENOMEM;
+        else
+            par_cav_init(cc->band, cc);
+    }
+    par_cav *c = cc->band;
+    int take = 0;
+    if (!rc) {
+        reset_attempt(c);
+        rc = get_tets(c, &rd, src);
+        if (!rc)
+            rc = band_faces(c, &rd);
+        if (!rc && pr_reader_finish(&rd))
+            rc = PDR_EPARSE;
+    }
+    if (!rc) {
+        take = 1;
+        mark_own_bands(cc, 1);
+        for (size_t i = 0; i < c->nface && take; i++) {
+            const par_cav_face *f = &c->face[i];
+            if (f->count == 2 || f->pe == src)
+                continue;
+            uint32_t k = f->pe == s->rank ? par_sub_find_iface(s, f->key) : PAR_PE_NONE;
+            take = k != PAR_PE_NONE && s->ifc[k].pe == src &&
+                   !(m->flags[tm_ltet(s->ifc[k].local)] & TM_F_CAVITY);
+        }
+        mark_own_bands(cc, 0);
+    }
+    uint8_t out[5];
+    pr_store_u32(out + 1, owner);
+    if (take) {
+        c->owner = new_owner(cc);
+        rc = import(c);
+        par_cav_release(c);
+        if (!rc)
+            cc->st.bands_in++;
+    }
+    if (rc && !cc->err)
+        cc->err = rc; /* a band half imported: the run stops */
+    out[0] = (uint8_t)(take && !rc ? MSG_MIGRATE : MSG_ABORT);
+    if (!rc || !take)
+        am_send(am, (int)src, take ? cc->h_migrate : cc->h_abort, out, sizeof out);
+    am_time_end(am, cc->cat_service);
+}
+
 /* ------------------------------------------------------------ set-up */
 
 int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
@@ -1317,6 +1558,7 @@ int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
     cc->h_reply = base + 1;
     cc->h_migrate = base + 2;
     cc->h_abort = base + 3;
+    cc->h_band = base + 4;
     dt_cavity_init(&cc->scratch);
     int rc = am_register(am, cc->h_gather, "cavity-gather", on_gather, cc);
     if (!rc)
@@ -1325,6 +1567,8 @@ int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base)
         rc = am_register(am, cc->h_migrate, "cavity-migrate", on_migrate, cc);
     if (!rc)
         rc = am_register(am, cc->h_abort, "cavity-abort", on_abort, cc);
+    if (!rc)
+        rc = am_register(am, cc->h_band, "cavity-band", on_band, cc);
     if (!rc) {
         cc->cat_service = am_category(am, "cavity_service");
         if (cc->cat_service < 0)
@@ -1343,6 +1587,10 @@ void par_cav_ctx_free(par_cav_ctx *cc)
     hmap_free(&cc->served);
     hmap_free(&cc->left);
     dt_cavity_free(&cc->scratch);
+    if (cc->band) {
+        par_cav_free(cc->band);
+        pr_free(cc->band);
+    }
     memset(cc, 0, sizeof *cc);
 }
 

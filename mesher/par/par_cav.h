@@ -175,13 +175,14 @@ typedef struct par_cav_stats {
     uint64_t tets_in, tets_out; /* tetrahedra imported / migrated away */
     uint64_t served;          /* GATHER requests served */
     uint64_t too_big;         /* attempts given up past max_import */
+    uint64_t bands_out, bands_in; /* bands given (sent) and taken */
 } par_cav_stats;
 
 /* Per-PE protocol state: handlers, the participant-side records. */
 typedef struct par_cav_ctx {
     am_ctx_t *am;
     par_sub *s;
-    unsigned h_gather, h_reply, h_migrate, h_abort;
+    unsigned h_gather, h_reply, h_migrate, h_abort, h_band;
     uint32_t seq;        /* counter for owner ids */
     hmap origin;         /* owner -> index into cavs (waiting threads) */
     par_cav **cavs;
@@ -212,9 +213,13 @@ typedef struct par_cav_ctx {
     void (*on_resume)(void *arg, struct par_cav *c);
     void *hook_arg;
     par_cav_stats st;
+    struct par_cav *band; /* decoding a band another PE gives (on_band);
+                            allocated on the first */
+    int err;             /* a handler's failure that ends the run (a band
+                            half imported), 0 none */
 } par_cav_ctx;
 
-/* Registers the protocol's handlers (ids base .. base+3) on this PE. Call
+/* Registers the protocol's handlers (ids base .. base+4) on this PE. Call
  * on every PE after am_init, before any PE starts refining. s must outlive
  * cc. Returns 0 or a negative code. */
 int par_cav_ctx_init(par_cav_ctx *cc, am_ctx_t *am, par_sub *s, unsigned base);
@@ -238,6 +243,20 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
  * cavity that migrates it takes it as left, not as work to queue (see
  * proto/PROTOCOL.md, Reply). Returns 0 or PDR_ENOMEM. */
 int par_cav_mark_left(par_cav_ctx *cc, uint32_t t);
+
+/* Hands tetrahedra tets[0..n-1] of this PE (distinct, live, free of
+ * locks, their local neighbours free, their interface faces all to PE to)
+ * to PE to in one BAND message, as a cavity migrates but with no point to
+ * insert: this PE locks them and their local neighbours as a cavity and
+ * its closure are locked for another PE, and PE to imports them and
+ * answers MIGRATE (this PE deletes them, its faces towards them now face
+ * PE to) or ABORT (nothing changes) when a tetrahedron of PE to behind
+ * the band belongs to a band of PE to's own. Returns 1 when sent, 0 when
+ * tets break a condition (nothing sent), or a negative code. */
+int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n);
+/* The most tetrahedra par_cav_give sends in one band (more: 0, nothing
+ * sent); a receiver decodes up to 4 times as many tetrahedra. */
+#define PAR_CAV_BAND_MAX ((size_t)1 << 20)
 
 /* Releases every lock the thread's last attempt holds on this PE. */
 void par_cav_release(par_cav *c);

@@ -9,6 +9,7 @@
 
 #include "pr_alloc.h"
 #include "base/pdr_util.h"
+#include "par/par_band.h"
 #include "par/par_run.h"
 #include "par/par_verify.h"
 
@@ -49,6 +50,14 @@ typedef struct par_run {
     uint64_t seen_in;       /* cc.st.tets_in already counted as work */
     uint64_t clock_points;  /* pr->points when last_point_at was taken */
     double last_point_at;   /* pdr_now() when a point was last seen */
+    /* the interface band (par_band.h; 2 PEs) */
+    int band_margin;         /* 0: off */
+    par_band_cut cut;
+    unsigned win_steps, win_dist; /* finished steps in the window, and
+                                     those that needed the other PE */
+    int band_due;           /* give a band at the next start_work */
+    unsigned band_tries;    /* bands picked (given or found empty) */
+    par_u32list band;       /* scratch */
 } par_run;
 
 static uint64_t item_key(int kind, uint32_t id)
@@ -306,6 +315,44 @@ static int stalled(par_run *pr, double now)
     return 0;
 }
 
+/* Counts a finished step for the band's trigger (PAR_RUN_BAND_WINDOW). */
+static void count_for_band(par_run *pr, int dist)
+{
+    pr->win_steps++;
+    pr->win_dist += dist != 0;
+    if (pr->win_steps < PAR_RUN_BAND_WINDOW)
+        return;
+    unsigned share = pr->o.band_share > 0 ? (unsigned)pr->o.band_share : PAR_RUN_BAND_SHARE;
+    if (pr->win_dist * share >= pr->win_steps &&
+        pr->band_tries < (unsigned)(pr->o.band_max > 0 ? pr->o.band_max : PAR_RUN_BAND_MAX))
+        pr->band_due = 1;
+    pr->win_steps = pr->win_dist = 0;
+}
+
+/* Gives this PE's half of the interface band to the other PE (2 PEs). */
+static int give_band(par_run *pr)
+{
+    double t0 = pdr_now();
+    uint32_t other = 1 - pr->s->rank;
+    pr->band_due = 0;
+    pr->band_tries++;
+    pr->band.n = 0;
+    int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_margin, &pr->band);
+    /* Any part of a band is one too: the first ones, nearest the
+     * interface, within what a receiver decodes. */
+    if (pr->band.n > PAR_CAV_BAND_MAX)
+        pr->band.n = PAR_CAV_BAND_MAX;
+    if (!rc)
+        rc = par_cav_give(&pr->cc, other, pr->band.a, pr->band.n);
+    if (rc == 1) {
+        pr->row->bands_out++;
+        pr->row->band_tets += pr->band.n;
+        rc = 0;
+    }
+    pr->row->band_s += pdr_now() - t0;
+    return rc;
+}
+
 /* A bad tetrahedron whose step gave up a cavity too large to migrate
  * (PAR_RUN_MAX_IMPORT) is left for the merge, as one whose split lies on
  * another PE is (ref_hooks.left). Returns 0 or PDR_ENOMEM. */
@@ -391,6 +438,8 @@ static void refine_thread(am_ctx_t *am, void *arg)
             row->steps++;
             if (n != HMAP_NONE)
                 hmap_del(&pr->tries, key, n);
+            if (pr->band_margin)
+                count_for_band(pr, dist);
             break;
         }
         row->setback_s += it->work;
@@ -430,6 +479,17 @@ static int start_work(am_ctx_t *am, void *arg)
         return pr->err;
     if (check_sub(pr, "between steps"))
         return pr->err = PDR_ETOPOLOGY;
+    if (pr->cc.err)
+        return pr->err = pr->cc.err;
+    /* The other PE gave its half: give ours now, while its cavities
+     * still find the interface where they left it. */
+    if (pr->band_margin && pr->cc.st.bands_in > 0 && pr->band_tries == 0)
+        pr->band_due = 1;
+    if (pr->band_due) {
+        int rc = give_band(pr);
+        if (rc < 0)
+            return pr->err = rc;
+    }
     if (pr->o.progress) {
         double now = pdr_now();
         if (now >= pr->next_progress) {
@@ -438,6 +498,7 @@ static int start_work(am_ctx_t *am, void *arg)
             pr->row->cav_dist = pr->cc.st.gathers_dist;
             pr->row->tets_in = pr->cc.st.tets_in;
             pr->row->tets_out = pr->cc.st.tets_out;
+            pr->row->bands_in = pr->cc.st.bands_in;
             pr->o.progress(pr->o.progress_arg, pr->s, pr->row);
         }
     }
@@ -520,6 +581,17 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         pr->hooks.busy = hook_busy;
     pr->hooks.arg = pr;
     pr->cc.search_flags = ref_cavity_flags(&s->r);
+    /* The band's cut, before any PE changes the interface (the barrier
+     * below comes first on the other PE too). */
+    if (s->size == 2 && o->band_margin >= 0) {
+        pr->band_margin = o->band_margin > 0 ? o->band_margin : PAR_RUN_BAND_MARGIN;
+        rc = par_band_cut_init(s, 1 - s->rank, &pr->cut);
+        if (rc) {
+            par_cav_ctx_free(&pr->cc);
+            pr_free(pr);
+            return rc;
+        }
+    }
     s->r.hooks = &pr->hooks;
     /* The order of the bad tetrahedra (o->order). Newest first
      * everywhere (the sequential default, for the cache) makes a PE next
@@ -575,11 +647,13 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->peak_rss = pdr_peak_rss();
     row->work = pr->work;
     row->points = pr->points;
+    row->bands_in = pr->cc.st.bands_in;
     if (rc && pr->nthreads > 0)
         return rc; /* see par_run.h: the state stays for the handlers */
     s->r.hooks = NULL;
     s->r.o.order = order;
     hmap_free(&pr->tries);
+    pr_free(pr->band.a);
     while (pr->free_items) {
         par_item *it = pr->free_items;
         pr->free_items = it->next_free;

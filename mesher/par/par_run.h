@@ -104,7 +104,23 @@
  * run inserts a point every few milliseconds, under injected latency
  * too. */
 #define PAR_RUN_STALL_SECONDS 60.0
-/* Handler ids used by the parallel refinement (4 of them from here). */
+/* The interface band of a 2-PE run (par_band.h): a PE gives its half of
+ * the band once its local work is done, which it sees as a window of
+ * PAR_RUN_BAND_WINDOW finished steps of which at least one in
+ * PAR_RUN_BAND_SHARE needed the other PE (before, about one in 200 does,
+ * after, one in two), or as soon as the other PE's half has come. The band
+ * reaches PAR_RUN_BAND_MARGIN neighbour steps past the last bad
+ * tetrahedron met from the interface; a PE gives at most PAR_RUN_BAND_MAX
+ * bands. Measured on cube-in-cube at 10^6, 2 PEs, SCHED_FIFO (margin,
+ * bands: refinement s): 2, 1: 0.48-0.51; 3, 1: 0.44-0.54, median 0.47
+ * of 25; 4, 1: 0.48-0.50; 6, 1: 0.49-0.51; without: 0.57-0.66. A band of
+ * all tetrahedra 10 or 16 steps deep: 0.47-0.52; 24: 0.62-0.70 (150,000
+ * tetrahedra moved); four bands 6 deep: 0.59-0.72. */
+#define PAR_RUN_BAND_WINDOW 256
+#define PAR_RUN_BAND_SHARE 4
+#define PAR_RUN_BAND_MAX 1
+#define PAR_RUN_BAND_MARGIN 3
+/* Handler ids used by the parallel refinement (5 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
 /* One PE's Table 1 row and counts. */
@@ -141,6 +157,9 @@ typedef struct par_table1 {
     uint64_t work;           /* units of work of the whole run */
     uint64_t points;         /* points this PE inserted */
     uint64_t too_big;        /* cavities given up past PAR_RUN_MAX_IMPORT */
+    uint64_t bands_out, bands_in; /* bands given and taken (par_band.h) */
+    uint64_t band_tets;      /* tetrahedra in the bands given */
+    double band_s;           /* picking and sending them (wall clock) */
     int point_limit;         /* 1: stopped after s->r.o.max_points points
                                 (of this PE alone: a bound for the job) */
     int stalled;             /* 1: stopped by the bound, after stall_work
@@ -174,6 +193,11 @@ typedef struct par_run_opts {
     double stall_window, stall_ratio;
     /* ... and the seconds without a point (0: PAR_RUN_STALL_SECONDS). */
     double stall_seconds;
+    /* The interface band (par_band.h): 0 the default (on with 2 PEs,
+     * PAR_RUN_BAND_MARGIN), > 0 that margin with 2 PEs, < 0 off. */
+    int band_margin;
+    int band_max;     /* bands a PE gives at most (0: PAR_RUN_BAND_MAX) */
+    int band_share;   /* the trigger's share (0: PAR_RUN_BAND_SHARE) */
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
@@ -184,7 +208,7 @@ double par_table1_tolerance_wall(const par_table1 *t);
 
 /* Runs the parallel refinement of s on this PE until every PE is done.
  * Collective: every PE of am calls it once, after registering nothing
- * else under the handler ids PAR_RUN_HANDLER_BASE..+3. The submesh must
+ * else under the handler ids PAR_RUN_HANDLER_BASE..+4. The submesh must
  * have its work queued (ref_queue_all_tets, ref_queue_boundary). Fills
  * *row. Returns 0 or a negative code (PDR_E* or AM_E*). After a failure
  * cavity threads may still be blocked and the protocol's handlers stay
