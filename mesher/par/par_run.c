@@ -539,6 +539,18 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     /* The refinement's bound on splits of missing pieces, from now on
      * this PE (refine.h, REF_RECOVERY_PER_VERTEX). */
     ref_bound_recovery(&s->r);
+    /* The PEs run the quality refinement (the bad tetrahedra too), as
+     * ref_run(r, 1) does sequentially; its rules for that stage depend
+     * on the flag (refine_run.c, stuck_past_bound: the bound on the
+     * subsegment splits that faces no flip mends ask for). Without it a
+     * PE went on splitting those subsegments with no bound: on CAD
+     * surfaces (pinion_small.off) the points piled up along segments in
+     * thin space, with tens of thousands of tetrahedra between them,
+     * each step slower, and the parallel run crawled where the
+     * sequential one takes 0.1 s. Each PE has the bound once (its own
+     * ref_stats.stuck_quality). */
+    int refining = s->r.refining;
+    s->r.refining = 1;
 
     am_stats_t a0, a1;
     /* Every PE has its handlers before anyone sends. */
@@ -579,6 +591,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         return rc; /* see par_run.h: the state stays for the handlers */
     s->r.hooks = NULL;
     s->r.o.order = order;
+    s->r.refining = refining;
     hmap_free(&pr->tries);
     while (pr->free_items) {
         par_item *it = pr->free_items;
