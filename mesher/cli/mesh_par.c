@@ -340,13 +340,31 @@ static int write_submesh(const par_sub *s, const char *base)
  * size of Mo; t[0] when the conforming mesh is done, t[1] when Mo is,
  * t[2] when it is partitioned into submeshes. Returns 0 or a code (its
  * message printed). */
-static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets,
-                   double t[3])
+static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int size, pr_buf *msg,
+                   size_t *mo_tets, double t[3])
 {
     mp_opts *o = &c->o;
     int rc = mp_read(c);
+    int read = !rc;
     if (!rc)
         rc = mp_initial_mesh(c);
+    if (rc && rc != PDR_ENOMEM && read && c->fm.bent_facets) {
+        /* As the sequential pipeline does (cmd_mesh.c, run_pipeline):
+         * when the initial mesh fails with near-planar facets, it is made
+         * again with exact facets (TR12J_OCC.stl's recovery fails with
+         * them). The options as given: the stages wrote into c->o. Only
+         * rank 0's stages are retried: the PEs get the PLC that meshed. */
+        mp_opts retry = *given;
+        retry.facet_tol = 0;
+        if (!retry.quiet)
+            printf("near-planar facets: the mesh failed with them; meshing again with exact "
+                   "facets\n");
+        mp_free(c);
+        mp_init(c, &retry);
+        rc = mp_read(c);
+        if (!rc)
+            rc = mp_initial_mesh(c);
+    }
     if (rc)
         return rc;
     t[0] = pdr_now();
@@ -459,7 +477,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     if (rank == 0) {
         pr_buf *msg = pr_calloc((size_t)size, sizeof *msg);
-        int prc = msg ? prepare(&c, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
+        int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
