@@ -336,6 +336,24 @@ static int write_submesh(const par_sub *s, const char *base)
 
 /* ---------------------------------------------------------- the run */
 
+/* Rank 0, before Mo is partitioned: drops the mark of rank 0's queue of
+ * bad tetrahedra (TM_F_QUEUED) from Mo. The mark travels with a
+ * tetrahedron (PAR_WIRE_TFLAGS), where it means "left for the merge"
+ * (refine_run.c, leave_to_merge), and a PE does not queue a tetrahedron
+ * that has it (ref_queue_all_tets): but the queue itself stays here. A
+ * Mo whose recovery went on after its classification (points on
+ * segments of near-planar facets: pinion.off, 22,000 of its 24,000
+ * tetrahedra marked) reached the PEs with its bad tetrahedra marked and
+ * queued nowhere: they were never split there, and the cavities of
+ * their neighbours' splits grew over them, past what a PE imports, each
+ * such step slower than the last. */
+static void mo_unqueue(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+}
+
 /* Rank 0: the job messages (PLC, options, each PE's submesh), and the
  * size of Mo; t[0] when the conforming mesh is done, t[1] when Mo is,
  * t[2] when it is partitioned into submeshes. Returns 0 or a code (its
@@ -382,6 +400,7 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
         }
     }
     *mo_tets = ref_interior_tets(&c->r);
+    mo_unqueue(&c->r);
     t[1] = pdr_now();
     uint32_t parts = po->parts ? po->parts : (uint32_t)size;
     par_decomp d;
