@@ -603,9 +603,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         fprintf(stderr,
                 "pdr mesh: PE %d: the parallel refinement makes no progress: its last %llu "
                 "units of work (%d per cavity attempt, 1 per tetrahedron migrated in or "
-                "created) inserted %llu points, fewer than one per %g units (cavities moved "
+                "created, 1 per %g s of an attempt's compute time) inserted %llu points, fewer than one per %g units (cavities moved "
                 "between PEs or failing over and over); stopped\n",
-                rank, (unsigned long long)row.stall_work, PAR_RUN_WORK_ATTEMPT,
+                rank, (unsigned long long)row.stall_work, PAR_RUN_WORK_ATTEMPT, PAR_RUN_WORK_UNIT_S,
                 (unsigned long long)row.stall_points,
                 ro_run.stall_ratio > 0 ? ro_run.stall_ratio : PAR_RUN_STALL_RATIO);
         fflush(stderr);

@@ -273,13 +273,14 @@ static int past_point_limit(par_run *pr)
     return 1;
 }
 
-/* Counts an attempt at an item and the tetrahedra imported since the
- * last call as work, and checks the progress bound (PAR_RUN_STALL_WINDOW),
+/* Counts an attempt at an item, its compute time work_s
+ * (PAR_RUN_WORK_UNIT_S) and the tetrahedra imported since the last call
+ * as work, and checks the progress bound (PAR_RUN_STALL_WINDOW),
  * and its leg on the clock at now (the attempt's end, read by
  * segment_end: PAR_RUN_STALL_SECONDS): 1 when the stretch that just ended
  * inserted too few points, or no point came for too long (the figures go
  * to the row), else 0. */
-static int stalled(par_run *pr, double now)
+static int stalled(par_run *pr, double now, double work_s)
 {
     if (pr->points != pr->clock_points) {
         pr->clock_points = pr->points;
@@ -290,7 +291,8 @@ static int stalled(par_run *pr, double now)
         pr->row->stall_points = 0;
         return 1;
     }
-    pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in);
+    pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in) +
+                (uint64_t)(work_s / PAR_RUN_WORK_UNIT_S);
     pr->seen_in = pr->cc.st.tets_in;
     uint64_t w = pr->work - pr->win_work, pts = pr->points - pr->win_points;
     if ((double)w < pr->o.stall_window)
@@ -369,7 +371,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
                 pr->err = rc;
             break;
         }
-        if (stalled(pr, it->seg_wall) || past_point_limit(pr)) {
+        if (stalled(pr, it->seg_wall, it->work) || past_point_limit(pr)) {
             if (!pr->err)
                 pr->err = PDR_ELIMIT;
             break;
