@@ -11,7 +11,10 @@
 # exit 77, without the package):
 #  - pdr mesh -n 2 exits 0 within 120 s (the sequential run takes 0.1 s;
 #    the bound is for loaded machines, not a timing);
-#  - the mesh has at most three times the sequential mesh's tetrahedra;
+#  - the mesh has at most 1.5 times the sequential mesh's tetrahedra
+#    (33,725): 38,700-41,600 in six runs; 57,700-61,900 in runs with
+#    the PEs' queues fixed but not their refining flag, whose splits
+#    then still run on (main runs past the progress bound);
 #  - pdr check --plc IN --max-ratio 2 finds nothing but what the summary
 #    reports (faces not locally Delaunay, as many as it says; tetrahedra
 #    above ratio 2, no more than it says), as for the sequential mesh.
@@ -33,7 +36,7 @@ timeout 120 "$PDR" mesh -n 2 --facet-tol 0 -o "$tmp/par" "$in" >"$tmp/par.out" 2
 rc=$?
 [ "$rc" -eq 0 ] || { tail -n 5 "$tmp/par.out"; fail "2 PEs: pdr mesh -n 2 exited $rc"; }
 cad_tets par "$tmp/par.out"
-[ "$nt" -le $((3 * nseq)) ] || fail "2 PEs: $nt tetrahedra, sequentially $nseq"
+[ $((2 * nt)) -le $((3 * nseq)) ] || fail "2 PEs: $nt tetrahedra, sequentially $nseq"
 cad_check par "$in" "$tmp/par" "$tmp/par.out" --facet-tol 0
 cad_check_cover par "$tmp/par" "$tmp/par.out"
 echo "pinion_small on 2 PEs: $nt tetrahedra (sequentially $nseq), $nd faces not locally Delaunay"
