@@ -337,17 +337,53 @@ static int write_submesh(const par_sub *s, const char *base)
 
 /* ---------------------------------------------------------- the run */
 
+/* Rank 0, before Mo is partitioned: drops the mark of rank 0's queue of
+ * bad tetrahedra (TM_F_QUEUED) from Mo. The mark travels with a
+ * tetrahedron (PAR_WIRE_TFLAGS), where it means "left for the merge"
+ * (refine_run.c, leave_to_merge), and a PE does not queue a tetrahedron
+ * that has it (ref_queue_all_tets): but the queue itself stays here. A
+ * Mo whose recovery went on after its classification (points on
+ * segments of near-planar facets: pinion.off, 22,000 of its 24,000
+ * tetrahedra marked) reached the PEs with its bad tetrahedra marked and
+ * queued nowhere: they were never split there, and the cavities of
+ * their neighbours' splits grew over them, past what a PE imports, each
+ * such step slower than the last. */
+static void mo_unqueue(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+}
+
 /* Rank 0: the job messages (PLC, options, each PE's submesh), and the
  * size of Mo; t[0] when the conforming mesh is done, t[1] when Mo is,
  * t[2] when it is partitioned into submeshes. Returns 0 or a code (its
  * message printed). */
-static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t *mo_tets,
-                   double t[3])
+static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int size, pr_buf *msg,
+                   size_t *mo_tets, double t[3])
 {
     mp_opts *o = &c->o;
     int rc = mp_read(c);
+    int read = !rc;
     if (!rc)
         rc = mp_initial_mesh(c);
+    if (rc && rc != PDR_ENOMEM && read && c->fm.bent_facets) {
+        /* As the sequential pipeline does (cmd_mesh.c, run_pipeline):
+         * when the initial mesh fails with near-planar facets, it is made
+         * again with exact facets (TR12J_OCC.stl's recovery fails with
+         * them). The options as given: the stages wrote into c->o. Only
+         * rank 0's stages are retried: the PEs get the PLC that meshed. */
+        mp_opts retry = *given;
+        retry.facet_tol = 0;
+        if (!retry.quiet)
+            printf("near-planar facets: the mesh failed with them; meshing again with exact "
+                   "facets\n");
+        mp_free(c);
+        mp_init(c, &retry);
+        rc = mp_read(c);
+        if (!rc)
+            rc = mp_initial_mesh(c);
+    }
     if (rc)
         return rc;
     t[0] = pdr_now();
@@ -365,6 +401,7 @@ static int prepare(mp_ctx *c, const mpar_opts *po, int size, pr_buf *msg, size_t
         }
     }
     *mo_tets = ref_interior_tets(&c->r);
+    mo_unqueue(&c->r);
     t[1] = pdr_now();
     uint32_t parts = po->parts ? po->parts : (uint32_t)size;
     par_decomp d;
@@ -460,7 +497,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     if (rank == 0) {
         pr_buf *msg = pr_calloc((size_t)size, sizeof *msg);
-        int prc = msg ? prepare(&c, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
+        int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -580,9 +617,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         fprintf(stderr,
                 "pdr mesh: PE %d: the parallel refinement makes no progress: its last %llu "
                 "units of work (%d per cavity attempt, 1 per tetrahedron migrated in or "
-                "created) inserted %llu points, fewer than one per %g units (cavities moved "
+                "created, 1 per %g s of an attempt's compute time) inserted %llu points, fewer than one per %g units (cavities moved "
                 "between PEs or failing over and over); stopped\n",
-                rank, (unsigned long long)row.stall_work, PAR_RUN_WORK_ATTEMPT,
+                rank, (unsigned long long)row.stall_work, PAR_RUN_WORK_ATTEMPT, PAR_RUN_WORK_UNIT_S,
                 (unsigned long long)row.stall_points,
                 ro_run.stall_ratio > 0 ? ro_run.stall_ratio : PAR_RUN_STALL_RATIO);
         fflush(stderr);

@@ -282,13 +282,14 @@ static int past_point_limit(par_run *pr)
     return 1;
 }
 
-/* Counts an attempt at an item and the tetrahedra imported since the
- * last call as work, and checks the progress bound (PAR_RUN_STALL_WINDOW),
+/* Counts an attempt at an item, its compute time work_s
+ * (PAR_RUN_WORK_UNIT_S) and the tetrahedra imported since the last call
+ * as work, and checks the progress bound (PAR_RUN_STALL_WINDOW),
  * and its leg on the clock at now (the attempt's end, read by
  * segment_end: PAR_RUN_STALL_SECONDS): 1 when the stretch that just ended
  * inserted too few points, or no point came for too long (the figures go
  * to the row), else 0. */
-static int stalled(par_run *pr, double now)
+static int stalled(par_run *pr, double now, double work_s)
 {
     if (pr->points != pr->clock_points) {
         pr->clock_points = pr->points;
@@ -299,7 +300,8 @@ static int stalled(par_run *pr, double now)
         pr->row->stall_points = 0;
         return 1;
     }
-    pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in);
+    pr->work += PAR_RUN_WORK_ATTEMPT + (pr->cc.st.tets_in - pr->seen_in) +
+                (uint64_t)(work_s / PAR_RUN_WORK_UNIT_S);
     pr->seen_in = pr->cc.st.tets_in;
     uint64_t w = pr->work - pr->win_work, pts = pr->points - pr->win_points;
     if ((double)w < pr->o.stall_window)
@@ -416,7 +418,7 @@ static void refine_thread(am_ctx_t *am, void *arg)
                 pr->err = rc;
             break;
         }
-        if (stalled(pr, it->seg_wall) || past_point_limit(pr)) {
+        if (stalled(pr, it->seg_wall, it->work) || past_point_limit(pr)) {
             if (!pr->err)
                 pr->err = PDR_ELIMIT;
             break;
@@ -611,6 +613,18 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     /* The refinement's bound on splits of missing pieces, from now on
      * this PE (refine.h, REF_RECOVERY_PER_VERTEX). */
     ref_bound_recovery(&s->r);
+    /* The PEs run the quality refinement (the bad tetrahedra too), as
+     * ref_run(r, 1) does sequentially; its rules for that stage depend
+     * on the flag (refine_run.c, stuck_past_bound: the bound on the
+     * subsegment splits that faces no flip mends ask for). Without it a
+     * PE went on splitting those subsegments with no bound: on CAD
+     * surfaces (pinion_small.off) the points piled up along segments in
+     * thin space, with tens of thousands of tetrahedra between them,
+     * each step slower, and the parallel run crawled where the
+     * sequential one takes 0.1 s. Each PE has the bound once (its own
+     * ref_stats.stuck_quality). */
+    int refining = s->r.refining;
+    s->r.refining = 1;
 
     am_stats_t a0, a1;
     /* Every PE has its handlers before anyone sends. */
@@ -652,6 +666,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         return rc; /* see par_run.h: the state stays for the handlers */
     s->r.hooks = NULL;
     s->r.o.order = order;
+    s->r.refining = refining;
     hmap_free(&pr->tries);
     pr_free(pr->band.a);
     while (pr->free_items) {

@@ -84,6 +84,17 @@
  * (turbine.off: 323,000 subfacet points on one PE): --max-points bounds
  * each PE's points (row->point_limit). */
 #define PAR_RUN_WORK_ATTEMPT 16
+/* ... and one unit per this many seconds of an attempt's compute time (its
+ * work clock, par_item.work: blocked waits not counted): attempts that
+ * each take long count as the work they are. Without it a PE whose every
+ * attempt spent some 100 ms in one cavity search (exact insphere tests
+ * over thousands of tetrahedra; pinion.off on 2 PEs with --latency) and
+ * inserted a point every few seconds went on for minutes: 16 units per
+ * attempt fill a stretch in half an hour, and a point now and then resets
+ * the clock's leg; now such a PE stops within a minute. A step of an
+ * ordinary run takes 1-100 us: at most one unit more. One unit per 10 us
+ * also stopped pinion_small.off on 2 PEs, which meshes. */
+#define PAR_RUN_WORK_UNIT_S 1e-4
 /* A bad tetrahedron whose cavity would bring more than this many
  * tetrahedra from other PEs is left for the merge (par_cav.max_import):
  * rank 0 refines it in the whole mesh. A cavity of cube-in-cube brings at

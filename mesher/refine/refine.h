@@ -391,7 +391,8 @@ typedef struct ref_mesher {
     double b2;         /* ratio^2, or 0 */
     double sin_min;    /* sin(min_dihedral), or 0 */
     int classified;    /* exterior marked, regions assigned */
-    int refining;      /* ref_run is splitting bad tetrahedra too */
+    int refining;      /* ref_run is splitting bad tetrahedra too, or a
+                          PE's parallel refinement (par_run.c) is */
     int finishing;     /* rank 0 finishes the merged mesh of a parallel
                           run in the constrained mode (no hooks there;
                           split_subseg's retries) */
