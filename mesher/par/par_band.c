@@ -7,7 +7,6 @@
 #include <string.h>
 
 #include "pr_alloc.h"
-#include "base/hmap.h"
 #include "base/pdr_util.h"
 #include "par/par_band.h"
 
@@ -125,7 +124,11 @@ int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int ma
     const tm_mesh *m = &s->r.m;
     if (cut->axis < 0 || margin < 1)
         return 0;
-    hmap seen = {0}; /* tetrahedron + 1 -> 1: met (in the band or not) */
+    /* 1 for a tetrahedron met (in the band or not), over all slots: a
+     * band has thousands. */
+    uint8_t *seen = pr_calloc(m->nslots, 1);
+    if (!seen)
+        return PDR_ENOMEM;
     par_u32list q = {0}, qr = {0};
     int rc = 0;
     size_t start = out->n;
@@ -135,10 +138,10 @@ int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int ma
         if (s->ifc[k].pe != to)
             continue;
         uint32_t t = tm_ltet(s->ifc[k].local);
-        if (hmap_get(&seen, (uint64_t)t + 1) != HMAP_NONE)
+        if (seen[t])
             continue;
-        rc = hmap_put(&seen, (uint64_t)t + 1, 1);
-        if (!rc && eligible(s, cut, to, t))
+        seen[t] = 1;
+        if (eligible(s, cut, to, t))
             rc = enqueue(&q, &qr, t, (m->flags[t] & TM_F_QUEUED) ? 0 : 1);
     }
     for (size_t i = 0; i < q.n && !rc; i++) {
@@ -150,10 +153,10 @@ int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int ma
             if (tm_is_special(l))
                 continue;
             uint32_t w = tm_ltet(l);
-            if (hmap_get(&seen, (uint64_t)w + 1) != HMAP_NONE)
+            if (seen[w])
                 continue;
-            rc = hmap_put(&seen, (uint64_t)w + 1, 1);
-            if (!rc && eligible(s, cut, to, w))
+            seen[w] = 1;
+            if (eligible(s, cut, to, w))
                 rc = enqueue(&q, &qr, w, (m->flags[w] & TM_F_QUEUED) ? 0 : r + 1);
         }
     }
@@ -176,6 +179,6 @@ int par_band_pick(const par_sub *s, const par_band_cut *cut, uint32_t to, int ma
         out->n = start;
     pr_free(q.a);
     pr_free(qr.a);
-    hmap_free(&seen);
+    pr_free(seen);
     return rc;
 }

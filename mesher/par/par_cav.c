@@ -43,6 +43,9 @@ enum {
  * thousand tetrahedra is already unusual). */
 #define MAX_CAV_TETS (UINT32_C(1) << 22)
 #define MAX_CAV_KEYS (UINT32_C(1) << 22)
+/* From this many tetrahedra on, put_tets indexes vertices with an array
+ * over all of them rather than a map. */
+#define PUT_TETS_DENSE 1024
 
 /* ------------------------------------------------------------ lists */
 
@@ -272,6 +275,15 @@ static void rec_drop(par_cav_ctx *cc, uint32_t i)
 /* Appends tetrahedra tets[0..nt-1] of this PE, with their vertices and
  * the subsegments and subfacets on them, to a reply; those in left (if not
  * NULL) go with WIRE_LEFT. */
+/* The reply index of local vertex v, or HMAP_NONE: from the dense array
+ * when put_tets made one, else from the map. */
+static uint32_t vidx_get(const hmap *vidx, const uint32_t *dense, uint32_t v)
+{
+    if (dense)
+        return dense[v] ? dense[v] - 1 : HMAP_NONE;
+    return hmap_get(vidx, (uint64_t)v + 1);
+}
+
 static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, size_t nt,
                     pr_buf *b)
 {
@@ -281,14 +293,26 @@ static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, si
     hmap seen = {0};   /* piece key -> 1 */
     u32list verts = {0};
     int rc = 0;
+    /* A band (par_cav_give) has thousands of tetrahedra: an array over
+     * the vertices (reply index + 1, 0 for none) costs less than the map
+     * there; a cavity's few keep the map. */
+    uint32_t *dense = NULL;
+    if (nt >= PUT_TETS_DENSE) {
+        dense = pr_calloc(m->nv, sizeof *dense);
+        if (!dense)
+            return PDR_ENOMEM;
+    }
     for (size_t i = 0; i < nt && !rc; i++)
         for (int k = 0; k < 4 && !rc; k++) {
             uint32_t v = m->tets[tets[i]].v[k];
-            if (v != TM_VINF && hmap_get(&vidx, (uint64_t)v + 1) == HMAP_NONE) {
+            if (v == TM_VINF || vidx_get(&vidx, dense, v) != HMAP_NONE)
+                continue;
+            if (dense)
+                dense[v] = (uint32_t)verts.n + 1;
+            else
                 rc = hmap_put(&vidx, (uint64_t)v + 1, (uint32_t)verts.n);
-                if (!rc)
-                    rc = push(&verts, v);
-            }
+            if (!rc)
+                rc = push(&verts, v);
         }
     if (rc)
         goto out;
@@ -313,7 +337,7 @@ static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, si
         uint16_t fl = m->flags[t];
         for (int k = 0; k < 4; k++) {
             uint32_t v = T->v[k];
-            pr_put_u32(b, v == TM_VINF ? 0 : hmap_get(&vidx, (uint64_t)v + 1) + 1);
+            pr_put_u32(b, v == TM_VINF ? 0 : vidx_get(&vidx, dense, v) + 1);
         }
         for (int k = 0; k < 4; k++)
             pr_put_i32(b, tm_face_marker(m, t, k));
@@ -362,14 +386,14 @@ static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, si
             const bd_subfac *f = &bd->facs[id];
             pr_put_u8(b, 3);
             for (int k = 0; k < 3; k++)
-                pr_put_u32(b, hmap_get(&vidx, (uint64_t)f->v[k] + 1) + 1);
+                pr_put_u32(b, vidx_get(&vidx, dense, f->v[k]) + 1);
             pr_put_u32(b, f->facet);
             pr_put_u16(b, f->flags);
         } else {
             const bd_subseg *g = &bd->segs[id];
             pr_put_u8(b, 2);
             for (int k = 0; k < 2; k++)
-                pr_put_u32(b, hmap_get(&vidx, (uint64_t)g->v[k] + 1) + 1);
+                pr_put_u32(b, vidx_get(&vidx, dense, g->v[k]) + 1);
             pr_put_u32(b, 0);
             pr_put_u32(b, g->seg);
             pr_put_u16(b, g->flags);
@@ -377,6 +401,7 @@ static int put_tets(const par_sub *s, const hmap *left, const uint32_t *tets, si
     }
     pr_free(pieces.a);
 out:
+    pr_free(dense);
     pr_free(verts.a);
     hmap_free(&vidx);
     hmap_free(&seen);
@@ -1369,9 +1394,13 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
             }
         }
     pr_buf b = PR_BUF_INIT;
-    hmap idx = {0}; /* tetrahedron + 1 -> its index in the band */
+    /* tetrahedron -> its index in the band + 1 (0: not in it), over all
+     * slots: a band has thousands. */
+    uint32_t *idx = rc ? NULL : pr_calloc(m->nslots, sizeof *idx);
+    if (!rc && !idx)
+        rc = PDR_ENOMEM;
     for (size_t i = 0; i < n && !rc; i++)
-        rc = hmap_put(&idx, (uint64_t)tets[i] + 1, (uint32_t)i);
+        idx[tets[i]] = (uint32_t)i + 1;
     if (!rc) {
         pr_msg_begin(&b, MSG_BAND);
         pr_put_u32(&b, owner);
@@ -1385,13 +1414,13 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
             for (int k = 0; k < 4; k++) {
                 tm_link l = m->tets[tets[i]].n[k];
                 uint32_t j = tm_is_special(l) || !(m->flags[tm_ltet(l)] & TM_F_CAVITY)
-                                 ? HMAP_NONE
-                                 : hmap_get(&idx, (uint64_t)tm_ltet(l) + 1);
-                pr_put_u32(&b, j == HMAP_NONE ? UINT32_MAX : 4 * j + (uint32_t)tm_lface(l));
+                                 ? 0
+                                 : idx[tm_ltet(l)];
+                pr_put_u32(&b, j == 0 ? UINT32_MAX : 4 * (j - 1) + (uint32_t)tm_lface(l));
             }
         rc = b.err ? PDR_ENOMEM : 0;
     }
-    hmap_free(&idx);
+    pr_free(idx);
     mark_cavity(m, &pt->cav, 0);
     if (!rc)
         rc = am_send(cc->am, (int)to, cc->h_band, b.data, b.len);
