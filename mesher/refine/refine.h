@@ -436,6 +436,9 @@ typedef struct ref_mesher {
                           (its search would be a setback);
                           not with REF_ORDER_LIFO; 0: no check (m->lock
                           may be NULL) */
+    int shrink_pass;           /* constrained: shrink unseen cavities (shrink_passes) */
+    uint32_t shrink_keep;      /* constrained: the bad tetrahedron whose
+                                  circumcentre's cavity is shrunk (kept) */
     uint32_t split_a, split_b; /* constrained: the subsegment being split
                                   (split_b TM_NONE: a subfacet) */
     uint32_t last_v;   /* the vertex inserted last (0: none) */
@@ -524,6 +527,9 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * ask for none, eight.off for 91 (bound 103). */
 #define REF_STUCK_QUALITY_BASE 64
 #define REF_STUCK_QUALITY_INPUTS 8
+/* Passes of the quality refinement that shrink folded cavities
+ * (refine_run.c, shrink_passes). */
+#define REF_SHRINK_PASSES 4
 
 /* The bound on the splits of missing pieces in one refinement
  * (ref_mesher.recovery_limit): this many per input vertex and

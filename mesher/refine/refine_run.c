@@ -16,6 +16,7 @@
 
 #include "pr_alloc.h"
 #include "base/pdr_util.h"
+#include "geom/pred.h"
 #include "refine/refine_int.h"
 #include "base/v3.h"
 
@@ -1148,6 +1149,47 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
     return rc;
 }
 
+/* keep of dt_cavity_shrink for shrink_unseen: a tetrahedron that holds
+ * the cavity's point (closed). */
+static int holds_centre(void *arg, uint32_t t)
+{
+    const ref_mesher *r = arg;
+    const tm_mesh *m = &r->m;
+    if (t == r->shrink_keep)
+        return 1;
+    const tm_tet *T = &m->tets[t];
+    for (int f = 0; f < 4; f++) {
+        const uint8_t *fv = tm_face_vtx[f];
+        uint32_t x = T->v[fv[0]], y = T->v[fv[1]], z = T->v[fv[2]];
+        if (x == TM_VINF || y == TM_VINF || z == TM_VINF)
+            return 0;
+        if (pred_orient3d(X(m, x), X(m, y), X(m, z), r->cav.p) < 0)
+            return 0;
+    }
+    return 1;
+}
+
+/* The pending constrained cavity r->cav of bad tetrahedron t's
+ * circumcentre is no star from it, and no constraint on its boundary is
+ * in the way: faces that are not locally Delaunay (no flip mended them)
+ * fold it. It is shrunk to a star from the circumcentre (TetGen's cavity
+ * shrinking), keeping the tetrahedra that hold the point; the flips after
+ * the insertion mend what it leaves. Returns 0 (r->cav pending, a star),
+ * 1 (nothing pending: no such star) or a negative code (nothing
+ * pending). */
+static int shrink_unseen(ref_mesher *r, uint32_t t)
+{
+    r->shrink_keep = t;
+    int rc = dt_cavity_shrink(&r->m, &r->cav, holds_centre, r);
+    if (rc < 0) {
+        dt_cavity_abandon(&r->m, &r->cav);
+        return rc;
+    }
+    if (!rc)
+        r->st.shrunk++;
+    return rc;
+}
+
 /* 1 if tetrahedron t, bad by its radius-edge ratio, is not too big, has
  * a seditious shortest edge (ref__cdt_seditious) and has the apex of that
  * small angle for a vertex: it is left. Its circumcentre lies about
@@ -1244,6 +1286,7 @@ static int split_tet(ref_mesher *r, uint32_t t)
     if (h && h != REF_SEARCHED)
         return h;
     unsigned sflags = r->o.constrained ? ref__cdt_flags(r) : 0;
+    int shrunk = 0;
     int rc = h == REF_SEARCHED ? 0 : dt_cavity_search(m, cc, t, sflags, &r->cav);
     if (rc)
         return rc;
@@ -1271,23 +1314,32 @@ static int split_tet(ref_mesher *r, uint32_t t)
         } else if (d.action == REF_COMMIT) {
             g = ref__cdt_blocker(r, t, cc);
         }
-        dt_cavity_abandon(m, &r->cav);
         if (d.action == REF_COMMIT && g == BD_NONE) {
-            r->st.unseen++;
-            give_up(r, t, 1);
-            return 0;
+            rc = r->shrink_pass ? shrink_unseen(r, t) : (dt_cavity_abandon(m, &r->cav), 1);
+            if (rc < 0)
+                return rc;
+            if (rc) {
+                r->st.unseen++;
+                give_up(r, t, 1);
+                return 0;
+            }
+            shrunk = 1;
+        } else {
+            dt_cavity_abandon(m, &r->cav);
+            return split_instead(r, t, why, rt, d.action == REF_SPLIT_SUBSEGS, g);
         }
-        return split_instead(r, t, why, rt, d.action == REF_SPLIT_SUBSEGS, g);
     }
     uint16_t any = cavity_flags(r);
     const uint32_t *tv = m->tets[t].v;
     double rp = sqrt(v3_dist2(cc, X(m, tv[0])));
-    if (flat) {
+    if (flat || shrunk) {
         /* The circle's centre may lie near the ball's surface, close to a
          * vertex outside the ball: its insertion radius is its distance
          * to the nearest vertex, and a point nearer than half t's
-         * shortest edge is not inserted. */
-        rp = cavity_clearance(m, &r->cav, cc);
+         * shortest edge is not inserted. The same for a shrunk cavity:
+         * the vertices of the conflicting tetrahedra it dropped may lie
+         * nearer than t's circumradius. */
+        rp = dmin(rp, cavity_clearance(m, &r->cav, cc));
         double lmin2 = INFINITY;
         for (int e = 0; e < 6; e++)
             lmin2 = dmin(lmin2, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
@@ -1296,7 +1348,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
             give_up(r, t, 1);
             return 0;
         }
-        r->st.flat_centres++;
+        if (flat)
+            r->st.flat_centres++;
     }
     if (any & (TM_F_FACEMARKS | TM_F_SUBSEGS)) {
         rc = ref_gather_marks(m, &r->cav, &r->marks);
@@ -1780,11 +1833,48 @@ static int run_and_reclassify(ref_mesher *r)
     return rc;
 }
 
+/* Second passes for the constrained mode: the tetrahedra given up as
+ * degenerate (mostly "unseen": faces no flip mends fold the cavity of
+ * their circumcentre) are queued again with r->shrink_pass set, under
+ * which such a cavity is shrunk to a star (shrink_unseen); while points
+ * are added, at most REF_SHRINK_PASSES times. */
+static int shrink_passes(ref_mesher *r)
+{
+    tm_mesh *m = &r->m;
+    int rc = 0;
+    for (int pass = 0; pass < REF_SHRINK_PASSES && !rc; pass++) {
+        size_t queued = 0;
+        for (uint32_t t = 0; t < m->nslots && !rc; t++) {
+            if (!ref_is_interior(m, t) || !(m->flags[t] & REF_F_DEGENERATE))
+                continue;
+            m->flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE);
+            double cc[3];
+            if (ref__tet_bad(r, t, cc, NULL)) {
+                rc = queue_tet(r, t);
+                queued++;
+            }
+        }
+        if (rc || !queued)
+            break;
+        size_t before = r->st.seg_points + r->st.fac_points + r->st.tet_points;
+        r->shrink_pass = 1;
+        rc = run_and_reclassify(r);
+        r->shrink_pass = 0;
+        if (r->st.seg_points + r->st.fac_points + r->st.tet_points == before)
+            break;
+    }
+    return rc;
+}
+
 int ref_refine(ref_mesher *r)
 {
     ref_bound_recovery(r);
     int rc = ref_queue_all_tets(r);
-    return rc ? rc : run_and_reclassify(r);
+    if (!rc)
+        rc = run_and_reclassify(r);
+    if (!rc && r->o.constrained && r->carved && !r->hooks)
+        rc = shrink_passes(r);
+    return rc;
 }
 
 int ref_refine_marked(ref_mesher *r)
