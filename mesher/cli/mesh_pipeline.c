@@ -699,7 +699,7 @@ static void print_left(const mp_ctx *c)
            c->o.ref.ratio);
     if (st->left_ratio)
         printf(" (%zu next to small input angles, %zu given up elsewhere (their splits "
-               "refused), %zu degenerate, %zu other)",
+               "refused), %zu degenerate or hidden (no usable circumcentre), %zu other)",
                st->left_ratio_angle, st->left_ratio_refused, st->left_ratio_degenerate,
                st->left_ratio - st->left_ratio_angle - st->left_ratio_refused -
                    st->left_ratio_degenerate);

@@ -283,7 +283,10 @@ typedef struct ref_stats {
     size_t left_ratio_refused; /* ... given up away from those: their
                                   splits refused by the floors and bounds
                                   of the constrained mode or the safety net */
-    size_t left_ratio_degenerate; /* ... circumcentre unusable */
+    size_t left_ratio_degenerate; /* ... circumcentre unusable: not
+                                     finite, no cavity, too near a vertex,
+                                     or hidden (constrained: behind faces
+                                     no flip mends, no constraint between) */
     size_t left_stuck;   /* constrained: faces off the facets left not
                             locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
