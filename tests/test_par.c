@@ -1135,6 +1135,128 @@ START_TEST(cavity_reply_tets)
 }
 END_TEST
 
+/* Decodes a BAND body for s's PE from PE 1; a decoded one has every
+ * vertex index in range. */
+static int try_band(par_sub *s, const uint8_t *b, size_t len)
+{
+    par_cav_ctx cc;
+    memset(&cc, 0, sizeof cc);
+    cc.s = s;
+    par_cav c;
+    par_cav_init(&c, &cc);
+    int rc = par_cav_decode_band(&c, b, len, 1);
+    if (!rc)
+        for (size_t i = 0; i < c.ngt; i++)
+            for (int k = 0; k < 4; k++)
+                ck_assert(c.gt[i].v[k] == UINT32_MAX || c.gt[i].v[k] < c.ngv);
+    par_cav_free(&c);
+    return rc;
+}
+
+/* The body of a BAND (a 2-PE run's interface band, par_cav_give): a
+ * connected band of 300 tetrahedra decodes with one face record per
+ * face (inner faces once); its adjacency made asymmetric, a cut anywhere
+ * or a byte too many is refused; damaged bytes never crash the decoder. */
+START_TEST(cavity_band_adjacency)
+{
+    plc p;
+    ref_mesher mo;
+    par_decomp d;
+    par_sub s;
+    load_cic_part(&p, &mo, &d, &s);
+    tm_mesh *m = &s.r.m;
+    /* 300 finite tetrahedra, breadth first over local links */
+    enum { N = 300 };
+    uint32_t tets[N];
+    uint8_t *in = calloc(m->nslots, 1);
+    ck_assert_ptr_nonnull(in);
+    size_t n = 0;
+    for (uint32_t t = 0; t < m->nslots && !n; t++)
+        if (!tm_is_dead(m, t) && !tm_is_ghost(m, t)) {
+            tets[n++] = t;
+            in[t] = 1;
+        }
+    for (size_t h = 0; h < n && n < N; h++)
+        for (int k = 0; k < 4 && n < N; k++) {
+            tm_link l = m->tets[tets[h]].n[k];
+            if (l == TM_LINK_NONE || l == TM_LINK_UNSET || tm_is_special(l))
+                continue;
+            uint32_t w = tm_ltet(l);
+            if (in[w] || tm_is_dead(m, w) || tm_is_ghost(m, w))
+                continue;
+            in[w] = 1;
+            tets[n++] = w;
+        }
+    ck_assert_uint_eq(n, N);
+    size_t inner = 0;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[tets[i]].n[k];
+            inner += !tm_is_special(l) && in[tm_ltet(l)];
+        }
+    ck_assert_uint_eq(inner % 2, 0);
+    inner /= 2;
+    ck_assert_uint_gt(inner, N / 2);
+
+    pr_buf b = PR_BUF_INIT;
+    ck_assert_int_eq(par_cav_encode_band(&s, tets, n, &b), 0);
+    for (size_t i = 0; i < n; i++)
+        ck_assert(!(m->flags[tets[i]] & TM_F_CAVITY));
+    par_cav_ctx cc;
+    memset(&cc, 0, sizeof cc);
+    cc.s = &s;
+    par_cav c;
+    par_cav_init(&c, &cc);
+    ck_assert_int_eq(par_cav_decode_band(&c, b.data, b.len, 1), 0);
+    ck_assert_uint_eq(c.ngt, n);
+    ck_assert_uint_eq(c.nface, 4 * n - inner);
+    par_cav_free(&c);
+
+    /* the adjacency follows the tetrahedra part (as par_cav_encode_tets
+     * writes it) and its count: point an inner face elsewhere */
+    pr_buf t = PR_BUF_INIT;
+    ck_assert_int_eq(par_cav_encode_tets(&s, tets, n, &t), 0);
+    ck_assert_uint_eq(b.len, t.len + 4 + 16 * n);
+    uint8_t *bad = malloc(b.len + 1);
+    ck_assert_ptr_nonnull(bad);
+    size_t at = 0;
+    while (at < 4 * n && !memcmp(b.data + t.len + 4 + 4 * at, "\xff\xff\xff\xff", 4))
+        at++;
+    ck_assert_uint_lt(at, 4 * n);
+    for (uint32_t wrong = 0; wrong < 4; wrong++) {
+        memcpy(bad, b.data, b.len);
+        uint8_t *a = bad + t.len + 4 + 4 * at;
+        uint32_t v = (uint32_t)a[0] | (uint32_t)a[1] << 8 | (uint32_t)a[2] << 16 |
+                     (uint32_t)a[3] << 24;
+        /* another face of the same neighbour, or the tetrahedron itself */
+        uint32_t w = wrong < 3 ? (v & ~3u) | ((v + 1 + wrong) & 3u) : 4 * (uint32_t)(at / 4);
+        a[0] = (uint8_t)w, a[1] = (uint8_t)(w >> 8), a[2] = (uint8_t)(w >> 16),
+        a[3] = (uint8_t)(w >> 24);
+        ck_assert_int_eq(try_band(&s, bad, b.len), PDR_EPARSE);
+    }
+    pr_buf_free(&t);
+
+    /* every cut is refused, and so is a byte too many */
+    for (size_t len = 0; len < b.len; len++)
+        ck_assert_int_ne(try_band(&s, b.data, len), 0);
+    memcpy(bad, b.data, b.len);
+    bad[b.len] = 0;
+    ck_assert_int_eq(try_band(&s, bad, b.len + 1), PDR_EPARSE);
+    /* random bytes over random stretches: refused or in range */
+    uint64_t x = 0x2545F4914F6CDD1DULL;
+    size_t refused = 0;
+    for (int round = 0; round < 3000; round++) {
+        damage_stretch(bad, b.data, b.len, &x);
+        refused += try_band(&s, bad, b.len) != 0;
+    }
+    ck_assert_uint_gt(refused, 0);
+    free(bad);
+    free(in);
+    pr_buf_free(&b);
+    free_cic_part(&p, &mo, &d, &s);
+}
+END_TEST
+
 /* base/hdup: exactly the repeated values, whatever their partition. */
 START_TEST(hdup_finds_repeats)
 {
@@ -1926,6 +2048,7 @@ static Suite *suite(void)
     tcase_add_test(t, links_checked);
     tcase_add_test(t, facet_gaps_found);
     tcase_add_test(t, cavity_reply_tets);
+    tcase_add_test(t, cavity_band_adjacency);
     tcase_add_test(t, cavity_reply_left);
     suite_add_tcase(s, t);
     t = tcase_create("merge");

@@ -1343,6 +1343,39 @@ static void on_abort(am_ctx_t *am, const am_msg_t *msg, void *arg)
 
 /* ------------------------------------------------------------ bands */
 
+/* The body of a BAND after its owner (proto/PROTOCOL.md): tetrahedra
+ * tets[0..n-1] of s as a reply carries them, then the band's own
+ * adjacency. The tetrahedra must carry TM_F_CAVITY (mark_cavity) and no
+ * other tetrahedron may. Returns 0 or PDR_ENOMEM. */
+static int put_band(const par_sub *s, const hmap *left, const uint32_t *tets, size_t n,
+                    pr_buf *b)
+{
+    const tm_mesh *m = &s->r.m;
+    /* tetrahedron -> its index in the band + 1 (0: not in it), over all
+     * slots: a band has thousands. */
+    uint32_t *idx = pr_calloc(m->nslots, sizeof *idx);
+    if (!idx)
+        return PDR_ENOMEM;
+    for (size_t i = 0; i < n; i++)
+        idx[tets[i]] = (uint32_t)i + 1;
+    if (put_tets(s, left, tets, n, b))
+        b->err = PR_ENOMEM;
+    /* For face k of tetrahedron i, 4 j + k' when face k' of band
+     * tetrahedron j is across, else none: the receiver links the band
+     * with these instead of matching face keys. */
+    pr_put_u32(b, (uint32_t)(4 * n));
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[tets[i]].n[k];
+            uint32_t j = tm_is_special(l) || !(m->flags[tm_ltet(l)] & TM_F_CAVITY)
+                             ? 0
+                             : idx[tm_ltet(l)];
+            pr_put_u32(b, j == 0 ? UINT32_MAX : 4 * (j - 1) + (uint32_t)tm_lface(l));
+        }
+    pr_free(idx);
+    return b->err ? PDR_ENOMEM : 0;
+}
+
 int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
 {
     par_sub *s = cc->s;
@@ -1394,33 +1427,11 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
             }
         }
     pr_buf b = PR_BUF_INIT;
-    /* tetrahedron -> its index in the band + 1 (0: not in it), over all
-     * slots: a band has thousands. */
-    uint32_t *idx = rc ? NULL : pr_calloc(m->nslots, sizeof *idx);
-    if (!rc && !idx)
-        rc = PDR_ENOMEM;
-    for (size_t i = 0; i < n && !rc; i++)
-        idx[tets[i]] = (uint32_t)i + 1;
     if (!rc) {
         pr_msg_begin(&b, MSG_BAND);
         pr_put_u32(&b, owner);
-        if (put_tets(s, &cc->left, pt->cav.a, pt->cav.n, &b))
-            b.err = PR_ENOMEM;
-        /* The band's own adjacency, so that the receiver links it without
-         * matching face keys: for face k of tetrahedron i, 4 j + k' when
-         * face k' of band tetrahedron j is across, else none. */
-        pr_put_u32(&b, (uint32_t)(4 * n));
-        for (size_t i = 0; i < n; i++)
-            for (int k = 0; k < 4; k++) {
-                tm_link l = m->tets[tets[i]].n[k];
-                uint32_t j = tm_is_special(l) || !(m->flags[tm_ltet(l)] & TM_F_CAVITY)
-                                 ? 0
-                                 : idx[tm_ltet(l)];
-                pr_put_u32(&b, j == 0 ? UINT32_MAX : 4 * (j - 1) + (uint32_t)tm_lface(l));
-            }
-        rc = b.err ? PDR_ENOMEM : 0;
+        rc = put_band(s, &cc->left, pt->cav.a, pt->cav.n, &b);
     }
-    pr_free(idx);
     mark_cavity(m, &pt->cav, 0);
     if (!rc)
         rc = am_send(cc->am, (int)to, cc->h_band, b.data, b.len);
@@ -1497,6 +1508,19 @@ static int band_faces(par_cav *c, pr_reader *rd)
     return rc;
 }
 
+/* The body of a BAND after its owner, into c's gathered lists and face
+ * records (c reset): 0, PDR_EPARSE on anything malformed or trailing, or
+ * PDR_ENOMEM. */
+static int get_band(par_cav *c, pr_reader *rd, uint32_t src)
+{
+    int rc = get_tets(c, rd, src);
+    if (!rc)
+        rc = band_faces(c, rd);
+    if (!rc && pr_reader_finish(rd))
+        rc = PDR_EPARSE;
+    return rc;
+}
+
 /* Marks (on 1) or unmarks the tetrahedra of the bands this PE gives
  * (par_cav_give) and that have not yet migrated: records in served with
  * an owner of this PE's own rank. */
@@ -1539,11 +1563,7 @@ static void on_band(am_ctx_t *am, const am_msg_t *msg, void *arg)
     int take = 0;
     if (!rc) {
         reset_attempt(c);
-        rc = get_tets(c, &rd, src);
-        if (!rc)
-            rc = band_faces(c, &rd);
-        if (!rc && pr_reader_finish(&rd))
-            rc = PDR_EPARSE;
+        rc = get_band(c, &rd, src);
     }
     if (!rc) {
         take = 1;
@@ -1650,6 +1670,25 @@ int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src)
     if (!rc && pr_reader_finish(&rd))
         rc = PDR_EPARSE;
     return rc;
+}
+
+int par_cav_encode_band(par_sub *s, const uint32_t *tets, size_t n, pr_buf *b)
+{
+    tm_mesh *m = &s->r.m;
+    for (size_t i = 0; i < n; i++)
+        m->flags[tets[i]] |= TM_F_CAVITY;
+    hmap none = {0};
+    int rc = put_band(s, &none, tets, n, b);
+    for (size_t i = 0; i < n; i++)
+        m->flags[tets[i]] &= (uint16_t)~TM_F_CAVITY;
+    return rc;
+}
+
+int par_cav_decode_band(par_cav *c, const void *data, size_t len, uint32_t src)
+{
+    pr_reader rd;
+    pr_reader_init(&rd, data, len);
+    return get_band(c, &rd, src);
 }
 
 void par_cav_free(par_cav *c)

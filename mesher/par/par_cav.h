@@ -274,5 +274,16 @@ int par_cav_decode_tets(par_cav *c, const void *data, size_t len, uint32_t src);
  * merge (par_cav_mark_left) goes with flag bit 0 set (proto/PROTOCOL.md,
  * Reply). */
 int par_cav_encode_left_tets(const par_cav_ctx *cc, const uint32_t *tets, size_t n, pr_buf *b);
+/* The body of a BAND after its owner (proto/PROTOCOL.md), on its own for
+ * tests: encode appends band tetrahedra tets[0..n-1] of s (distinct, none
+ * marked TM_F_CAVITY; marked and unmarked here) and their adjacency to b
+ * (0 or PDR_ENOMEM); decode adds exactly those bytes to c's gathered
+ * lists and face records as sent by PE src (0, PDR_EPARSE on anything
+ * malformed, trailing or an adjacency that is not symmetric or not on
+ * the same vertices, PDR_ETOPOLOGY on an outer face towards no PE, or
+ * PDR_ENOMEM). c's par_cav_ctx must name the receiving par_sub (its size
+ * bounds the PEs a face may lead to); its am may be NULL. */
+int par_cav_encode_band(par_sub *s, const uint32_t *tets, size_t n, pr_buf *b);
+int par_cav_decode_band(par_cav *c, const void *data, size_t len, uint32_t src);
 
 #endif /* PDR_PAR_CAV_H */
