@@ -282,12 +282,18 @@ static int holds_point(void *arg, uint32_t t)
     if (r->split_b != TM_NONE && ref__slot_in(T, r->split_a) >= 0 &&
         ref__slot_in(T, r->split_b) >= 0)
         return 1;
+    return ref__tet_holds(m, t, r->cav.p);
+}
+
+int ref__tet_holds(const tm_mesh *m, uint32_t t, const double p[3])
+{
+    const tm_tet *T = &m->tets[t];
     for (int f = 0; f < 4; f++) {
         const uint8_t *fv = tm_face_vtx[f];
         uint32_t x = T->v[fv[0]], y = T->v[fv[1]], z = T->v[fv[2]];
         if (x == TM_VINF || y == TM_VINF || z == TM_VINF)
             return 0;
-        if (pred_orient3d(X(m, x), X(m, y), X(m, z), r->cav.p) < 0)
+        if (pred_orient3d(X(m, x), X(m, y), X(m, z), p) < 0)
             return 0;
     }
     return 1;

@@ -192,5 +192,8 @@ uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3]);
 uint32_t ref__cdt_seditious(const ref_mesher *r, uint32_t a, uint32_t b);
 /* The same for the shortest edge of tetrahedron t. */
 uint32_t ref__cdt_seditious_tet(const ref_mesher *r, uint32_t t);
+/* 1 if finite tetrahedron t of m holds p (closed: on a face counts),
+ * exactly; 0 for a ghost or when p lies beyond a face. */
+int ref__tet_holds(const tm_mesh *m, uint32_t t, const double p[3]);
 
 #endif /* PDR_REFINE_INT_H */

@@ -1154,19 +1154,7 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
 static int holds_centre(void *arg, uint32_t t)
 {
     const ref_mesher *r = arg;
-    const tm_mesh *m = &r->m;
-    if (t == r->shrink_keep)
-        return 1;
-    const tm_tet *T = &m->tets[t];
-    for (int f = 0; f < 4; f++) {
-        const uint8_t *fv = tm_face_vtx[f];
-        uint32_t x = T->v[fv[0]], y = T->v[fv[1]], z = T->v[fv[2]];
-        if (x == TM_VINF || y == TM_VINF || z == TM_VINF)
-            return 0;
-        if (pred_orient3d(X(m, x), X(m, y), X(m, z), r->cav.p) < 0)
-            return 0;
-    }
-    return 1;
+    return t == r->shrink_keep || ref__tet_holds(&r->m, t, r->cav.p);
 }
 
 /* The pending constrained cavity r->cav of bad tetrahedron t's
