@@ -539,26 +539,16 @@ static int mesh_stages(mp_ctx *c, int *read)
     return rc;
 }
 
-/* The stages in order. Near-planar facets (--facet-tol, plc/fm.h) are
- * not yet safe in every recovery and refinement (refine/QUALITY.md): when
- * the mesh fails with them it is made again with exact facets, whose
- * boundary lies on the input's triangles, which pdr check --facet-tol
- * accepts as well. */
+/* The stages in order; when the mesh fails with near-planar facets it is
+ * made again with exact facets (mp_retry_exact_facets), whose boundary
+ * lies on the input's triangles, which pdr check --facet-tol accepts as
+ * well. */
 static int run_pipeline(mp_ctx *c, const mp_opts *opts)
 {
-    int read;
-    int rc = mesh_stages(c, &read);
-    if (rc && rc != PDR_ENOMEM && read && c->fm.bent_facets) {
-        /* the options as given: the stages write their choices into c->o */
-        mp_opts o = *opts;
-        o.facet_tol = 0;
-        if (!o.quiet)
-            printf("near-planar facets: the mesh failed with them; meshing again with exact "
-                   "facets\n");
-        mp_free(c);
-        mp_init(c, &o);
+    int read, rc;
+    do
         rc = mesh_stages(c, &read);
-    }
+    while (mp_retry_exact_facets(c, opts, rc, read));
     if (!rc)
         rc = mp_write(c);
     if (!rc)

@@ -363,27 +363,17 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
                    size_t *mo_tets, double t[3])
 {
     mp_opts *o = &c->o;
-    int rc = mp_read(c);
-    int read = !rc;
-    if (!rc)
-        rc = mp_initial_mesh(c);
-    if (rc && rc != PDR_ENOMEM && read && c->fm.bent_facets) {
-        /* As the sequential pipeline does (cmd_mesh.c, run_pipeline):
-         * when the initial mesh fails with near-planar facets, it is made
-         * again with exact facets (TR12J_OCC.stl's recovery fails with
-         * them). The options as given: the stages wrote into c->o. Only
-         * rank 0's stages are retried: the PEs get the PLC that meshed. */
-        mp_opts retry = *given;
-        retry.facet_tol = 0;
-        if (!retry.quiet)
-            printf("near-planar facets: the mesh failed with them; meshing again with exact "
-                   "facets\n");
-        mp_free(c);
-        mp_init(c, &retry);
+    /* As pdr mesh alone does (cmd_mesh.c, run_pipeline): a failure with
+     * near-planar facets makes the initial mesh again with exact facets
+     * (TR12J_OCC.stl's recovery fails with them). Only rank 0's stages
+     * are retried: the PEs get the PLC that meshed. */
+    int rc, read;
+    do {
         rc = mp_read(c);
+        read = !rc;
         if (!rc)
             rc = mp_initial_mesh(c);
-    }
+    } while (mp_retry_exact_facets(c, given, rc, read));
     if (rc)
         return rc;
     t[0] = pdr_now();

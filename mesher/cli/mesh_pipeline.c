@@ -52,6 +52,20 @@ void mp_init(mp_ctx *c, const mp_opts *o)
     pdr_progress_start(&c->pg, c->t_start, o->quiet);
 }
 
+int mp_retry_exact_facets(mp_ctx *c, const mp_opts *given, int rc, int read)
+{
+    if (!rc || rc == PDR_ENOMEM || !read || !c->fm.bent_facets)
+        return 0;
+    mp_opts exact = *given;
+    exact.facet_tol = 0;
+    if (!exact.quiet)
+        printf("near-planar facets: the mesh failed with them; meshing again with exact "
+               "facets\n");
+    mp_free(c);
+    mp_init(c, &exact);
+    return 1;
+}
+
 void mp_free(mp_ctx *c)
 {
     if (c->have_out)

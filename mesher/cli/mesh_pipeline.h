@@ -125,6 +125,14 @@ void mp_default_opts(mp_opts *o);
 void mp_init(mp_ctx *c, const mp_opts *o);
 /* Releases everything the context owns (safe after any stage failed). */
 void mp_free(mp_ctx *c);
+/* After stages that failed with code rc (read: mp_read succeeded):
+ * near-planar facets (--facet-tol, plc/fm.h) are not yet safe in every
+ * recovery and refinement (refine/QUALITY.md), so when c used some and rc
+ * is not PDR_ENOMEM, says so (unless quiet), makes c again for the
+ * options 'given' (as the caller was given them: the stages write their
+ * choices into c->o) with exact facets, and returns 1: the caller runs
+ * its stages again. Else returns 0 and leaves c as it is. */
+int mp_retry_exact_facets(mp_ctx *c, const mp_opts *given, int rc, int read);
 
 /* Reads and validates o.in, or builds o.domain, into p, merges its
  * coplanar triangles and finds its sharp features (plc/fm.h), and makes
