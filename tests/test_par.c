@@ -1588,22 +1588,52 @@ START_TEST(merge_counts_mismatches)
 }
 END_TEST
 
-/* The merge of P encoded messages b[0..P), which this edits nothing of. */
-static int merge_bufs(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep)
+/* The merge of P encoded messages b[0..P), which this edits nothing of,
+ * into out, with this process allowed on its first processor only (the
+ * merge's steps that share work among the processors then run in one
+ * pass) or on all it had. */
+static int merge_mesh_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
+                         int one_cpu, ref_mesher *out)
 {
+    cpu_set_t all, one;
+    ck_assert_int_eq(sched_getaffinity(0, sizeof all, &all), 0);
+    if (one_cpu) {
+        CPU_ZERO(&one);
+        for (int c = 0; c < CPU_SETSIZE; c++)
+            if (CPU_ISSET(c, &all)) {
+                CPU_SET(c, &one);
+                break;
+            }
+        ck_assert_int_eq(sched_setaffinity(0, sizeof one, &one), 0);
+    }
     const void *msg[8];
     size_t len[8];
     for (uint32_t k = 0; k < P; k++) {
         msg[k] = b[k].data;
         len[k] = b[k].len;
     }
+    int rc = par_merge_build(msg, len, P, p, NULL, out, rep);
+    ck_assert_int_eq(sched_setaffinity(0, sizeof all, &all), 0);
+    return rc;
+}
+
+/* merge_mesh_on without the mesh: freed, or none made on a failure. */
+static int merge_bufs_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
+                         int one_cpu)
+{
     ref_mesher mg;
-    int rc = par_merge_build(msg, len, P, p, NULL, &mg, rep);
+    int rc = merge_mesh_on(b, P, p, rep, one_cpu, &mg);
     if (!rc)
         ref_free(&mg);
     else
         ck_assert_ptr_null(mg.m.tets);
     return rc;
+}
+
+/* merge_bufs_on on all processors. */
+static int merge_bufs(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep)
+{
+    return merge_bufs_on(b, P, p, rep, 0);
 }
 
 /* 1 if a live tetrahedron of m has the face {a, b, c}. */
@@ -1655,27 +1685,6 @@ static void free_merge_case(pr_buf *b, par_sub *subs, uint32_t P, ref_mesher *mo
     plc_free(p);
 }
 
-/* Merges b[0..P) with this process allowed on its first processor only
- * (the merge's step 4 then runs in one pass) or on all it had. */
-static int merge_bufs_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
-                         int one_cpu)
-{
-    cpu_set_t all, one;
-    ck_assert_int_eq(sched_getaffinity(0, sizeof all, &all), 0);
-    if (one_cpu) {
-        CPU_ZERO(&one);
-        for (int c = 0; c < CPU_SETSIZE; c++)
-            if (CPU_ISSET(c, &all)) {
-                CPU_SET(c, &one);
-                break;
-            }
-        ck_assert_int_eq(sched_setaffinity(0, sizeof one, &one), 0);
-    }
-    int rc = merge_bufs(b, P, p, rep);
-    ck_assert_int_eq(sched_setaffinity(0, sizeof all, &all), 0);
-    return rc;
-}
-
 /* Step 4 of the merge shares a large mesh's slots among the processors
  * (par_merge.c, check_links_shared): it finds what one pass finds, on a
  * mesh that fits and on one with a link that does not come back and two
@@ -1719,32 +1728,6 @@ START_TEST(merge_shares_agree)
     free_merge_case(b, subs, 3, &mo, &p);
 }
 END_TEST
-
-/* par_merge_build on one processor or on all of them, the mesh kept. */
-static int merge_mesh_on(const pr_buf *b, uint32_t P, const plc *p, par_merge_report *rep,
-                         int one_cpu, ref_mesher *out)
-{
-    cpu_set_t all, one;
-    ck_assert_int_eq(sched_getaffinity(0, sizeof all, &all), 0);
-    if (one_cpu) {
-        CPU_ZERO(&one);
-        for (int c = 0; c < CPU_SETSIZE; c++)
-            if (CPU_ISSET(c, &all)) {
-                CPU_SET(c, &one);
-                break;
-            }
-        ck_assert_int_eq(sched_setaffinity(0, sizeof one, &one), 0);
-    }
-    const void *msg[8];
-    size_t len[8];
-    for (uint32_t k = 0; k < P; k++) {
-        msg[k] = b[k].data;
-        len[k] = b[k].len;
-    }
-    int rc = par_merge_build(msg, len, P, p, NULL, out, rep);
-    ck_assert_int_eq(sched_setaffinity(0, sizeof all, &all), 0);
-    return rc;
-}
 
 /* The merge of a large mesh decodes and stores the messages a message
  * per task and runs the face checks beside the boundary tables
