@@ -1,20 +1,29 @@
 #!/bin/sh
-# A CGAL part that meshes sequentially in a fraction of a second and on
-# 2 PEs ran on for minutes: pinion_small.off with exact facets
-# (--facet-tol 0). The PEs refined without the rules of the sequential
-# quality refinement (ref_mesher.refining unset), so the subsegment
-# splits that faces no flip mends ask for had no bound there
-# (stuck_past_bound in refine/refine_run.c): points piled up along
-# segments with tens of thousands of tetrahedra between them, each step
-# slower, until the progress bound stopped the run or the timeout did.
+# CGAL parts that mesh sequentially in a fraction of a second and on 2
+# PEs ran on until the progress bound or the timeout stopped them:
+#  - pinion_small.off with exact facets (--facet-tol 0): the PEs refined
+#    without the rules of the sequential quality refinement
+#    (ref_mesher.refining unset), so the subsegment splits that faces no
+#    flip mends ask for had no bound there (stuck_past_bound in
+#    refine/refine_run.c): points piled up along segments with tens of
+#    thousands of tetrahedra between them, each step slower;
+#  - pinion.off (default --facet-tol 1e-6: near-planar facets), also on
+#    3 PEs with latency 100us-1ms: it stopped on the progress bound after
+#    some 30 s (main before the merge of branch cadqual, d98f215): its Mo,
+#    24,146 tetrahedra on 1,849 vertices, had cavities of thousands of
+#    tetrahedra across the interface, given up as too big to migrate and
+#    searched again for each neighbour. Splitting the recovery's bad
+#    subfacets (refine_run.c) leaves a Mo of 5,679 tetrahedra, which the
+#    PEs refine.
 # Taken at test time from Debian's libcgal-dev (tests/cad-lib.sh; skipped,
-# exit 77, without the package):
-#  - pdr mesh -n 2 exits 0 within 120 s (the sequential run takes 0.1 s;
-#    the bound is for loaded machines, not a timing);
+# exit 77, without the package). For each run:
+#  - pdr mesh -n P exits 0 within 120 s (bounds for loaded machines, not
+#    timings: the sequential runs take 0.1-0.4 s; pinion on 3 PEs with
+#    latency about 9 s on a 2-core VM);
 #  - the mesh has at most 1.5 times the sequential mesh's tetrahedra
-#    (33,725): 38,700-41,600 in six runs; 57,700-61,900 in runs with
-#    the PEs' queues fixed but not their refining flag, whose splits
-#    then still run on (main runs past the progress bound);
+#    (pinion_small before branch cadqual: 33,725, against 38,700-41,600
+#    in six runs and 57,700-61,900 in runs with the PEs' queues fixed but
+#    not their refining flag, whose splits then still ran on);
 #  - pdr check --plc IN --max-ratio 2 finds nothing but what the summary
 #    reports (faces not locally Delaunay, as many as it says; tetrahedra
 #    above ratio 2, no more than it says), as for the sequential mesh.
@@ -24,20 +33,41 @@ fail() { echo "FAIL: $*"; exit 1; }
 tmp=$(pwd)/mesh-parallel-cad.$$
 mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
-cad_extract "$tmp" pinion_small
-in=$tmp/data/meshes/pinion_small.off
+cad_extract "$tmp" pinion_small pinion
 
-timeout 60 "$PDR" mesh --facet-tol 0 -o "$tmp/seq" "$in" >"$tmp/seq.out" 2>&1 ||
-    { cat "$tmp/seq.out"; fail "sequential: exit $?"; }
-cad_tets seq "$tmp/seq.out"
-nseq=$nt
+# part NAME FACET-OPTIONS...: the sequential mesh of NAME.off with those
+# options; its tetrahedra in $nseq.
+part() {
+    name=$1
+    shift
+    in=$tmp/data/meshes/$name.off
+    facet="$*"
+    # shellcheck disable=SC2086
+    timeout 60 "$PDR" mesh $facet -o "$tmp/$name-seq" "$in" >"$tmp/$name-seq.out" 2>&1 ||
+        { cat "$tmp/$name-seq.out"; fail "$name sequential: exit $?"; }
+    cad_tets "$name-seq" "$tmp/$name-seq.out"
+    nseq=$nt
+}
 
-timeout 120 "$PDR" mesh -n 2 --facet-tol 0 -o "$tmp/par" "$in" >"$tmp/par.out" 2>&1
-rc=$?
-[ "$rc" -eq 0 ] || { tail -n 5 "$tmp/par.out"; fail "2 PEs: pdr mesh -n 2 exited $rc"; }
-cad_tets par "$tmp/par.out"
-[ $((2 * nt)) -le $((3 * nseq)) ] || fail "2 PEs: $nt tetrahedra, sequentially $nseq"
-cad_check par "$in" "$tmp/par" "$tmp/par.out" --facet-tol 0
-cad_check_cover par "$tmp/par" "$tmp/par.out"
-echo "pinion_small on 2 PEs: $nt tetrahedra (sequentially $nseq), $nd faces not locally Delaunay"
+# run LABEL PDR-MESH-OPTIONS...: the part on PEs, checked as above.
+run() {
+    label=$name-$1
+    shift
+    # shellcheck disable=SC2086
+    timeout 120 "$PDR" mesh "$@" $facet -o "$tmp/$label" "$in" >"$tmp/$label.out" 2>&1
+    rc=$?
+    [ "$rc" -eq 0 ] || { tail -n 5 "$tmp/$label.out"; fail "$label: pdr mesh $* exited $rc"; }
+    cad_tets "$label" "$tmp/$label.out"
+    [ $((2 * nt)) -le $((3 * nseq)) ] || fail "$label: $nt tetrahedra, sequentially $nseq"
+    # shellcheck disable=SC2086
+    cad_check "$label" "$in" "$tmp/$label" "$tmp/$label.out" $facet
+    cad_check_cover "$label" "$tmp/$label" "$tmp/$label.out"
+    echo "$label: $nt tetrahedra (sequentially $nseq), $nd faces not locally Delaunay"
+}
+
+part pinion_small --facet-tol 0
+run par2 -n 2
+part pinion
+run par2 -n 2
+run par3 -n 3 --latency 100us-1ms
 echo "ok"

@@ -128,8 +128,6 @@ tests_test_par_LDADD = libpdrmesh.la libam.la libpdrproto.la $(METIS_LIBS) $(ZMQ
 
 # The parallel refinement end to end on local PEs (pdr mesh -n P).
 TESTS += tests/mesh-parallel.sh tests/mesh-cad-parallel.sh tests/mesh-parallel-stall.sh \
-	tests/mesh-parallel-band.sh tests/mesh-parallel-cad.sh \
-	tests/mesh-parallel-pinion.sh
+	tests/mesh-parallel-band.sh tests/mesh-parallel-cad.sh
 dist_check_SCRIPTS += tests/mesh-parallel.sh tests/mesh-cad-parallel.sh \
-	tests/mesh-parallel-stall.sh tests/mesh-parallel-band.sh tests/mesh-parallel-cad.sh \
-	tests/mesh-parallel-pinion.sh
+	tests/mesh-parallel-stall.sh tests/mesh-parallel-band.sh tests/mesh-parallel-cad.sh
