@@ -1,5 +1,5 @@
 # tests/cad-lib.sh -- sourced by the tests that mesh other people's CAD
-# parts (tests/mesh-cad-public.sh, tests/mesh-cad-cascade.sh): the parts
+# parts (tests/mesh-cad-*.sh, tests/mesh-parallel-cad.sh): the parts
 # come from Debian's libcgal-dev at test time, and every mesh gets the
 # same checks of what pdr check finds against what the summary reports.
 # The caller defines fail() and sets PDR. The functions set the globals
@@ -53,4 +53,28 @@ cad_check_cover() {
     left=$(sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge.*/\1/p' "$3")
     [ -n "$bad" ] && [ -n "$left" ] || fail "$1: no ratio counts ('$bad', '$left')"
     [ "$bad" -le "$left" ] || fail "$1: pdr check finds $bad above ratio 2, the summary $left"
+}
+
+# cad_bounded NAME SECS TETGEN BOUND MAXLEFT [NOTE]: pdr mesh of
+# $data/NAME.off with the default options, into $tmp/NAME, exits 0 within
+# SECS seconds with at most BOUND tetrahedra (TETGEN: TetGen's, for the
+# messages), passes cad_check and cad_check_cover, and leaves at most
+# MAXLEFT above ratio 2. NOTE goes into the messages in parentheses.
+cad_bounded() {
+    cad_name=$1 cad_secs=$2 cad_tetgen=$3 cad_bound=$4 cad_maxleft=$5
+    cad_note=${6:+ ($6)}
+    cad_bin=$data/$cad_name.off
+    cad_bmesh=$tmp/$cad_name
+    timeout "$cad_secs" "$PDR" mesh -o "$cad_bmesh" "$cad_bin" >"$cad_bmesh.out" 2>&1
+    rc=$?
+    [ "$rc" -eq 0 ] || { cat "$cad_bmesh.out"; fail "$cad_name: pdr mesh exited $rc"; }
+    cad_tets "$cad_name" "$cad_bmesh.out"
+    [ "$nt" -le "$cad_bound" ] ||
+        fail "$cad_name: $nt tetrahedra, more than $cad_bound (TetGen $cad_tetgen)"
+    cad_check "$cad_name" "$cad_bin" "$cad_bmesh" "$cad_bmesh.out"
+    cad_check_cover "$cad_name" "$cad_bmesh" "$cad_bmesh.out"
+    [ "$left" -le "$cad_maxleft" ] ||
+        fail "$cad_name: $left tetrahedra left above ratio 2, more than $cad_maxleft$cad_note"
+    echo "$cad_name: $nt tetrahedra (TetGen $cad_tetgen), $nd faces not locally Delaunay," \
+        "$left left above ratio 2$cad_note"
 }

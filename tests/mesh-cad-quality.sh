@@ -32,19 +32,7 @@ data=$tmp/data/meshes
 
 # name  seconds  TetGen's tetrahedra  bound  most left above ratio 2 (before)
 while read -r name secs tetgen bound maxleft before; do
-    in=$data/$name.off
-    out=$tmp/$name
-    timeout "$secs" "$PDR" mesh -o "$out" "$in" >"$out.out" 2>&1
-    rc=$?
-    [ "$rc" -eq 0 ] || { cat "$out.out"; fail "$name: pdr mesh exited $rc"; }
-    cad_tets "$name" "$out.out"
-    [ "$nt" -le "$bound" ] || fail "$name: $nt tetrahedra, more than $bound (TetGen $tetgen)"
-    cad_check "$name" "$in" "$out" "$out.out"
-    cad_check_cover "$name" "$out" "$out.out"
-    [ "$left" -le "$maxleft" ] ||
-        fail "$name: $left tetrahedra left above ratio 2, more than $maxleft (the old rule: $before)"
-    echo "$name: $nt tetrahedra (TetGen $tetgen), $nd faces not locally Delaunay," \
-        "$left left above ratio 2 (the old rule: $before)"
+    cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft" "the old rule: $before"
 done <<EOF
 joint 30 7742 12000 200 472
 oblong 30 16910 25365 450 793
