@@ -1685,6 +1685,24 @@ static void free_merge_case(pr_buf *b, par_sub *subs, uint32_t P, ref_mesher *mo
     plc_free(p);
 }
 
+/* The unit cube refined to more than 420,000 tetrahedra (above
+ * LINK_SHARES_FROM and MERGE_THREADS_FROM of par_merge.c), cut into 3
+ * submeshes encoded in b; free_merge_case releases it. */
+static void large_merge_case(plc *p, ref_mesher *mo, par_sub subs[3], pr_buf b[3])
+{
+    unit_cube_plc(p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 4e-6;
+    build_mo(p, &o, 0, mo);
+    ck_assert_int_eq(ref_refine(mo), 0);
+    ck_assert_uint_ge(mo->m.nlive, 420000);
+    subs_of(mo, 3, subs);
+    const void *msg[3];
+    size_t len[3];
+    encode_subs(subs, NULL, 3, b, msg, len);
+}
+
 /* Step 4 of the merge shares a large mesh's slots among the processors
  * (par_merge.c, check_links_shared): it finds what one pass finds, on a
  * mesh that fits and on one with a link that does not come back and two
@@ -1692,20 +1710,10 @@ static void free_merge_case(pr_buf *b, par_sub *subs, uint32_t P, ref_mesher *mo
 START_TEST(merge_shares_agree)
 {
     plc p;
-    unit_cube_plc(&p);
-    ref_opts o;
-    ref_default_opts(&o);
-    o.maxvol = 4e-6;
     ref_mesher mo;
-    build_mo(&p, &o, 0, &mo);
-    ck_assert_int_eq(ref_refine(&mo), 0);
-    ck_assert_uint_ge(mo.m.nlive, 420000); /* above LINK_SHARES_FROM */
     par_sub subs[3];
-    subs_of(&mo, 3, subs);
     pr_buf b[3];
-    const void *msg[3];
-    size_t len[3];
-    encode_subs(subs, NULL, 3, b, msg, len);
+    large_merge_case(&p, &mo, subs, b);
     par_merge_report one, all;
     ck_assert_int_eq(merge_bufs_on(b, 3, &p, &one, 1), 0);
     ck_assert_int_eq(merge_bufs_on(b, 3, &p, &all, 0), 0);
@@ -1737,20 +1745,10 @@ END_TEST
 START_TEST(merge_threads_same_mesh)
 {
     plc p;
-    unit_cube_plc(&p);
-    ref_opts o;
-    ref_default_opts(&o);
-    o.maxvol = 4e-6;
     ref_mesher mo;
-    build_mo(&p, &o, 0, &mo);
-    ck_assert_int_eq(ref_refine(&mo), 0);
-    ck_assert_uint_ge(mo.m.nlive, 420000); /* above MERGE_THREADS_FROM */
     par_sub subs[3];
-    subs_of(&mo, 3, subs);
     pr_buf b[3];
-    const void *msg[3];
-    size_t len[3];
-    encode_subs(subs, NULL, 3, b, msg, len);
+    large_merge_case(&p, &mo, subs, b);
     par_merge_report r1, r2;
     ref_mesher m1, m2;
     ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), 0);
