@@ -65,7 +65,8 @@ FUZZ_REPLAY = \
 	tests/fuzz/replay_control \
 	tests/fuzz/replay_bundle \
 	tests/fuzz/replay_cli \
-	tests/fuzz/replay_reply
+	tests/fuzz/replay_reply \
+	tests/fuzz/replay_band
 check_PROGRAMS += $(FUZZ_REPLAY)
 TESTS += $(FUZZ_REPLAY)
 FUZZ_MESH_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
@@ -99,6 +100,11 @@ tests_fuzz_replay_reply_CFLAGS = $(FUZZ_MESH_CFLAGS)
 tests_fuzz_replay_reply_LDADD = libpdrmesh.la libam.la libpdrproto.la \
 	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
 tests_fuzz_replay_reply_LDFLAGS = $(AM_LDFLAGS) -static
+tests_fuzz_replay_band_SOURCES = tests/fuzz/fuzz_band.c tests/fuzz/replay_input.c
+tests_fuzz_replay_band_CFLAGS = $(FUZZ_MESH_CFLAGS)
+tests_fuzz_replay_band_LDADD = libpdrmesh.la libam.la libpdrproto.la \
+	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_band_LDFLAGS = $(AM_LDFLAGS) -static
 
 # Absurd counts in headers are refused before anything is allocated for
 # them (run under a small ulimit -v).
