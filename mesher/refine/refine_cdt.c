@@ -605,6 +605,21 @@ static flip_hooks flip_hooks_of(ref_mesher *r)
     return fh;
 }
 
+/* The floor of the split of subsegment a-b that a face no flip mends
+ * asks for, apex the vertex of its tetrahedron off the face (refine.h,
+ * REF_STUCK_FAR). */
+static double stuck_floor(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t apex)
+{
+    const tm_mesh *m = &r->m;
+    const double *A = X(m, a), *B = X(m, b);
+    double mid[3] = {0.5 * (A[0] + B[0]), 0.5 * (A[1] + B[1]), 0.5 * (A[2] + B[2])};
+    double far = sqrt(v3_dist2(mid, X(m, apex)));
+    double fl = r->bd.vrins[apex];
+    if (far > REF_STUCK_FAR * sqrt(v3_dist2(A, B)) && 0.5 * far > fl)
+        fl = 0.5 * far;
+    return r->o.rho * fl;
+}
+
 int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
 {
     tm_mesh *m = &r->m;
@@ -639,7 +654,7 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
             if (id != BD_NONE) {
                 found = 1;
                 r->st.stuck_splits += !(r->bd.segs[id].flags & BD_F_QUEUED);
-                rc = ref__queue_seg(r, id, (float)(r->o.rho * r->bd.vrins[tv[tm_lface(l)]]));
+                rc = ref__queue_seg(r, id, (float)stuck_floor(r, a, b, tv[tm_lface(l)]));
             }
         }
         /* ... or against subfacets whose common edge it needs removed (a
