@@ -43,6 +43,9 @@ typedef struct mpar_opts {
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
     int work_clock;       /* --work-clock: enum mpar_clock */
+    long rank0_points;    /* --rank0-points N: without -a or --mo-size, rank
+                             0 refines alone until N points were added
+                             (cli/mesh_par.c, refine_alone); 0: not at all */
     int check_end;        /* PDR_REF_CHECK=end: every PE checks its tables,
                              facet triangulations and links once, when its
                              refinement ends */
@@ -53,7 +56,12 @@ typedef struct mpar_opts {
  * (each PE decides for itself). */
 enum mpar_clock { MPAR_CLOCK_AUTO = 0, MPAR_CLOCK_WALL, MPAR_CLOCK_CPU };
 
-/* Defaults: not parallel, one part per PE, 8 threads, seed 1. */
+/* The default of --rank0-points: about the paper's Mo of 10^5
+ * tetrahedra (some 4 per vertex on the CAD surfaces). */
+#define MPAR_RANK0_POINTS 25000L
+
+/* Defaults: not parallel, one part per PE, 8 threads, seed 1, rank 0
+ * alone up to MPAR_RANK0_POINTS points. */
 void mpar_default_opts(mpar_opts *o);
 
 /* Runs this PE of a parallel 'pdr mesh' (--parallel) with pipeline
