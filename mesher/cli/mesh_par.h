@@ -56,9 +56,13 @@ typedef struct mpar_opts {
  * (each PE decides for itself). */
 enum mpar_clock { MPAR_CLOCK_AUTO = 0, MPAR_CLOCK_WALL, MPAR_CLOCK_CPU };
 
-/* The default of --rank0-points: about the paper's Mo of 10^5
- * tetrahedra (some 4 per vertex on the CAD surfaces). */
-#define MPAR_RANK0_POINTS 25000L
+/* The default of --rank0-points: some 4 10^5 tetrahedra (about 4 per
+ * vertex on the CAD surfaces). Below that the parallel refinement of a
+ * CAD surface did not pay on 2 PEs (bench/surfaces.md: cheese.off, 47,189
+ * points, took 24-82 s on 2 PEs with a pause at 25,000 points against
+ * 7-30 s sequentially; turbine.off, 11,866, 2.3-13.7 s with a pause at
+ * 5,000 against 1.3-6.9 s). */
+#define MPAR_RANK0_POINTS 100000L
 
 /* Defaults: not parallel, one part per PE, 8 threads, seed 1, rank 0
  * alone up to MPAR_RANK0_POINTS points. */
