@@ -42,8 +42,9 @@ void mpar_default_opts(mpar_opts *o)
 
 /* --------------------------------------------------------- job message */
 
-/* Body: u8 status (0 go, 1 rank 0 failed), then three length-prefixed
- * blobs: the PLC, the refinement options, the submesh. */
+/* Body: u8 status (0 go, 1 rank 0 failed, 2 rank 0 finished the mesh
+ * alone: nothing to do), then, with 0, three length-prefixed blobs: the
+ * PLC, the refinement options, the submesh. */
 typedef struct job {
     int got;
     uint8_t status;
@@ -368,9 +369,10 @@ enum { PRE_NONE, PRE_ALONE, PRE_PAUSED };
  * the PEs crossed the interface and 2 PEs took 10 to 100 times the
  * sequential time, or stopped on the progress bound. A mesh that is
  * finished before the pause (*alone PRE_ALONE) is the sequential mesh,
- * exported, which rank 0 writes alone; otherwise (PRE_PAUSED) the paused mesh, of about 4
- * rank0_points tetrahedra, is Mo, and the PEs go on with its refinement
- * (the same bounds: the mesh is as fine as the sequential one). */
+ * exported, which rank 0 writes alone; otherwise (PRE_PAUSED) the paused
+ * mesh, of about 4 rank0_points tetrahedra, is Mo, and the PEs go on
+ * with its refinement (the same bounds: the mesh is as fine as the
+ * sequential one). */
 static int refine_alone(mp_ctx *c, const mpar_opts *po, int *alone)
 {
     *alone = PRE_NONE;
@@ -422,8 +424,9 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
          * that is smaller: a mesh with radius-edge bound 2 and volume
          * bound V has about 2 vol/V tetrahedra (1.98 on cube-in-cube, 1.97
          * on the tee at V = 1e-5). Without a volume bound the final size
-         * is unknown and Mo stays the conforming mesh: refining it further
-         * would make the result finer than the sequential one. */
+         * is unknown, and a volume bound on Mo would make the result finer
+         * than the sequential one: rank 0 refined it with the job's own
+         * bounds instead (refine_alone). */
         double est = fmin(MO_SIZE_PAPER, 0.2 * im_interior_volume(&c->r) / o->ref.maxvol);
         if (est > (double)ref_interior_tets(&c->r) && (rc = im_mo_size(&c->r, (size_t)est))) {
             fprintf(stderr, "pdr mesh: cannot refine the initial mesh: %s\n", pdr_strerror(rc));

@@ -2,7 +2,10 @@
  * cli/mesh_par.h -- the parallel driver of 'pdr mesh' (prefix mpar_): the
  * pipeline of cli/mesh_pipeline.h with the refinement done by P PEs.
  *
- *   rank 0:   mp_read, mp_initial_mesh (Mo, about --mo-size tetrahedra),
+ *   rank 0:   mp_read, mp_initial_mesh (Mo, about --mo-size tetrahedra;
+ *             without -a the sequential refinement up to --rank0-points
+ *             points, and when that finishes the mesh rank 0 writes it
+ *             and the PEs end at once),
  *             METIS partition into --parts parts (par/par_decomp.h), one
  *             message per PE with the PLC, the options and its submesh;
  *   every PE: builds its submesh, queues its bad tetrahedra, runs the
