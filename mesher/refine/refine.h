@@ -403,7 +403,9 @@ typedef struct ref_mesher {
                             parallel run refining Mo alone (cli/mesh_par.c);
                             set by the caller, 0 from ref_init */
     int paused;        /* ref_run stopped at pause_points; ref_refine
-                          then returns 0 at once, its work not done */
+                          then returns 0 with its work not done (no
+                          shrink passes); the bad tetrahedra are queued
+                          again by whoever goes on (ref_queue_all_tets) */
     int finishing;     /* rank 0 finishes the merged mesh of a parallel
                           run in the constrained mode (no hooks there;
                           split_subseg's retries) */
