@@ -63,7 +63,7 @@ while read -r name secs tetgen opts; do
     rm -f "$out.node" "$out.ele" "$out.face"
 done <<EOF
 pipe 20 6137
-pipe-n2 60 6137 -n 2
+pipe-n2 60 6137 -n 2 --rank0-points 0
 u 20 3611
 turbine 60 80745
 turbine-nomerge 60 80745 --no-merge

@@ -52,7 +52,7 @@ for lat in "" "--latency 100us-1ms"; do
                 echo "example.poly skipped: $ex not found (Debian package tetgen)"
                 continue
             fi
-            in=$ex args=""
+            in=$ex args="--rank0-points 0"
             ;;
         esac
         name=$d${lat:+-lat}

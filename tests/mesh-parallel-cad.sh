@@ -15,6 +15,14 @@
 #    searched again for each neighbour. Splitting the recovery's bad
 #    subfacets (refine_run.c) leaves a Mo of 5,679 tetrahedra, which the
 #    PEs refine.
+# Since rank 0 refines such a mesh alone up to --rank0-points points
+# before the PEs start (cli/mesh_par.c, refine_alone), these runs give
+# --rank0-points 0 to keep the PEs refining the coarse conforming mesh;
+# with the default, pinion_small on 2 PEs is meshed by rank 0 alone (the
+# sequential mesh, byte for byte, and the summary says so: before, 2 PEs
+# took 2-65 s where the sequential run takes 0.3 s, or stopped on the
+# progress bound under load), and with --rank0-points 1000 rank 0 pauses
+# and the PEs refine from there (a Mo of some 6,000 tetrahedra).
 # Taken at test time from Debian's libcgal-dev (tests/cad-lib.sh; skipped,
 # exit 77, without the package). For each run:
 #  - pdr mesh -n P exits 0 within 120 s (bounds for loaded machines, not
@@ -66,8 +74,21 @@ run() {
 }
 
 part pinion_small --facet-tol 0
-run par2 -n 2
+run par2 -n 2 --rank0-points 0
 part pinion
-run par2 -n 2
-run par3 -n 3 --latency 100us-1ms
+run par2 -n 2 --rank0-points 0
+run par3 -n 3 --latency 100us-1ms --rank0-points 0
+
+# pinion_small with the default facets: rank 0 alone, then rank 0 first.
+part pinion_small
+run alone -n 2
+grep -q '^parallel: 2 PEs; rank 0 refined the mesh alone' "$tmp/$label.out" ||
+    fail "$label: $(grep '^parallel' "$tmp/$label.out")"
+for ext in node ele face; do
+    cmp -s "$tmp/$name-seq.$ext" "$tmp/$label.$ext" || fail "$label: .$ext not the sequential one"
+done
+run paused -n 2 --rank0-points 1000
+mo=$(sed -n 's/^parallel: 2 PEs, 2 parts, Mo \([0-9]*\) tetrahedra.*/\1/p' "$tmp/$label.out")
+[ "${mo:-0}" -gt 3000 ] || fail "$label: $(grep '^parallel' "$tmp/$label.out")"
+echo "$label: Mo $mo tetrahedra"
 echo "ok"

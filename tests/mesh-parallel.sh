@@ -76,7 +76,7 @@ ex=${TETGEN_EXAMPLE:-/usr/share/doc/tetgen/examples/example.poly}
 if [ -r "$ex" ]; then
     cp "$ex" "$tmp/ex.poly" || exit 99
     for n in 3 5 8; do
-        run "ex-$n" ex -n "$n" --seed "$n"
+        run "ex-$n" ex -n "$n" --seed "$n" --rank0-points 0
         echo "ex-$n: $(tets "$tmp/ex-$n.out") tetrahedra"
     done
 else
@@ -86,7 +86,7 @@ fi
 # A tessellated surface as CAD tools write it (a cube whose faces are
 # triangle grids, merged into six facets by the input preparation).
 cp "$top_srcdir/tests/data/surf/gridcube.off" "$tmp/gridcube.off" || exit 99
-run grid-3 gridcube -n 3
+run grid-3 gridcube -n 3 --rank0-points 0
 echo "grid-3: $(tets "$tmp/grid-3.out") tetrahedra"
 
 # Over-decomposition with latency: cavities cross PEs and collide.

@@ -112,6 +112,12 @@ static void usage(FILE *f)
             "                       leaves out time slices the kernel gives other PEs), or\n"
             "                       'auto' (default: cpu where PEs outnumber the cores)\n"
             "      --seed S         seed of the partition and of the back-off (default 1)\n"
+            "      --rank0-points N without -a and --mo-size: rank 0 refines the initial\n"
+            "                       mesh alone until N points were added (default 100000,\n"
+            "                       about 4 10^5 tetrahedra), and the PEs go on from there; a\n"
+            "                       mesh finished by then rank 0 writes alone (the\n"
+            "                       sequential mesh; the summary says so); 0: the PEs\n"
+            "                       refine the conforming mesh\n"
             "      --latency SPEC   with -n: inject latency per message (200us, 100us-1ms)\n"
             "      --bandwidth SPEC with -n: cap the bandwidth per link (100Mbit)\n"
             "      --sched POLICY   with -n: the PEs' scheduling policy: other (default),\n"
@@ -126,7 +132,8 @@ static void usage(FILE *f)
             "      --submeshes      every PE also writes its part as BASE.pRANK.node/.ele\n"
             "With -a V the initial mesh of a parallel run is refined to about 10^5\n"
             "tetrahedra as in the paper, or a tenth of the expected final size if that is\n"
-            "smaller; without -a it is the conforming mesh; --mo-size N sets it.\n"
+            "smaller; without -a it is the conforming mesh refined by rank 0 alone up to\n"
+            "--rank0-points; --mo-size N sets it.\n"
             "A parallel run stops every PE with an error, and writes nothing, when a PE\n"
             "makes no progress (over a stretch of its work, fewer than one point\n"
             "inserted per 1024 units: 16 per cavity attempt, 1 per tetrahedron migrated\n"
@@ -192,7 +199,7 @@ static int parse_double(const char *s, double *out)
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
     O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_SCHED, O_CPU_BIND, O_STATS, O_SUBMESHES,
-    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK, O_FACETTOL
+    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK, O_FACETTOL, O_RANK0_POINTS
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -216,6 +223,7 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"max-threads", required_argument, NULL, O_THREADS},
                                           {"work-clock", required_argument, NULL, O_WORKCLOCK},
                                           {"seed", required_argument, NULL, O_SEED},
+                                          {"rank0-points", required_argument, NULL, O_RANK0_POINTS},
                                           {"latency", required_argument, NULL, O_LATENCY},
                                           {"bandwidth", required_argument, NULL, O_BANDWIDTH},
                                           {"sched", required_argument, NULL, O_SCHED},
@@ -361,6 +369,14 @@ static int parse_par_number(int c, const char *arg, mpar_opts *po)
         }
         po->parts = (uint32_t)v;
         return 0;
+    case O_RANK0_POINTS:
+        if (bad || v > 1000000000) {
+            pdr_cli_error("mesh", "--rank0-points needs a number of points (0: none), not '%s'",
+                          arg);
+            return PDR_EXIT_USAGE;
+        }
+        po->rank0_points = (long)v;
+        return 0;
     case O_THREADS:
         if (bad || v < 1 || v > 4096) {
             pdr_cli_error("mesh", "--max-threads needs a number from 1 to 4096, not '%s'", arg);
@@ -469,6 +485,7 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
         case O_PARTS:
         case O_THREADS:
         case O_SEED:
+        case O_RANK0_POINTS:
             rc = parse_par_number(c, optarg, po);
             break;
         case O_PARALLEL:

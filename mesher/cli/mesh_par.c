@@ -37,12 +37,14 @@ void mpar_default_opts(mpar_opts *o)
     memset(o, 0, sizeof *o);
     o->max_threads = 8;
     o->seed = 1;
+    o->rank0_points = MPAR_RANK0_POINTS;
 }
 
 /* --------------------------------------------------------- job message */
 
-/* Body: u8 status (0 go, 1 rank 0 failed), then three length-prefixed
- * blobs: the PLC, the refinement options, the submesh. */
+/* Body: u8 status (0 go, 1 rank 0 failed, 2 rank 0 finished the mesh
+ * alone: nothing to do), then, with 0, three length-prefixed blobs: the
+ * PLC, the refinement options, the submesh. */
 typedef struct job {
     int got;
     uint8_t status;
@@ -355,12 +357,50 @@ static void mo_unqueue(ref_mesher *r)
         m->flags[t] &= (uint16_t)~TM_F_QUEUED;
 }
 
+/* What rank 0's refinement before the PEs' did (refine_alone). */
+enum { PRE_NONE, PRE_ALONE, PRE_PAUSED };
+
+/* Rank 0, without a volume bound or --mo-size: the sequential quality
+ * refinement of the conforming mesh (mp_refine), paused before the first
+ * bad tetrahedron's split past po->rank0_points added points (no
+ * subsegment or subfacet queued then). Without a volume bound the final
+ * size is unknown, and the conforming mesh of a CAD surface is coarse
+ * (pinion_small.off: 1,255 tetrahedra), so that nearly every cavity of
+ * the PEs crossed the interface and 2 PEs took 10 to 100 times the
+ * sequential time, or stopped on the progress bound. A mesh that is
+ * finished before the pause (*alone PRE_ALONE) is the sequential mesh,
+ * exported, which rank 0 writes alone; otherwise (PRE_PAUSED) the paused
+ * mesh, of about 4 rank0_points tetrahedra, is Mo, and the PEs go on
+ * with its refinement (the same bounds: the mesh is as fine as the
+ * sequential one). */
+static int refine_alone(mp_ctx *c, const mpar_opts *po, int *alone)
+{
+    *alone = PRE_NONE;
+    if (c->o.mo_size > 0 || c->o.ref.maxvol > 0 || c->o.mo_only || po->rank0_points <= 0)
+        return 0;
+    ref_mesher *r = &c->r;
+    r->pause_points =
+        r->st.seg_points + r->st.fac_points + r->st.tet_points + (size_t)po->rank0_points;
+    r->paused = 0;
+    int rc = mp_refine(c);
+    r->pause_points = 0;
+    if (!rc && !r->paused) {
+        *alone = PRE_ALONE;
+        rc = mp_export(c);
+    } else if (!rc) {
+        *alone = PRE_PAUSED;
+    }
+    c->refined = *alone == PRE_ALONE;
+    return rc;
+}
+
 /* Rank 0: the job messages (PLC, options, each PE's submesh), and the
  * size of Mo; t[0] when the conforming mesh is done, t[1] when Mo is,
- * t[2] when it is partitioned into submeshes. Returns 0 or a code (its
- * message printed). */
+ * t[2] when it is partitioned into submeshes; *alone what
+ * refine_alone did (PRE_ALONE: no message built) and *mo_st Mo's counts.
+ * Returns 0 or a code (its message printed). */
 static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int size, pr_buf *msg,
-                   size_t *mo_tets, double t[3])
+                   size_t *mo_tets, double t[3], int *alone, ref_stats *mo_st)
 {
     mp_opts *o = &c->o;
     /* As pdr mesh alone does (cmd_mesh.c, run_pipeline): a failure with
@@ -373,17 +413,20 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
         read = !rc;
         if (!rc)
             rc = mp_initial_mesh(c);
+        t[0] = pdr_now();
+        if (!rc)
+            rc = refine_alone(c, po, alone);
     } while (mp_retry_exact_facets(c, given, rc, read));
-    if (rc)
+    if (rc || *alone == PRE_ALONE)
         return rc;
-    t[0] = pdr_now();
     if (!(o->mo_size > 0) && o->ref.maxvol > 0) {
         /* The paper's 10^5 tetrahedra, or a tenth of the final mesh when
          * that is smaller: a mesh with radius-edge bound 2 and volume
          * bound V has about 2 vol/V tetrahedra (1.98 on cube-in-cube, 1.97
          * on the tee at V = 1e-5). Without a volume bound the final size
-         * is unknown and Mo stays the conforming mesh: refining it further
-         * would make the result finer than the sequential one. */
+         * is unknown, and a volume bound on Mo would make the result finer
+         * than the sequential one: rank 0 refined it with the job's own
+         * bounds instead (refine_alone). */
         double est = fmin(MO_SIZE_PAPER, 0.2 * im_interior_volume(&c->r) / o->ref.maxvol);
         if (est > (double)ref_interior_tets(&c->r) && (rc = im_mo_size(&c->r, (size_t)est))) {
             fprintf(stderr, "pdr mesh: cannot refine the initial mesh: %s\n", pdr_strerror(rc));
@@ -391,6 +434,7 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
         }
     }
     *mo_tets = ref_interior_tets(&c->r);
+    *mo_st = c->r.st;
     mo_unqueue(&c->r);
     t[1] = pdr_now();
     uint32_t parts = po->parts ? po->parts : (uint32_t)size;
@@ -448,6 +492,24 @@ static int load(const job *j, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
     return rc;
 }
 
+/* Rank 0, when it finished the mesh alone (refine_alone): the rest of
+ * the sequential pipeline (cmd_mesh.c, run_pipeline), and a line that
+ * says so in place of Table 1. */
+static int finish_alone(mp_ctx *c, int size, const mpar_opts *po)
+{
+    int rc = mp_write(c);
+    if (!rc && !c->o.quiet)
+        printf("parallel: %d PEs; rank 0 refined the mesh alone: it was finished within "
+               "--rank0-points %ld points, too small a job for the parallel refinement to "
+               "pay; the other PEs had nothing to do\n",
+               size, po->rank0_points);
+    if (!rc)
+        rc = mp_report(c);
+    if (!rc && c->o.check)
+        rc = mp_verify(c);
+    return rc;
+}
+
 int mpar_run(const mp_opts *mo, const mpar_opts *po)
 {
     am_opts_t ao = AM_OPTS_INIT;
@@ -487,14 +549,20 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     if (rank == 0) {
         pr_buf *msg = pr_calloc((size_t)size, sizeof *msg);
-        int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep) : PDR_ENOMEM;
+        int pre = PRE_NONE;
+        ref_stats mo_st;
+        memset(&mo_st, 0, sizeof mo_st);
+        int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep, &pre, &mo_st)
+                      : PDR_ENOMEM;
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
+            else if (pre == PRE_ALONE)
+                am_send(am, k, H_JOB, "\2", 1);
             else
                 am_send(am, k, H_JOB, msg[k].data, msg[k].len);
         }
-        if (!prc) {
+        if (!prc && pre != PRE_ALONE) {
             j.got = 1;
             j.len = msg[0].len;
             j.data = pr_buf_take(&msg[0], &j.len);
@@ -504,10 +572,22 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         pr_free(msg);
         if (prc)
             goto done;
+        if (pre == PRE_ALONE) {
+            status = finish_alone(&c, size, po) ? PDR_EXIT_FAIL : PDR_EXIT_OK;
+            goto done;
+        }
+        /* The refinement's counts start from Mo's, which rank 0 refined
+         * part of the way (refine_alone). */
+        if (pre == PRE_PAUSED)
+            sum = mo_st;
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
     } else if ((rc = wait_job(am, &j))) {
+        goto done;
+    }
+    if (j.status == 2) {
+        status = PDR_EXIT_OK; /* rank 0 finished the mesh alone */
         goto done;
     }
     if (j.status)

@@ -2,7 +2,10 @@
  * cli/mesh_par.h -- the parallel driver of 'pdr mesh' (prefix mpar_): the
  * pipeline of cli/mesh_pipeline.h with the refinement done by P PEs.
  *
- *   rank 0:   mp_read, mp_initial_mesh (Mo, about --mo-size tetrahedra),
+ *   rank 0:   mp_read, mp_initial_mesh (Mo, about --mo-size tetrahedra;
+ *             without -a the sequential refinement up to --rank0-points
+ *             points, and when that finishes the mesh rank 0 writes it
+ *             and the PEs end at once),
  *             METIS partition into --parts parts (par/par_decomp.h), one
  *             message per PE with the PLC, the options and its submesh;
  *   every PE: builds its submesh, queues its bad tetrahedra, runs the
@@ -43,6 +46,9 @@ typedef struct mpar_opts {
     const char *stats;    /* --stats DIR: per-PE JSON */
     int submeshes;        /* --submeshes: each PE writes its part */
     int work_clock;       /* --work-clock: enum mpar_clock */
+    long rank0_points;    /* --rank0-points N: without -a or --mo-size, rank
+                             0 refines alone until N points were added
+                             (cli/mesh_par.c, refine_alone); 0: not at all */
     int check_end;        /* PDR_REF_CHECK=end: every PE checks its tables,
                              facet triangulations and links once, when its
                              refinement ends */
@@ -53,7 +59,16 @@ typedef struct mpar_opts {
  * (each PE decides for itself). */
 enum mpar_clock { MPAR_CLOCK_AUTO = 0, MPAR_CLOCK_WALL, MPAR_CLOCK_CPU };
 
-/* Defaults: not parallel, one part per PE, 8 threads, seed 1. */
+/* The default of --rank0-points: some 4 10^5 tetrahedra (about 4 per
+ * vertex on the CAD surfaces). Below that the parallel refinement of a
+ * CAD surface did not pay on 2 PEs (bench/surfaces.md: cheese.off, 47,189
+ * points, took 24-82 s on 2 PEs with a pause at 25,000 points against
+ * 7-30 s sequentially; turbine.off, 11,866, 2.3-13.7 s with a pause at
+ * 5,000 against 1.3-6.9 s). */
+#define MPAR_RANK0_POINTS 100000L
+
+/* Defaults: not parallel, one part per PE, 8 threads, seed 1, rank 0
+ * alone up to MPAR_RANK0_POINTS points. */
 void mpar_default_opts(mpar_opts *o);
 
 /* Runs this PE of a parallel 'pdr mesh' (--parallel) with pipeline

@@ -396,6 +396,16 @@ typedef struct ref_mesher {
     int classified;    /* exterior marked, regions assigned */
     int refining;      /* ref_run is splitting bad tetrahedra too, or a
                           PE's parallel refinement (par_run.c) is */
+    size_t pause_points; /* > 0: ref_run(r, 1) pauses (returns 0 with
+                            'paused' set) before a bad tetrahedron's
+                            split once this many points were added and no
+                            subsegment or subfacet is queued: rank 0 of a
+                            parallel run refining Mo alone (cli/mesh_par.c);
+                            set by the caller, 0 from ref_init */
+    int paused;        /* ref_run stopped at pause_points; ref_refine
+                          then returns 0 with its work not done (no
+                          shrink passes); the bad tetrahedra are queued
+                          again by whoever goes on (ref_queue_all_tets) */
     int finishing;     /* rank 0 finishes the merged mesh of a parallel
                           run in the constrained mode (no hooks there;
                           split_subseg's retries) */

@@ -1757,6 +1757,10 @@ int ref_run(ref_mesher *r, int tets)
             uint32_t id = q_pop(&r->facq, 0, &rmin);
             r->last_op = "subfacet";
             rc = process_fac(r, id, rmin);
+        } else if (tets && r->pause_points && !q_empty(&r->tetq) &&
+                   r->st.seg_points + r->st.fac_points + r->st.tet_points >= r->pause_points) {
+            r->paused = 1;
+            break;
         } else if (tets && r->classified && pop_tet(r, &t)) {
             r->last_op = "tetrahedron";
             rc = split_tet(r, t);
@@ -1860,7 +1864,7 @@ int ref_refine(ref_mesher *r)
     int rc = ref_queue_all_tets(r);
     if (!rc)
         rc = run_and_reclassify(r);
-    if (!rc && r->o.constrained && r->carved && !r->hooks)
+    if (!rc && !r->paused && r->o.constrained && r->carved && !r->hooks)
         rc = shrink_passes(r);
     return rc;
 }
