@@ -190,7 +190,7 @@ void dt_cavity_unlock(tm_mesh *m, dt_cavity *c)
     if (m->lock)
         for (size_t i = 0; i < c->nheld; i++)
             if (m->lock[c->held[i]] == c->lock_owner)
-                m->lock[c->held[i]] = 0;
+                tm_set_lock(m, c->held[i], 0);
     c->nheld = 0;
 }
 
@@ -202,21 +202,22 @@ void dt_cavity_abandon(tm_mesh *m, dt_cavity *c)
 }
 
 /* Returns 1 if t is free or ours (taking it if free and lock is 1; lock
- * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. */
-static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
+ * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. The summary bit
+ * (tm_is_locked) answers for a free tetrahedron without reading lock[t]. */
+static int take_free_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
 {
-    uint32_t owner = m->lock[t];
-    if (owner == c->lock_owner)
-        return 1;
-    if (owner != 0)
-        return 0;
-    if (lock == 2)
-        return 1;
     if (pdr_grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
         return PDR_ENOMEM;
-    m->lock[t] = c->lock_owner;
+    tm_set_lock(m, t, c->lock_owner);
     c->held[c->nheld++] = t;
     return 1;
+}
+
+static inline int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
+{
+    if (!tm_is_locked(m, t))
+        return lock == 2 ? 1 : take_free_lock(m, c, t);
+    return m->lock[t] == c->lock_owner;
 }
 
 static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)
