@@ -115,19 +115,22 @@ static void segment_end(par_run *pr, par_item *it)
 
 /* 1 if a tetrahedron just outside cavity c has a face on the interface:
  * the new work of such a step is near another PE's, and waits its turn
- * (see REF_ORDER_LOCAL_FIRST). */
+ * (see REF_ORDER_LOCAL_FIRST). Most cavities have none, so every outer
+ * tetrahedron is looked at without branches: a link is an interface
+ * face when it is special but not TM_LINK_NONE, that is when link -
+ * TM_LINK_SPECIAL (mod 2^32) is below TM_LINK_NONE - TM_LINK_SPECIAL. */
 static int near_interface(const tm_mesh *m, const dt_cavity *c)
 {
+    unsigned hit = 0;
     for (size_t i = 0; i < c->nbnd; i++) {
         tm_link l = c->bnd[i].outer;
         if (tm_is_special(l))
             continue;
-        const tm_tet *U = &m->tets[tm_ltet(l)];
+        const tm_link *n = m->tets[tm_ltet(l)].n;
         for (int k = 0; k < 4; k++)
-            if (tm_is_special(U->n[k]) && U->n[k] != TM_LINK_NONE)
-                return 1;
+            hit |= (unsigned)(n[k] - TM_LINK_SPECIAL < TM_LINK_NONE - TM_LINK_SPECIAL);
     }
-    return 0;
+    return hit != 0;
 }
 
 static int hook_cavity(void *arg, const double p[3], uint32_t start, dt_cavity *c)
