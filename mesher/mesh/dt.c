@@ -202,10 +202,19 @@ void dt_cavity_abandon(tm_mesh *m, dt_cavity *c)
 }
 
 /* Returns 1 if t is free or ours (taking it if free and lock is 1; lock
- * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. The summary bit
- * (tm_is_locked) answers for a free tetrahedron without reading lock[t]. */
-static int take_free_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
+ * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. Out of line:
+ * the search of the sequential mesher never calls it, and its callers
+ * inline only the test of lock_free. */
+__attribute__((noinline)) static int take_lock_slow(tm_mesh *m, dt_cavity *c, uint32_t t,
+                                                    int lock)
 {
+    uint32_t owner = m->lock[t];
+    if (owner == c->lock_owner)
+        return 1;
+    if (owner != 0)
+        return 0;
+    if (lock == 2)
+        return 1;
     if (pdr_grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
         return PDR_ENOMEM;
     tm_set_lock(m, t, c->lock_owner);
@@ -213,11 +222,13 @@ static int take_free_lock(tm_mesh *m, dt_cavity *c, uint32_t t)
     return 1;
 }
 
+/* A check only (lock 2) of a tetrahedron whose summary bit is clear
+ * (tm_is_locked): free, answered without reading lock[t]. */
 static inline int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
 {
-    if (!tm_is_locked(m, t))
-        return lock == 2 ? 1 : take_free_lock(m, c, t);
-    return m->lock[t] == c->lock_owner;
+    if (lock == 2 && !tm_is_locked(m, t))
+        return 1;
+    return take_lock_slow(m, c, t, lock);
 }
 
 static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)

@@ -127,6 +127,11 @@ int tm_enable(tm_mesh *m, unsigned features)
     return 0;
 }
 
+void tm__unlock_slot(tm_mesh *m, uint32_t t)
+{
+    tm_set_lock(m, t, 0);
+}
+
 int tm_reserve(tm_mesh *m, size_t nverts, size_t ntets)
 {
     if (nverts > TM_MAX_VERTS || ntets > TM_MAX_TETS)

@@ -226,6 +226,9 @@ static inline int tm_is_locked(const tm_mesh *m, uint32_t t)
 {
     return (int)((m->locked[t >> 6] >> (t & 63u)) & 1u);
 }
+/* tm_set_lock(m, t, 0) out of line, for tm__take_slot: the sequential
+ * mesher (no lock array) keeps its insertion code as small as before. */
+void tm__unlock_slot(tm_mesh *m, uint32_t t);
 /* Takes a slot from the free list or the end (the caller ensured room)
  * and clears its flags, markers and lock, without counting it live: for
  * callers that count new tetrahedra in bulk (dt_build). */
@@ -245,7 +248,7 @@ static inline uint32_t tm__take_slot(tm_mesh *m)
         mk[0] = mk[1] = mk[2] = mk[3] = 0;
     }
     if (m->lock)
-        tm_set_lock(m, t, 0);
+        tm__unlock_slot(m, t);
     return t;
 }
 /* Takes a slot as tm__take_slot and counts it live: vertices and links are
