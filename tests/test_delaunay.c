@@ -889,15 +889,81 @@ START_TEST(locked_tets_block_the_search)
     dt_cavity_abandon(&m, &c);
     for (uint32_t u = 0; u < m.nslots; u++)
         ck_assert_uint_eq(m.lock[u], 0);
-    m.lock[t] = 2; /* another cavity holds it */
+    tm_set_lock(&m, t, 2); /* another cavity holds it */
     ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_LOCK, &c), 0);
     ck_assert_int_eq(c.status, DT_LOCKED);
     ck_assert_uint_eq(c.blocker, t);
     dt_cavity_abandon(&m, &c);
     for (uint32_t u = 0; u < m.nslots; u++)
         ck_assert_uint_eq(m.lock[u], u == t ? 2 : 0);
-    m.lock[t] = 0;
+    tm_set_lock(&m, t, 0);
     assert_clean(&m);
+    dt_cavity_free(&c);
+    tm_free(&m);
+}
+END_TEST
+
+/* The summary bits of the locks (tm_is_locked) against the owners. */
+static void assert_lock_bits(const tm_mesh *m)
+{
+    for (uint32_t t = 0; t < m->nslots; t++)
+        ck_assert_int_eq(tm_is_locked(m, t), m->lock[t] != 0);
+}
+
+START_TEST(check_locks_reads_the_lock_bits)
+{
+    tm_mesh m;
+    random_mesh(&m, 300, 11, TM_FEAT_LOCKS);
+    dt_cavity c;
+    dt_cavity_init(&c);
+    c.lock_owner = 1;
+    double p[3] = {0.5, 0.5, 0.5};
+    /* Checking takes no lock. */
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_CHECK_LOCKS, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    ck_assert_uint_eq(c.nheld, 0);
+    uint32_t t = c.tets[c.ntets - 1];
+    dt_cavity_abandon(&m, &c);
+    for (uint32_t u = 0; u < m.nslots; u++)
+        ck_assert_uint_eq(m.lock[u], 0);
+    assert_lock_bits(&m);
+    /* Another owner's lock on a cavity tetrahedron blocks it; our own
+     * does not. */
+    tm_set_lock(&m, t, 2);
+    assert_lock_bits(&m);
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_CHECK_LOCKS, &c), 0);
+    ck_assert_int_eq(c.status, DT_LOCKED);
+    ck_assert_uint_eq(c.blocker, t);
+    dt_cavity_abandon(&m, &c);
+    tm_set_lock(&m, t, 1);
+    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_CHECK_LOCKS, &c), 0);
+    ck_assert_int_eq(c.status, DT_OK);
+    dt_cavity_abandon(&m, &c);
+    ck_assert_uint_eq(m.lock[t], 1);
+    /* The bits follow every third tetrahedron locked through a growth of
+     * the arrays, and a freed slot comes back unlocked. */
+    for (uint32_t u = 0; u < m.nslots; u += 3)
+        if (!tm_is_dead(&m, u))
+            tm_set_lock(&m, u, 3 + u % 5);
+    assert_lock_bits(&m);
+    uint32_t slots = m.nslots;
+    ck_assert_int_eq(tm_reserve(&m, m.nv, 8 * (size_t)m.tcap), 0);
+    assert_lock_bits(&m);
+    uint32_t v = 0;
+    while (v < slots && (tm_is_dead(&m, v) || !m.lock[v]))
+        v++;
+    ck_assert_uint_lt(v, slots);
+    tm_free_tet(&m, v);
+    ck_assert_uint_eq(tm_alloc_tet(&m), v);
+    ck_assert_uint_eq(m.lock[v], 0);
+    ck_assert_int_eq(tm_is_locked(&m, v), 0);
+    /* New slots (the free list's, then past the old end) are free. */
+    for (int i = 0; i < 200; i++) {
+        uint32_t u = tm_alloc_tet(&m);
+        ck_assert_int_eq(tm_is_locked(&m, u), 0);
+        ck_assert_uint_eq(m.lock[u], 0);
+    }
+    assert_lock_bits(&m);
     dt_cavity_free(&c);
     tm_free(&m);
 }
@@ -1156,6 +1222,7 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, constrained_search_without_marks_changes_nothing);
     tcase_add_test(tc, special_links_are_reported_once_each);
     tcase_add_test(tc, locked_tets_block_the_search);
+    tcase_add_test(tc, check_locks_reads_the_lock_bits);
     tcase_add_test(tc, flip23_makes_a_bipyramid_delaunay);
     tcase_add_test(tc, flip32_makes_a_bipyramid_delaunay);
     tcase_add_test(tc, flips_keep_marked_faces);

@@ -546,7 +546,7 @@ START_TEST(busy_tetrahedra_wait)
         if (!tm_is_special(r.m.tets[t0].n[k]))
             locked = tm_ltet(r.m.tets[t0].n[k]);
     ck_assert_uint_ne(locked, UINT32_MAX);
-    r.m.lock[locked] = 7;
+    tm_set_lock(&r.m, locked, 7);
     r.busy_depth = 1;
     size_t handed = 0;
     while (ref_next(&r, &kind, &id, &rmin)) {
@@ -559,7 +559,7 @@ START_TEST(busy_tetrahedra_wait)
     ck_assert(r.m.flags[t0] & TM_F_QUEUED);
     /* Still busy: nothing; unlocked: t0 comes out. */
     ck_assert_int_eq(ref_next(&r, &kind, &id, &rmin), 0);
-    r.m.lock[locked] = 0;
+    tm_set_lock(&r.m, locked, 0);
     ck_assert_int_eq(ref_next(&r, &kind, &id, &rmin), 1);
     ck_assert_uint_eq(id, t0);
     ref_free(&r);

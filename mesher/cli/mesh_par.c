@@ -628,6 +628,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                                               : REF_ORDER_FIFO;
     const char *reach = getenv("PDR_PAR_BUSY_REACH");
     ro_run.busy_reach = reach ? atof(reach) : -1;
+    const char *chain = getenv("PDR_PAR_CHAIN");
+    ro_run.chain_s = chain ? atof(chain) : 0;
     /* PDR_PAR_STALL=WINDOW[,RATIO[,SECONDS]]: the progress bound's
      * stretch of work, the units allowed per point and the seconds without
      * a point (par_run.h, PAR_RUN_STALL_WINDOW), for tests. */

@@ -190,7 +190,7 @@ void dt_cavity_unlock(tm_mesh *m, dt_cavity *c)
     if (m->lock)
         for (size_t i = 0; i < c->nheld; i++)
             if (m->lock[c->held[i]] == c->lock_owner)
-                m->lock[c->held[i]] = 0;
+                tm_set_lock(m, c->held[i], 0);
     c->nheld = 0;
 }
 
@@ -202,8 +202,11 @@ void dt_cavity_abandon(tm_mesh *m, dt_cavity *c)
 }
 
 /* Returns 1 if t is free or ours (taking it if free and lock is 1; lock
- * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. */
-static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
+ * 2 only looks), 0 if locked by someone else, PDR_ENOMEM. Out of line:
+ * the search of the sequential mesher never calls it, and its callers
+ * inline only the test of lock_free. */
+__attribute__((noinline)) static int take_lock_slow(tm_mesh *m, dt_cavity *c, uint32_t t,
+                                                    int lock)
 {
     uint32_t owner = m->lock[t];
     if (owner == c->lock_owner)
@@ -214,9 +217,18 @@ static int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
         return 1;
     if (pdr_grow((void **)&c->held, &c->cap_held, c->nheld + 1, sizeof *c->held))
         return PDR_ENOMEM;
-    m->lock[t] = c->lock_owner;
+    tm_set_lock(m, t, c->lock_owner);
     c->held[c->nheld++] = t;
     return 1;
+}
+
+/* A check only (lock 2) of a tetrahedron whose summary bit is clear
+ * (tm_is_locked): free, answered without reading lock[t]. */
+static inline int take_lock(tm_mesh *m, dt_cavity *c, uint32_t t, int lock)
+{
+    if (lock == 2 && !tm_is_locked(m, t))
+        return 1;
+    return take_lock_slow(m, c, t, lock);
 }
 
 static inline int add_bface(dt_cavity *c, uint32_t t, int f, int reason, tm_link outer)

@@ -50,6 +50,14 @@ static int set_tcap(tm_mesh *m, size_t cap)
         (m->marker && resize((void **)&m->marker, cap, 4 * sizeof(int32_t))) ||
         (m->lock && resize((void **)&m->lock, cap, sizeof(uint32_t))))
         return PDR_ENOMEM;
+    if (m->lock) {
+        /* The summary bits (tm.h, tm_set_lock): the new words zeroed. */
+        size_t had = ((size_t)m->tcap + 63) / 64, words = (cap + 63) / 64 + 1;
+        if (resize((void **)&m->locked, words, sizeof(uint64_t)))
+            return PDR_ENOMEM;
+        if (words > had)
+            memset(m->locked + had, 0, (words - had) * sizeof(uint64_t));
+    }
     m->tcap = (uint32_t)cap;
     return 0;
 }
@@ -85,6 +93,7 @@ void tm_free(tm_mesh *m)
     pr_free(m->flags);
     pr_free(m->marker);
     pr_free(m->lock);
+    pr_free(m->locked);
     memset(m, 0, sizeof *m);
     m->free_head = TM_NONE;
 }
@@ -98,8 +107,14 @@ int tm_enable(tm_mesh *m, unsigned features)
     }
     if ((features & TM_FEAT_LOCKS) && !m->lock) {
         m->lock = pr_calloc(m->tcap ? m->tcap : 1, sizeof(uint32_t));
-        if (!m->lock)
+        m->locked = pr_calloc(((size_t)m->tcap + 63) / 64 + 1, sizeof(uint64_t));
+        if (!m->lock || !m->locked) {
+            pr_free(m->lock);
+            pr_free(m->locked);
+            m->lock = NULL;
+            m->locked = NULL;
             return PDR_ENOMEM;
+        }
     }
     if ((features & TM_FEAT_GIDS) && !m->gid) {
         m->gid = pr_calloc(m->vcap ? m->vcap : 1, sizeof(uint64_t));
@@ -110,6 +125,11 @@ int tm_enable(tm_mesh *m, unsigned features)
     }
     m->features |= features;
     return 0;
+}
+
+void tm__unlock_slot(tm_mesh *m, uint32_t t)
+{
+    tm_set_lock(m, t, 0);
 }
 
 int tm_reserve(tm_mesh *m, size_t nverts, size_t ntets)

@@ -74,7 +74,8 @@
  * so plain Delaunay stays lean: marker[4t+i] (int32 face marker, e.g. the
  * facet id of a subfacet, set on both tetrahedra sharing the face), gid[v]
  * (uint64 global vertex id), lock[t] (owner of a tetrahedron's lock, 0 =
- * free).
+ * free) with its summary bit in locked[] (bit t set iff lock[t] != 0; see
+ * tm_set_lock).
  */
 #ifndef PDR_TETMESH_H
 #define PDR_TETMESH_H
@@ -136,6 +137,7 @@ typedef struct tm_mesh {
     uint16_t *flags;
     int32_t *marker; /* optional (TM_FEAT_MARKERS), 4 per tet */
     uint32_t *lock;  /* optional (TM_FEAT_LOCKS) */
+    uint64_t *locked; /* with lock: bit t of word t/64 set iff lock[t] != 0 */
     uint32_t nslots; /* slots in use (live + free) */
     uint32_t tcap;
     uint32_t nlive;  /* live tetrahedra, ghosts included */
@@ -205,6 +207,28 @@ int tm_add_vertex(tm_mesh *m, const double p[3], uint32_t *out);
 
 /* Ensures that 'count' more tetrahedra can be allocated without failure. */
 int tm_room(tm_mesh *m, size_t count);
+/* Lock state (TM_FEAT_LOCKS). Every write of lock[t] goes through
+ * tm_set_lock, which keeps bit t of locked[] equal to lock[t] != 0: a
+ * search testing the tetrahedra it visits (mesh/dt.h, DT_CHECK_LOCKS)
+ * reads that bit, in an array 32 times smaller than lock[] that stays in
+ * cache, and reads lock[t] only when the bit is set. */
+static inline void tm_set_lock(tm_mesh *m, uint32_t t, uint32_t owner)
+{
+    uint64_t bit = (uint64_t)1 << (t & 63u);
+    m->lock[t] = owner;
+    if (owner)
+        m->locked[t >> 6] |= bit;
+    else
+        m->locked[t >> 6] &= ~bit;
+}
+/* 1 if t's lock is held by some owner (m->lock is set). */
+static inline int tm_is_locked(const tm_mesh *m, uint32_t t)
+{
+    return (int)((m->locked[t >> 6] >> (t & 63u)) & 1u);
+}
+/* tm_set_lock(m, t, 0) out of line, for tm__take_slot: the sequential
+ * mesher (no lock array) keeps its insertion code as small as before. */
+void tm__unlock_slot(tm_mesh *m, uint32_t t);
 /* Takes a slot from the free list or the end (the caller ensured room)
  * and clears its flags, markers and lock, without counting it live: for
  * callers that count new tetrahedra in bulk (dt_build). */
@@ -224,7 +248,7 @@ static inline uint32_t tm__take_slot(tm_mesh *m)
         mk[0] = mk[1] = mk[2] = mk[3] = 0;
     }
     if (m->lock)
-        m->lock[t] = 0;
+        tm__unlock_slot(m, t);
     return t;
 }
 /* Takes a slot as tm__take_slot and counts it live: vertices and links are

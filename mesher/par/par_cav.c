@@ -144,7 +144,7 @@ static void unlock_held(tm_mesh *m, uint32_t owner, const u32list *held)
     for (size_t i = 0; i < held->n; i++) {
         uint32_t t = held->a[i];
         if (t < m->nslots && m->lock[t] == owner)
-            m->lock[t] = 0;
+            tm_set_lock(m, t, 0);
     }
 }
 
@@ -191,7 +191,7 @@ static int serve_from(par_cav_ctx *cc, par_part *pt, uint32_t owner, const doubl
     if (s < 0) {
         int rc = 0;
         if (lk == 0) {
-            m->lock[t] = owner;
+            tm_set_lock(m, t, owner);
             rc = push(&pt->held, t);
         }
         if (!rc && k != TM_NONE)
@@ -734,7 +734,7 @@ static int import(par_cav *c)
         uint16_t keep = left ? TRAVEL_FLAGS : (uint16_t)(TRAVEL_FLAGS & ~TM_F_QUEUED);
         m->flags[t] = (uint16_t)(g->flags & keep);
         m->nghost += (uint32_t)tm_is_ghost(m, t);
-        m->lock[t] = c->owner;
+        tm_set_lock(m, t, c->owner);
         c->own.held.a[c->own.held.n++] = t;
         newt[i] = t;
     }
@@ -1404,7 +1404,7 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
         return rc;
     par_part *pt = &cc->recs[ri].part;
     for (size_t i = 0; i < n && !rc; i++) {
-        m->lock[tets[i]] = owner;
+        tm_set_lock(m, tets[i], owner);
         rc = push(&pt->cav, tets[i]);
         if (!rc)
             rc = push(&pt->held, tets[i]);
@@ -1422,7 +1422,7 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
                 continue;
             rc = push(&pt->repoint, l);
             if (!rc && m->lock[w] != owner) {
-                m->lock[w] = owner;
+                tm_set_lock(m, w, owner);
                 rc = push(&pt->held, w);
             }
         }

@@ -131,6 +131,12 @@
 #define PAR_RUN_BAND_SHARE 4
 #define PAR_RUN_BAND_MAX 1
 #define PAR_RUN_BAND_MARGIN 3
+/* Chains (par_run.c, refine_thread): a cavity thread whose item is done
+ * takes the next one itself while its first item began less than this
+ * many seconds ago, instead of ending (pdr mesh: PDR_PAR_CHAIN=SECONDS,
+ * negative for none). On 2 PEs at 10^6 tetrahedra three items in four
+ * are chained; see bench/parallel.md, run 15. */
+#define PAR_RUN_CHAIN_S 20e-6
 /* Handler ids used by the parallel refinement (5 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
@@ -171,6 +177,7 @@ typedef struct par_table1 {
     uint64_t bands_out, bands_in; /* bands given and taken (par_band.h) */
     uint64_t band_tets;      /* tetrahedra in the bands given */
     double band_s;           /* picking and sending them (wall clock) */
+    uint64_t chained;        /* items a thread went on with (chain_s) */
     int point_limit;         /* 1: stopped after s->r.o.max_points points
                                 (of this PE alone: a bound for the job) */
     int stalled;             /* 1: stopped by the bound, after stall_work
@@ -209,6 +216,9 @@ typedef struct par_run_opts {
     int band_margin;
     int band_max;     /* bands a PE gives at most (0: PAR_RUN_BAND_MAX) */
     int band_share;   /* the trigger's share (0: PAR_RUN_BAND_SHARE) */
+    double chain_s;   /* a thread goes on with the next item while its
+                         first began less than this ago (0:
+                         PAR_RUN_CHAIN_S; < 0: one item per thread) */
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when

@@ -104,6 +104,8 @@ size_t par_verify_sub(const par_sub *s, par_verify_report *rep)
             continue;
         live++;
         ghosts += (size_t)tm_is_ghost(m, t);
+        if (m->lock && tm_is_locked(m, t) != (m->lock[t] != 0))
+            rep->bad_counts++; /* a lock written past tm_set_lock */
         int ok = 1;
         for (int c = 0; c < 4; c++)
             ok &= m->tets[t].v[c] < m->nv;

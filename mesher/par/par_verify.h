@@ -36,7 +36,8 @@ typedef struct par_verify_report {
     size_t stale_ifaces;     /* live entry not linked from its side, or wrong key */
     size_t open_faces;       /* faces with no neighbour at all */
     size_t bad_vertices;     /* gid/vmap disagreements, vertices out of range */
-    size_t bad_counts;       /* nlive, nghost or live_ifc wrong */
+    size_t bad_counts;       /* nlive, nghost or live_ifc wrong, or a
+                                lock's summary bit (tm_set_lock) */
     size_t unmatched_ifaces; /* no interface back from the PE named */
     size_t marker_mismatch;  /* the two sides of an interface face differ */
 } par_verify_report;
