@@ -573,15 +573,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (comma && (comma = strchr(comma + 1, ',')) != NULL)
             ro_run.band_share = atoi(comma + 1);
     }
-    const char *tail = getenv("PDR_PAR_TAIL");
-    if (tail) {
-        ro_run.tail_share = atoi(tail) > 0 ? atoi(tail) : -1;
-        const char *comma = strchr(tail, ',');
-        if (comma)
-            ro_run.tail_window = atoi(comma + 1);
-        if (comma && (comma = strchr(comma + 1, ',')) != NULL)
-            ro_run.tail_mode = atoi(comma + 1);
-    }
     const char *tr = getenv("PDR_PAR_TRACE");
     if (tr && atof(tr) > 0) {
         ro_run.progress = trace_line;

@@ -81,8 +81,6 @@ int par_band_cut_init(const par_sub *s, uint32_t other, par_band_cut *cut)
 /* 1 if coordinate x lies on PE to's side of the cut, seen from this PE. */
 static int on_side(const par_sub *s, const par_band_cut *cut, uint32_t to, double x)
 {
-    if (cut->axis == PAR_BAND_WHOLE)
-        return 1;
     return to > s->rank ? x >= cut->at : x < cut->at;
 }
 
@@ -93,7 +91,7 @@ static int eligible(const par_sub *s, const par_band_cut *cut, uint32_t to, uint
     const tm_mesh *m = &s->r.m;
     if (tm_is_dead(m, t) || m->lock[t])
         return 0;
-    if (cut->axis != PAR_BAND_WHOLE && !on_side(s, cut, to, low_coord(m, m->tets[t].v, 4, cut->axis)))
+    if (!on_side(s, cut, to, low_coord(m, m->tets[t].v, 4, cut->axis)))
         return 0;
     for (int k = 0; k < 4; k++) {
         tm_link l = m->tets[t].n[k];
@@ -102,7 +100,7 @@ static int eligible(const par_sub *s, const par_band_cut *cut, uint32_t to, uint
         if (!tm_is_special(l))
             continue;
         if (s->ifc[l - TM_LINK_SPECIAL].pe != to ||
-            (cut->axis != PAR_BAND_WHOLE && !on_side(s, cut, to, face_coord(m, t, k, cut->axis))))
+            !on_side(s, cut, to, face_coord(m, t, k, cut->axis)))
             return 0;
     }
     return 1;

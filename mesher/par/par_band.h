@@ -29,12 +29,8 @@
 #include "par/par_cav.h"
 #include "par/par_sub.h"
 
-/* A cut's axis that cuts nothing: the whole band goes to the other PE. */
-#define PAR_BAND_WHOLE 3
-
 typedef struct par_band_cut {
-    int axis;    /* 0, 1, 2; -1: no interface to cut; PAR_BAND_WHOLE: no
-                    cut, every side is to's */
+    int axis;    /* 0, 1, 2; -1: no interface to cut */
     double at;   /* faces below go to the lower rank, the rest the higher */
 } par_band_cut;
 

@@ -30,8 +30,6 @@ enum {
     REPLY_STALE = 2,
     REPLY_DUPLICATE = 3,
     REPLY_TOO_BIG = 4, /* more cavity tetrahedra than the origin's max */
-    REPLY_REMOTE = 5,  /* never sent: the origin's cavity reaches another
-                          PE under local_only */
 };
 
 /* The flags that travel with a tetrahedron: everything but the transient
@@ -154,7 +152,6 @@ static void unlock_held(tm_mesh *m, uint32_t owner, const u32list *held)
 typedef struct par_rec {
     uint32_t owner;   /* 0 when the slot is free */
     uint32_t origin;  /* PE of the thread; next free slot when free */
-    int band;         /* 1: a band this PE gives (par_cav_give) */
     par_part part;
 } par_rec;
 
@@ -257,7 +254,6 @@ static int rec_new(par_cav_ctx *cc, uint32_t owner, uint32_t origin, uint32_t *o
     }
     cc->recs[i].owner = owner;
     cc->recs[i].origin = origin;
-    cc->recs[i].band = 0;
     part_clear(&cc->recs[i].part);
     *out = i;
     return 0;
@@ -881,7 +877,7 @@ int par_cav_near_locks(par_cav_ctx *cc, const double lo[3], const double hi[3], 
     }
     for (size_t i = 0; i < cc->nrecs; i++) {
         par_rec *r = &cc->recs[i];
-        if (!r->owner || (r->band && cc->band_box_off))
+        if (!r->owner)
             continue;
         par_part_box(m, &r->part);
         if (r->part.held.n && boxes_meet(&r->part, lo, hi, margin))
@@ -940,13 +936,6 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
     for (size_t i = 0; local && i < d->nbnd; i++)
         if (d->bnd[i].reason == DT_BND_REMOTE)
             local = 0;
-    if (!rc && d->status == DT_OK && !local && c->local_only) {
-        /* Given up before any lock is taken (the search above took
-         * none). */
-        dt_cavity_abandon(m, d);
-        *remote = 1;
-        return REPLY_REMOTE;
-    }
     if (!rc && d->status == DT_OK && !local) {
         rc = dt_cavity_search(m, p, start, DT_LOCK | fl, d);
         *remote = 1; /* the same cavity, if it is one (DT_OK) */
@@ -994,11 +983,6 @@ int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *sea
          * stands (one search per insertion, not two). */
         cc->st.gathers_local++;
         return PAR_CAV_SEARCHED;
-    }
-    if (st == REPLY_REMOTE) {
-        par_cav_release(c);
-        cc->st.remote_given_up++;
-        return PAR_CAV_REMOTE;
     }
     if (st >= 0)
         dt_cavity_abandon(m, d); /* marks off; the locks are c's */
@@ -1419,7 +1403,6 @@ int par_cav_give(par_cav_ctx *cc, uint32_t to, const uint32_t *tets, size_t n)
     if (rc)
         return rc;
     par_part *pt = &cc->recs[ri].part;
-    cc->recs[ri].band = 1;
     for (size_t i = 0; i < n && !rc; i++) {
         m->lock[tets[i]] = owner;
         rc = push(&pt->cav, tets[i]);

@@ -66,9 +66,6 @@ enum par_cav_status {
     PAR_CAV_SEARCHED = 2, /* local, and the caller's search is done */
     PAR_CAV_TOO_BIG = 3, /* more than max_import tetrahedra to migrate:
                             given up as a setback is (nothing changed) */
-    PAR_CAV_REMOTE = 4,  /* the cavity reaches another PE and the caller
-                            set local_only: given up before anything was
-                            sent or locked (nothing changed) */
 };
 
 /* A gathered tetrahedron, as a participant sent it. */
@@ -149,9 +146,6 @@ typedef struct par_cav {
     size_t max_import;  /* set by the caller: an attempt that gathers more
                            tetrahedra from other PEs is given up
                            (PAR_CAV_TOO_BIG); 0 no bound */
-    int local_only;     /* set by the caller: an attempt whose cavity
-                           reaches another PE is given up at once
-                           (PAR_CAV_REMOTE), no message sent */
     uint32_t slot;      /* index in par_cav_ctx.cavs while waiting, else
                            UINT32_MAX */
 } par_cav;
@@ -181,7 +175,6 @@ typedef struct par_cav_stats {
     uint64_t tets_in, tets_out; /* tetrahedra imported / migrated away */
     uint64_t served;          /* GATHER requests served */
     uint64_t too_big;         /* attempts given up past max_import */
-    uint64_t remote_given_up; /* attempts given up under local_only */
     uint64_t bands_out, bands_in; /* bands given (sent) and taken */
 } par_cav_stats;
 
@@ -224,7 +217,6 @@ typedef struct par_cav_ctx {
                             allocated on the first */
     int err;             /* a handler's failure that ends the run (a band
                             half imported), 0 none */
-    int band_box_off;    /* EXPERIMENT: par_cav_near_locks ignores bands */
 } par_cav_ctx;
 
 /* Registers the protocol's handlers (ids base .. base+4) on this PE. Call
@@ -243,8 +235,7 @@ void par_cav_free(par_cav *c);
  * PE, locked by c->owner, until par_cav_release), PAR_CAV_SEARCHED (the
  * same, and the cavity lay on this PE alone: search, if not NULL, holds
  * its pending search from start, ready to commit or abandon),
- * PAR_CAV_SETBACK, PAR_CAV_TOO_BIG (c->max_import), PAR_CAV_REMOTE
- * (c->local_only), or a negative code. */
+ * PAR_CAV_SETBACK, PAR_CAV_TOO_BIG (c->max_import), or a negative code. */
 int par_cav_gather(par_cav *c, const double p[3], uint32_t start, dt_cavity *search);
 
 /* Records that bad tetrahedron t of this PE is left for the merge (its

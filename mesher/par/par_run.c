@@ -26,8 +26,7 @@ typedef struct par_item {
     double masked;     /* ... of it while another thread was blocked */
     double work_wall, masked_wall; /* the same on the monotonic clock */
     int blocked;       /* waiting for replies */
-    int too_big;       /* the step gave up a cavity past PAR_RUN_MAX_IMPORT,
-                          or one that reached the other PE in the tail */
+    int too_big;       /* the step gave up a cavity past PAR_RUN_MAX_IMPORT */
     struct par_item *next_free;
 } par_item;
 
@@ -59,10 +58,6 @@ typedef struct par_run {
     int band_due;           /* give a band at the next start_work */
     unsigned band_tries;    /* bands picked (given or found empty) */
     par_u32list band;       /* scratch */
-    /* the tail (PAR_RUN_TAIL_SHARE): bad tetrahedra whose cavity reaches
-     * the other PE are left for rank 0 */
-    int tail;               /* 1: in the tail */
-    unsigned tail_steps, tail_dist; /* the tail trigger's window */
 } par_run;
 
 static uint64_t item_key(int kind, uint32_t id)
@@ -140,12 +135,11 @@ static int hook_cavity(void *arg, const double p[3], uint32_t start, dt_cavity *
     par_run *pr = arg;
     par_item *it = pr->current;
     it->cav.max_import = it->kind == REF_TET ? PAR_RUN_MAX_IMPORT : 0;
-    it->cav.local_only = it->kind == REF_TET && pr->tail && pr->o.tail_mode == 0;
     int rc = par_cav_gather(&it->cav, p, start, c);
     pr->current = it; /* other threads ran while this one waited */
     if (rc < 0)
         return rc;
-    if (rc == PAR_CAV_TOO_BIG || rc == PAR_CAV_REMOTE) {
+    if (rc == PAR_CAV_TOO_BIG) {
         it->too_big = 1;
         return REF_SETBACK;
     }
@@ -217,15 +211,6 @@ static int hook_busy(void *arg, uint32_t t)
 {
     par_run *pr = arg;
     const tm_mesh *m = &pr->s->r.m;
-    if (pr->cc.band_box_off) {
-        if (m->lock[t])
-            return 1;
-        for (int k = 0; k < 4; k++) {
-            tm_link l = m->tets[t].n[k];
-            if (!tm_is_special(l) && m->lock[tm_ltet(l)])
-                return 1;
-        }
-    }
     double lo[3], hi[3];
     par_box_empty(lo, hi);
     par_box_tet(m, t, lo, hi);
@@ -346,32 +331,15 @@ static void count_for_band(par_run *pr, int dist)
     pr->win_steps = pr->win_dist = 0;
 }
 
-/* Counts a finished step for the tail's trigger (PAR_RUN_TAIL_SHARE):
- * once both halves of the band have moved. */
-static void count_for_tail(par_run *pr, int dist)
-{
-    if (pr->tail || pr->o.tail_share <= 0 || !pr->row->bands_out || !pr->cc.st.bands_in)
-        return;
-    unsigned share = pr->o.tail_share > 0 ? (unsigned)pr->o.tail_share : PAR_RUN_TAIL_SHARE;
-    unsigned window = pr->o.tail_window > 0 ? (unsigned)pr->o.tail_window : PAR_RUN_TAIL_WINDOW;
-    pr->tail_steps++;
-    pr->tail_dist += dist != 0;
-    if (pr->tail_steps < window)
-        return;
-    if (pr->tail_dist * share >= pr->tail_steps)
-        pr->tail = 1;
-    pr->tail_steps = pr->tail_dist = 0;
-}
-
 /* Gives this PE's half of the interface band to the other PE (2 PEs). */
-static int give_band(par_run *pr, const par_band_cut *cut)
+static int give_band(par_run *pr)
 {
     double t0 = pdr_now();
     uint32_t other = 1 - pr->s->rank;
     pr->band_due = 0;
     pr->band_tries++;
     pr->band.n = 0;
-    int rc = par_band_pick(pr->s, cut, other, pr->band_margin, &pr->band);
+    int rc = par_band_pick(pr->s, &pr->cut, other, pr->band_margin, &pr->band);
     /* Any part of a band is one too: the first ones, nearest the
      * interface, within what a receiver decodes. */
     if (pr->band.n > PAR_CAV_BAND_MAX)
@@ -472,10 +440,8 @@ static void refine_thread(am_ctx_t *am, void *arg)
             row->steps++;
             if (n != HMAP_NONE)
                 hmap_del(&pr->tries, key, n);
-            if (pr->band_margin) {
+            if (pr->band_margin)
                 count_for_band(pr, dist);
-                count_for_tail(pr, dist);
-            }
             break;
         }
         row->setback_s += it->work;
@@ -522,20 +488,9 @@ static int start_work(am_ctx_t *am, void *arg)
     if (pr->band_margin && pr->cc.st.bands_in > 0 && pr->band_tries == 0)
         pr->band_due = 1;
     if (pr->band_due) {
-        int rc = give_band(pr, &pr->cut);
+        int rc = give_band(pr);
         if (rc < 0)
             return pr->err = rc;
-    }
-    if (pr->tail == 1 && pr->o.tail_mode == 1) {
-        /* The tail band: PE 1 hands all that is left along the interface
-         * to PE 0, uncut. */
-        pr->tail = 2;
-        if (pr->s->rank == 1) {
-            par_band_cut whole = {PAR_BAND_WHOLE, 0};
-            int rc = give_band(pr, &whole);
-            if (rc < 0)
-                return pr->err = rc;
-        }
     }
     if (pr->o.progress) {
         double now = pdr_now();
@@ -628,7 +583,6 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         pr->hooks.busy = hook_busy;
     pr->hooks.arg = pr;
     pr->cc.search_flags = ref_cavity_flags(&s->r);
-    pr->cc.band_box_off = getenv("PDR_BANDBOX") && atoi(getenv("PDR_BANDBOX")) == 1;
     /* The band's cut, before any PE changes the interface (the barrier
      * below comes first on the other PE too). */
     if (s->size == 2 && o->band_margin >= 0) {

@@ -131,15 +131,6 @@
 #define PAR_RUN_BAND_SHARE 4
 #define PAR_RUN_BAND_MAX 1
 #define PAR_RUN_BAND_MARGIN 3
-/* EXPERIMENT (not kept, bench/parallel.md run 15). The tail of a 2-PE
- * run: once both halves of the band have moved and a
- * window of PAR_RUN_TAIL_WINDOW finished steps had at least one in
- * PAR_RUN_TAIL_SHARE distributed, a bad tetrahedron whose cavity reaches
- * the other PE is left for rank 0 (as one whose split lies on another PE
- * is, ref_hooks.left), found by the local search before any message is
- * sent. */
-#define PAR_RUN_TAIL_WINDOW 64
-#define PAR_RUN_TAIL_SHARE 4
 /* Handler ids used by the parallel refinement (5 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
@@ -218,11 +209,6 @@ typedef struct par_run_opts {
     int band_margin;
     int band_max;     /* bands a PE gives at most (0: PAR_RUN_BAND_MAX) */
     int band_share;   /* the trigger's share (0: PAR_RUN_BAND_SHARE) */
-    /* EXPERIMENT (bench/parallel.md, run 15; not kept): the tail (with
-     * the band only): > 0 that share (PAR_RUN_TAIL_SHARE), 0 or less off;
-     * and the window (0: PAR_RUN_TAIL_WINDOW). */
-    int tail_share, tail_window;
-    int tail_mode;    /* 0 leave to rank 0, 1 PE 1 gives an uncut band */
 } par_run_opts;
 
 /* Latency tolerance masked / (masked + setback), in [0, 1] (1 when
