@@ -53,7 +53,7 @@ installcheck-local:
 # builds and runs them with libFuzzer (also proto's, tests/proto.mk); here
 # each is linked with a plain driver that replays its regression corpus
 # tests/corpus/<dir>/ (hand-written seeds, plus what fuzzing found).
-noinst_HEADERS += tests/fuzz/fuzz_input.h tests/fuzz/fuzz_plc.h
+noinst_HEADERS += tests/fuzz/fuzz_input.h tests/fuzz/fuzz_plc.h tests/fuzz/fuzz_cav.h
 EXTRA_DIST += tests/corpus/plc tests/corpus/runtime tests/corpus/cli tests/corpus/par
 dist_noinst_SCRIPTS += tools/fuzz
 FUZZ_REPLAY = \

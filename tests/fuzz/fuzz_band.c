@@ -6,7 +6,7 @@
  * The receiver is PE 0 of 2 (a zeroed submesh of that size: no PLC, so
  * pieces name any feature). Promises: a refused body is PDR_EPARSE,
  * PDR_ETOPOLOGY (an outer face towards no PE) or PDR_ENOMEM; an accepted
- * one holds what a reply holds (fuzz_reply.c), and its adjacency, read
+ * one holds what a reply holds (fuzz_cav.h), and its adjacency, read
  * here from the input's last 16 bytes per tetrahedron, is symmetric, joins
  * faces on the same three vertices, sends every other face to PE 0 or 1,
  * and yields one face record per face: 4 nt less the inner faces.
@@ -19,12 +19,9 @@
  * one byte too many. */
 #include "config.h"
 
-#include <math.h>
 #include <string.h>
 
-#include "fuzz_input.h"
-#include "par/par_cav.h"
-#include "par/par_sub.h"
+#include "fuzz_cav.h"
 
 const char pdr_fuzz_corpus[] = "par/band";
 
@@ -63,19 +60,7 @@ int pdr_fuzz_run(const uint8_t *data, size_t size)
     par_cav_init(&c, &cc);
     int rc = par_cav_decode_band(&c, data, size, 1);
     if (rc == 0) {
-        for (size_t i = 0; i < c.ngv; i++) {
-            PDR_FUZZ_ASSERT(c.gv[i].gid != PAR_GID_INF);
-            for (int k = 0; k < 3; k++)
-                PDR_FUZZ_ASSERT(isfinite(c.gv[i].xyz[k]));
-        }
-        for (size_t i = 0; i < c.ngt; i++) {
-            PDR_FUZZ_ASSERT(c.gt[i].src == 1);
-            for (int k = 0; k < 4; k++) {
-                PDR_FUZZ_ASSERT(c.gt[i].v[k] == UINT32_MAX || c.gt[i].v[k] < c.ngv);
-                for (int j = k + 1; j < 4; j++)
-                    PDR_FUZZ_ASSERT(c.gt[i].v[k] != c.gt[i].v[j]);
-            }
-        }
+        fuzz_check_gathered(&c, 1);
         /* the adjacency ends the body: 4 nt entries */
         size_t na = 4 * c.ngt;
         PDR_FUZZ_ASSERT(size >= 4 + 4 * na);

@@ -10,11 +10,9 @@
  * then went into the PE's tables). */
 #include "config.h"
 
-#include <math.h>
 #include <string.h>
 
-#include "fuzz_input.h"
-#include "par/par_cav.h"
+#include "fuzz_cav.h"
 
 const char pdr_fuzz_corpus[] = "par/reply";
 
@@ -25,31 +23,10 @@ int pdr_fuzz_run(const uint8_t *data, size_t size)
     par_cav c;
     par_cav_init(&c, &cc);
     int rc = par_cav_decode_tets(&c, data, size, 1);
-    if (rc == 0) {
-        for (size_t i = 0; i < c.ngv; i++) {
-            PDR_FUZZ_ASSERT(c.gv[i].gid != 0);
-            for (int k = 0; k < 3; k++)
-                PDR_FUZZ_ASSERT(isfinite(c.gv[i].xyz[k]));
-        }
-        for (size_t i = 0; i < c.ngt; i++) {
-            PDR_FUZZ_ASSERT(c.gt[i].src == 1);
-            for (int k = 0; k < 4; k++) {
-                PDR_FUZZ_ASSERT(c.gt[i].v[k] == UINT32_MAX || c.gt[i].v[k] < c.ngv);
-                for (int j = k + 1; j < 4; j++)
-                    PDR_FUZZ_ASSERT(c.gt[i].v[k] != c.gt[i].v[j]);
-            }
-        }
-        for (size_t i = 0; i < c.ngp; i++) {
-            const par_gpiece *g = &c.gp[i];
-            PDR_FUZZ_ASSERT(g->nv == 2 || g->nv == 3);
-            for (int k = 0; k < g->nv; k++)
-                PDR_FUZZ_ASSERT(g->v[k] < c.ngv);
-            PDR_FUZZ_ASSERT(g->v[0] != g->v[1]);
-            PDR_FUZZ_ASSERT(g->nv == 2 || (g->v[2] != g->v[0] && g->v[2] != g->v[1]));
-        }
-    } else {
+    if (rc == 0)
+        fuzz_check_gathered(&c, 1);
+    else
         PDR_FUZZ_ASSERT(rc == PDR_EPARSE || rc == PDR_ENOMEM);
-    }
     par_cav_free(&c);
     return rc == 0;
 }
