@@ -567,6 +567,70 @@ START_TEST(busy_tetrahedra_wait)
 }
 END_TEST
 
+/* The parallel hooks of a PE whose refinement step holds no cavity
+ * (step_owner 0): a new vertex needs no global id here. */
+static int stub_committed(void *arg, uint32_t v, const dt_cavity *c)
+{
+    (void)arg;
+    (void)v;
+    (void)c;
+    return 0;
+}
+
+static uint32_t stub_owner(void *arg)
+{
+    return *(const uint32_t *)arg;
+}
+
+/* On a PE a constrained split of a subsegment leaves a tetrahedron that
+ * another cavity in progress holds (its thread waiting for replies) as it
+ * is: a setback, even when r->cav still carries that cavity's lock owner
+ * (the PE's threads share r->cav, and the waiting thread's search was the
+ * last one). Once the lock is gone the split is made. */
+START_TEST(piece_split_respects_a_waiting_cavity)
+{
+    plc p;
+    ref_opts o;
+    ref_default_opts(&o);
+    o.constrained = 1;
+    ref_mesher r;
+    cube_mo(&p, &o, &r);
+    ck_assert(r.carved);
+    ck_assert_int_eq(tm_enable(&r.m, TM_FEAT_LOCKS), 0);
+    uint32_t own = 0;
+    ref_hooks h;
+    memset(&h, 0, sizeof h);
+    h.committed = stub_committed;
+    h.owner = stub_owner;
+    h.arg = &own;
+    r.hooks = &h;
+    /* A present subsegment and a tetrahedron on its edge: the cavity of
+     * its midpoint contains every tetrahedron around the edge. */
+    uint32_t id = BD_NONE, t = TM_NONE;
+    for (uint32_t i = 0; i < r.bd.nsegs && id == BD_NONE; i++) {
+        const bd_subseg *S = &r.bd.segs[i];
+        if (!(S->flags & (BD_F_DEAD | BD_F_MISSING)) &&
+            ref__find_in_star(&r.m, S->v[0], S->v[1], TM_NONE, &t))
+            id = i;
+    }
+    ck_assert_uint_ne(id, BD_NONE);
+    const uint32_t waiting = 7; /* the owner of a cavity in progress */
+    r.m.lock[t] = waiting;
+    r.cav.lock_owner = waiting;
+    size_t nv = r.m.nv;
+    ck_assert_int_eq(ref_step(&r, REF_SUBSEG, id, 0.0f), REF_SETBACK);
+    ck_assert(!tm_is_dead(&r.m, t));
+    ck_assert_uint_eq(r.m.nv, nv);
+    r.m.lock[t] = 0;
+    ck_assert_int_eq(ref_step(&r, REF_SUBSEG, id, 0.0f), 0);
+    ck_assert_uint_eq(r.m.nv, nv + 1);
+    ck_assert(tm_is_dead(&r.m, t));
+    r.hooks = NULL;
+    ref_free(&r);
+    plc_free(&p);
+}
+END_TEST
+
 START_TEST(mesh_cube_in_cube)
 {
     plc p;
@@ -938,6 +1002,7 @@ static Suite *suite(void)
     tcase_add_test(t, mesh_cube_in_cube_paper_mo);
     tcase_add_test(t, mesh_tee);
     tcase_add_test(t, busy_tetrahedra_wait);
+    tcase_add_test(t, piece_split_respects_a_waiting_cavity);
     tcase_add_test(t, mesh_rotated_cube);
     tcase_add_test(t, small_angles_terminate);
     tcase_add_test(t, missing_piece_bound_stops);

@@ -228,6 +228,40 @@ static int collect(const tm_mesh *m, uint32_t t, void *arg)
  * always valid for p on the edge, and the flips after the commit make the
  * mesh a CDT again (TetGen splits an edge the same way). Returns as
  * ref__cdt_search_piece. */
+/* The lock owner of the running step on a PE (the parallel hooks): the
+ * owner of the cavity its thread holds, 0 when it holds none (then every
+ * lock is another's). Outside the hooks 0. Read afresh at each search:
+ * r->cav is shared by the PE's cavity threads, and the owner a search of
+ * another thread left in it may be that of a cavity still in progress,
+ * its thread waiting for replies (whose locks this step must respect). */
+static uint32_t step_owner(const ref_mesher *r)
+{
+    return r->hooks && r->hooks->owner ? r->hooks->owner(r->hooks->arg) : 0;
+}
+
+/* 1 if on a PE a tetrahedron of t[0..n-1] or a local neighbour of one is
+ * locked by another owner than own (a cavity in progress here or served
+ * for another PE's): what DT_CHECK_LOCKS finds for a searched cavity. */
+static int star_locked(const ref_mesher *r, const uint32_t *t, size_t n, uint32_t own)
+{
+    const tm_mesh *m = &r->m;
+    if (!r->hooks || !m->lock)
+        return 0;
+    for (size_t i = 0; i < n; i++) {
+        if (m->lock[t[i]] != 0 && m->lock[t[i]] != own)
+            return 1;
+        for (int k = 0; k < 4; k++) {
+            tm_link l = m->tets[t[i]].n[k];
+            if (tm_is_special(l))
+                continue;
+            uint32_t u = m->lock[tm_ltet(l)];
+            if (u != 0 && u != own)
+                return 1;
+        }
+    }
+    return 0;
+}
+
 static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32_t b)
 {
     tm_mesh *m = &r->m;
@@ -239,6 +273,11 @@ static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32
     int rc = sa.rc ? sa.rc : ref__cavity2d_edge(r, p, a, b);
     if (!rc && around < 0)
         rc = r->hooks ? REF_CDT_ELSEWHERE : 1; /* an edge ring left open */
+    /* On a PE the star must be free, as a searched cavity must (see
+     * ref__cdt_search_piece): another cavity in progress may hold some
+     * of it, and a commit would delete its tetrahedra under it. */
+    if (!rc && star_locked(r, sa.t, sa.n, step_owner(r)))
+        rc = REF_CDT_LOCKED;
     /* Each tetrahedron around ab is cut in two: none may be flat (four
      * vertices in a plane: its halves would be too). */
     for (size_t i = 0; !rc && i < sa.n; i++) {
@@ -413,6 +452,9 @@ int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t
      * cavity lies on this PE and no other cavity holds any of it; the
      * merged mesh gets the others at rank 0. */
     unsigned lk = r->hooks && m->lock ? DT_CHECK_LOCKS : 0u;
+    /* Only this step's own locks count as its own (step_owner). */
+    if (lk)
+        cav->lock_owner = step_owner(r);
     int rc = dt_cavity_search(m, p, t, ref__cdt_flags(r) | lk, cav);
     cav->may_cross = NULL;
     cav->cross_arg = NULL;
@@ -600,7 +642,7 @@ static flip_hooks flip_hooks_of(ref_mesher *r)
     flip_hooks fh = {.copy = copy_region, .facet = flip_facet, .facet_ok = facet_ok, .arg = r};
     if (r->hooks) {
         fh.relink = r->hooks->relink ? relink : NULL;
-        fh.lock_owner = r->hooks->owner ? r->hooks->owner(r->hooks->arg) : 0;
+        fh.lock_owner = step_owner(r);
     }
     return fh;
 }
