@@ -1773,12 +1773,12 @@ int ref_run(ref_mesher *r, int tets)
                 "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
                 "slivers %zu miss %zu anom %zu flips %zu | tol: floor %zu hidden %zu below %zu; "
                 "needle floor %zu, beyond a subsegment %zu, unseen %zu; stuck splits in the "
-                "quality refinement %zu\n",
+                "quality refinement %zu, not asked at acute corners %zu\n",
                 iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
                 r->st.rejected, r->st.tolerated, r->st.gave_up, r->st.slivers_left,
                 r->st.missing_recovered, r->anomalies, r->flips, r->st.tol_floor,
                 r->st.tol_hidden, r->st.tol_below, r->st.needle_floor, r->st.beyond_seg,
-                r->st.unseen, r->st.stuck_quality);
+                r->st.unseen, r->st.stuck_quality, r->st.stuck_corner);
     return rc;
 }
 
