@@ -626,7 +626,7 @@ static double stuck_floor(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t 
  * a-b, o, is an input vertex where segments meet at an acute angle (a-b
  * is split at o's concentric shells, ref__split_point), the apex lies on
  * another segment at o, and the split point is nearer to o than the apex.
- * Counts such splits per corner (r->corner_steps); returns 0 for the
+ * Counts such requests per corner (r->corner_steps); returns 0 for the
  * first REF_STUCK_CORNER of them, or PDR_ENOMEM. */
 static int corner_cascade(ref_mesher *r, uint32_t a, uint32_t b, uint32_t apex)
 {
