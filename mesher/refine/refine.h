@@ -555,8 +555,9 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * interface exchanges) two segments 44 degrees apart at one vertex were
  * split in turn down to 2^-16 of their length (1,795 such splits, 21,000
  * tetrahedra against 16,600, 922 left above ratio 2); sequentially the
- * queues' order never started it. REF_STUCK_CORNER requests for such
- * splits are granted per corner and run (a subsegment already queued
+ * queues' order never started it. Under a size bound (where
+ * REF_STUCK_QUALITY_BASE does not apply) REF_STUCK_CORNER requests for
+ * such splits are granted per corner and run (a subsegment already queued
  * counts again); past them the face is left and counted (left_stuck).
  * The sequential meshes of the generated corpus and of torus-0.3 under
  * -a 1e-4 to 3e-4 stay the same (their requests end by themselves; up

@@ -625,13 +625,15 @@ static double stuck_floor(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t 
  * corner cascade past its bound (refine.h, REF_STUCK_CORNER): one end of
  * a-b, o, is an input vertex where segments meet at an acute angle (a-b
  * is split at o's concentric shells, ref__split_point), the apex lies on
- * another segment at o, and the split point is nearer to o than the apex.
+ * another segment at o, and the split point is nearer to o than the apex;
+ * only under a size bound (without one, stuck_past_bound in refine_run.c
+ * bounds these splits in the quality refinement).
  * Counts such requests per corner (r->corner_steps); returns 0 for the
  * first REF_STUCK_CORNER of them, or PDR_ENOMEM. */
 static int corner_cascade(ref_mesher *r, uint32_t a, uint32_t b, uint32_t apex)
 {
     const bd_set *bd = &r->bd;
-    if (!r->seg_acute || bd->vkind[apex] != BD_V_SEGMENT)
+    if (!r->seg_acute || bd->vkind[apex] != BD_V_SEGMENT || !ref__size_bounded(r))
         return 0;
     int ia = bd->vkind[a] == BD_V_INPUT && r->seg_acute[bd->vfeat[a]];
     int ib = bd->vkind[b] == BD_V_INPUT && r->seg_acute[bd->vfeat[b]];
