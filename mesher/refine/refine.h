@@ -234,6 +234,9 @@ typedef struct ref_stats {
                             flips (22: of two boundary subfacets) */
     size_t stuck_splits; /* constrained: subsegments queued for a split by
                             a face that no flip mends (ref__cdt_flip) */
+    size_t stuck_corner; /* constrained: such splits not asked for past
+                            REF_STUCK_CORNER at an acute corner
+                            (corner_cascade in refine_cdt.c) */
     size_t stuck_quality; /* constrained: splits of present subsegments
                             that faces no flip mends asked for during the
                             quality refinement (process_seg in
@@ -417,6 +420,9 @@ typedef struct ref_mesher {
     uint8_t *fac_needle; /* constrained mode, per facet: 1 if one of its
                             corners is a needle point (FM_NEEDLE_ANG);
                             NULL: none */
+    uint16_t *corner_steps; /* per PLC vertex: requests for splits of a
+                            corner cascade there (refine_cdt.c,
+                            corner_cascade; NULL until the first) */
     uint32_t *seg_acute; /* per PLC vertex: 1 if two of its segments meet
                             at less than 90 degrees */
     /* work queues */
@@ -537,6 +543,26 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * halved both diagonals towards their midpoints 14 times (down to 2.4e-7),
  * in ten places: 30,072 tetrahedra, 18,730 with this rule. */
 #define REF_STUCK_FAR 4.0
+
+/* At an input vertex o where segments meet at an acute angle, such a
+ * split of a subsegment o-x whose face's apex lies on another segment at
+ * o, at a point nearer to o than the apex (one of o's concentric shells,
+ * ref__split_point), makes the point that is the apex of the next such
+ * face, on the segment beside it, one shell nearer still, with half the
+ * insertion radius: a floor from the apex never stops it, and under a
+ * size bound nothing else did. On tests/data/surf/torus-0.3.off with -a
+ * 2e-4 on 2 PEs (one run in a hundred under load, from the timing of the
+ * interface exchanges) two segments 44 degrees apart at one vertex were
+ * split in turn down to 2^-16 of their length (1,795 such splits, 21,000
+ * tetrahedra against 16,600, 922 left above ratio 2); sequentially the
+ * queues' order never started it. Under a size bound (where
+ * REF_STUCK_QUALITY_BASE does not apply) REF_STUCK_CORNER requests for
+ * such splits are granted per corner and run (a subsegment already queued
+ * counts again); past them the face is left and counted (left_stuck).
+ * The sequential meshes of the generated corpus and of torus-0.3 under
+ * -a 1e-4 to 3e-4 stay the same (their requests end by themselves; up
+ * to 10 at one corner, mostly for subsegments already queued). */
+#define REF_STUCK_CORNER 6
 
 /* Of those, the ones the quality refinement (ref_refine, after the
  * initial mesh) may make: REF_STUCK_QUALITY_BASE plus one per

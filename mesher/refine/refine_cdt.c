@@ -662,6 +662,50 @@ static double stuck_floor(const ref_mesher *r, uint32_t a, uint32_t b, uint32_t 
     return r->o.rho * fl;
 }
 
+/* 1 if the split of subsegment a-b that a face no flip mends asks for,
+ * apex the vertex of its tetrahedron off the face, is one step of a
+ * corner cascade past its bound (refine.h, REF_STUCK_CORNER): one end of
+ * a-b, o, is an input vertex where segments meet at an acute angle (a-b
+ * is split at o's concentric shells, ref__split_point), the apex lies on
+ * another segment at o, and the split point is nearer to o than the apex;
+ * only under a size bound (without one, stuck_past_bound in refine_run.c
+ * bounds these splits in the quality refinement).
+ * Counts such requests per corner (r->corner_steps); returns 0 for the
+ * first REF_STUCK_CORNER of them, or PDR_ENOMEM. */
+static int corner_cascade(ref_mesher *r, uint32_t a, uint32_t b, uint32_t apex)
+{
+    const bd_set *bd = &r->bd;
+    if (!r->seg_acute || bd->vkind[apex] != BD_V_SEGMENT || !ref__size_bounded(r))
+        return 0;
+    int ia = bd->vkind[a] == BD_V_INPUT && r->seg_acute[bd->vfeat[a]];
+    int ib = bd->vkind[b] == BD_V_INPUT && r->seg_acute[bd->vfeat[b]];
+    if (ia == ib)
+        return 0;
+    uint32_t o = ia ? a : b, x = ia ? b : a, io = bd->vfeat[o];
+    const uint32_t *sv = r->p->segs[bd->vfeat[apex]].v;
+    if (sv[0] != io && sv[1] != io)
+        return 0;
+    /* The apex's segment is another than a-b's. */
+    if (bd->vkind[x] == BD_V_SEGMENT && bd->vfeat[x] == bd->vfeat[apex])
+        return 0;
+    if (bd->vkind[x] == BD_V_INPUT && (sv[0] == bd->vfeat[x] || sv[1] == bd->vfeat[x]))
+        return 0;
+    const tm_mesh *m = &r->m;
+    double p[3];
+    ref__split_point(r, a, b, p);
+    if (!(v3_dist2(X(m, o), p) < v3_dist2(X(m, o), X(m, apex))))
+        return 0;
+    if (!r->corner_steps) {
+        r->corner_steps = pr_calloc(r->p->nv ? r->p->nv : 1, sizeof *r->corner_steps);
+        if (!r->corner_steps)
+            return PDR_ENOMEM;
+    }
+    if (r->corner_steps[io] >= REF_STUCK_CORNER)
+        return 1;
+    r->corner_steps[io]++;
+    return 0;
+}
+
 int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
 {
     tm_mesh *m = &r->m;
@@ -693,7 +737,13 @@ int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t nseed)
         for (int k = 0; k < 3 && !rc; k++) {
             uint32_t a = tv[fv[k]], b = tv[fv[(k + 1) % 3]];
             uint32_t id = bd_find_subseg(&r->bd, a, b);
-            if (id != BD_NONE) {
+            int cc = id != BD_NONE ? corner_cascade(r, a, b, tv[tm_lface(l)]) : 0;
+            if (cc < 0) {
+                rc = cc;
+            } else if (cc) {
+                found = 1; /* left, counted at the end (ref__count_stuck) */
+                r->st.stuck_corner++;
+            } else if (id != BD_NONE) {
                 found = 1;
                 r->st.stuck_splits += !(r->bd.segs[id].flags & BD_F_QUEUED);
                 rc = ref__queue_seg(r, id, (float)stuck_floor(r, a, b, tv[tm_lface(l)]));

@@ -165,6 +165,10 @@ int ref__cdt_search_piece(ref_mesher *r, const double p[3], uint32_t a, uint32_t
  * subsegment or subfacets queued for splitting. r->flipped lists the
  * tetrahedra the flips made. Returns 0 or a negative code. */
 int ref__cdt_flip(ref_mesher *r, const uint32_t *seed, size_t n);
+
+/* 1 if the refinement has a size bound: a volume bound (global, or a
+ * region's when those apply) or an edge bound (refine_run.c). */
+int ref__size_bounded(const ref_mesher *r);
 /* Removes t if it is a flat tetrahedron on a merged facet that
  * flip_remove_flat removes (the facet triangulation follows). Returns 1 if
  * removed, 0 if not, or a negative code. */

@@ -1487,7 +1487,7 @@ static double shortest_side(const ref_mesher *r, uint32_t id)
 
 /* 1 if the refinement has a size bound: a volume bound (global, or a
  * region's when those apply) or an edge bound. */
-static int size_bounded(const ref_mesher *r)
+int ref__size_bounded(const ref_mesher *r)
 {
     if (r->o.maxvol > 0 || r->o.maxedge > 0)
         return 1;
@@ -1508,7 +1508,7 @@ static int size_bounded(const ref_mesher *r)
 static int stuck_past_bound(ref_mesher *r, uint16_t flags, float rmin)
 {
     if (!r->o.constrained || !r->classified || !r->refining || (flags & BD_F_MISSING) ||
-        !(rmin > 0.0f) || size_bounded(r))
+        !(rmin > 0.0f) || ref__size_bounded(r))
         return 0;
     size_t bound = REF_STUCK_QUALITY_BASE + r->p->nv / REF_STUCK_QUALITY_INPUTS;
     if (r->st.stuck_quality >= bound)
@@ -1773,12 +1773,12 @@ int ref_run(ref_mesher *r, int tets)
                 "trace end %zu: nv %u | seg %zu fac %zu tet %zu rej %zu tol %zu gave %zu "
                 "slivers %zu miss %zu anom %zu flips %zu | tol: floor %zu hidden %zu below %zu; "
                 "needle floor %zu, beyond a subsegment %zu, unseen %zu; stuck splits in the "
-                "quality refinement %zu\n",
+                "quality refinement %zu, not asked at acute corners %zu\n",
                 iter, r->m.nv, r->st.seg_points, r->st.fac_points, r->st.tet_points,
                 r->st.rejected, r->st.tolerated, r->st.gave_up, r->st.slivers_left,
                 r->st.missing_recovered, r->anomalies, r->flips, r->st.tol_floor,
                 r->st.tol_hidden, r->st.tol_below, r->st.needle_floor, r->st.beyond_seg,
-                r->st.unseen, r->st.stuck_quality);
+                r->st.unseen, r->st.stuck_quality, r->st.stuck_corner);
     return rc;
 }
 
