@@ -874,6 +874,27 @@ START_TEST(special_links_are_reported_once_each)
 }
 END_TEST
 
+/* A search of p with flags in a mesh with no lock held: it finds a
+ * cavity and holds at least nheld_min more locks than the cavity has
+ * tetrahedra (DT_LOCK: their neighbours too), or none when nheld_min is
+ * 0; abandoned, it leaves no lock behind. Returns the cavity's last
+ * tetrahedron. */
+static uint32_t search_then_unlocked(tm_mesh *m, dt_cavity *c, const double p[3], unsigned flags,
+                                     size_t nheld_min)
+{
+    ck_assert_int_eq(dt_cavity_search(m, p, TM_NONE, flags, c), 0);
+    ck_assert_int_eq(c->status, DT_OK);
+    if (nheld_min)
+        ck_assert_uint_ge(c->nheld, nheld_min + c->ntets);
+    else
+        ck_assert_uint_eq(c->nheld, 0);
+    uint32_t t = c->tets[c->ntets - 1];
+    dt_cavity_abandon(m, c);
+    for (uint32_t u = 0; u < m->nslots; u++)
+        ck_assert_uint_eq(m->lock[u], 0);
+    return t;
+}
+
 START_TEST(locked_tets_block_the_search)
 {
     tm_mesh m;
@@ -882,13 +903,7 @@ START_TEST(locked_tets_block_the_search)
     dt_cavity_init(&c);
     c.lock_owner = 1;
     double p[3] = {0.5, 0.5, 0.5};
-    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_LOCK, &c), 0);
-    ck_assert_int_eq(c.status, DT_OK);
-    ck_assert_uint_ge(c.nheld, c.ntets + 1);
-    uint32_t t = c.tets[c.ntets - 1];
-    dt_cavity_abandon(&m, &c);
-    for (uint32_t u = 0; u < m.nslots; u++)
-        ck_assert_uint_eq(m.lock[u], 0);
+    uint32_t t = search_then_unlocked(&m, &c, p, DT_LOCATE | DT_LOCK, 1);
     tm_set_lock(&m, t, 2); /* another cavity holds it */
     ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_LOCK, &c), 0);
     ck_assert_int_eq(c.status, DT_LOCKED);
@@ -919,13 +934,7 @@ START_TEST(check_locks_reads_the_lock_bits)
     c.lock_owner = 1;
     double p[3] = {0.5, 0.5, 0.5};
     /* Checking takes no lock. */
-    ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE | DT_CHECK_LOCKS, &c), 0);
-    ck_assert_int_eq(c.status, DT_OK);
-    ck_assert_uint_eq(c.nheld, 0);
-    uint32_t t = c.tets[c.ntets - 1];
-    dt_cavity_abandon(&m, &c);
-    for (uint32_t u = 0; u < m.nslots; u++)
-        ck_assert_uint_eq(m.lock[u], 0);
+    uint32_t t = search_then_unlocked(&m, &c, p, DT_LOCATE | DT_CHECK_LOCKS, 0);
     assert_lock_bits(&m);
     /* Another owner's lock on a cavity tetrahedron blocks it; our own
      * does not. */
