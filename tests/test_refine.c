@@ -615,13 +615,13 @@ START_TEST(piece_split_respects_a_waiting_cavity)
     }
     ck_assert_uint_ne(id, BD_NONE);
     const uint32_t waiting = 7; /* the owner of a cavity in progress */
-    r.m.lock[t] = waiting;
+    tm_set_lock(&r.m, t, waiting);
     r.cav.lock_owner = waiting;
     size_t nv = r.m.nv;
     ck_assert_int_eq(ref_step(&r, REF_SUBSEG, id, 0.0f), REF_SETBACK);
     ck_assert(!tm_is_dead(&r.m, t));
     ck_assert_uint_eq(r.m.nv, nv);
-    r.m.lock[t] = 0;
+    tm_set_lock(&r.m, t, 0);
     ck_assert_int_eq(ref_step(&r, REF_SUBSEG, id, 0.0f), 0);
     ck_assert_uint_eq(r.m.nv, nv + 1);
     ck_assert(tm_is_dead(&r.m, t));
