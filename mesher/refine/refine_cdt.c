@@ -219,15 +219,6 @@ static int collect(const tm_mesh *m, uint32_t t, void *arg)
     return 0;
 }
 
-/* The split of present subsegment ab at p whose constrained cavity is no
- * star (an encroaching vertex next to a subfacet of its 2D cavity, where
- * the cavity reaches round to the back of a face p does not see), asked
- * for by a face no flip mends (a CDT needs the split): the
- * cavity becomes the tetrahedra around ab, ghosts included, and the 2D
- * cavities the subfacets on ab; every one is split in two, which is
- * always valid for p on the edge, and the flips after the commit make the
- * mesh a CDT again (TetGen splits an edge the same way). Returns as
- * ref__cdt_search_piece. */
 /* The lock owner of the running step on a PE (the parallel hooks): the
  * owner of the cavity its thread holds, 0 when it holds none (then every
  * lock is another's). Outside the hooks 0. Read afresh at each search:
@@ -262,6 +253,15 @@ static int star_locked(const ref_mesher *r, const uint32_t *t, size_t n, uint32_
     return 0;
 }
 
+/* The split of present subsegment ab at p whose constrained cavity is no
+ * star (an encroaching vertex next to a subfacet of its 2D cavity, where
+ * the cavity reaches round to the back of a face p does not see), asked
+ * for by a face no flip mends (a CDT needs the split): the
+ * cavity becomes the tetrahedra around ab, ghosts included, and the 2D
+ * cavities the subfacets on ab; every one is split in two, which is
+ * always valid for p on the edge, and the flips after the commit make the
+ * mesh a CDT again (TetGen splits an edge the same way). Returns as
+ * ref__cdt_search_piece. */
 static int edge_star_cavity(ref_mesher *r, const double p[3], uint32_t a, uint32_t b)
 {
     tm_mesh *m = &r->m;
