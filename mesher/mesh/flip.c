@@ -78,7 +78,7 @@ static int locked(const tm_mesh *m, const flip_hooks *h, const uint32_t *old, in
         return 0;
     uint32_t own = h ? h->lock_owner : 0;
     for (int i = 0; i < no; i++)
-        if (m->lock[old[i]] != 0 && m->lock[old[i]] != own)
+        if (tm_held_by_other(m, old[i], own))
             return 1;
     return 0;
 }

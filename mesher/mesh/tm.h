@@ -226,6 +226,12 @@ static inline int tm_is_locked(const tm_mesh *m, uint32_t t)
 {
     return (int)((m->locked[t >> 6] >> (t & 63u)) & 1u);
 }
+/* 1 if t's lock is held by another owner than own (0 matches no
+ * owner: then any held lock is another's). */
+static inline int tm_held_by_other(const tm_mesh *m, uint32_t t, uint32_t own)
+{
+    return tm_is_locked(m, t) && m->lock[t] != own;
+}
 /* tm_set_lock(m, t, 0) out of line, for tm__take_slot: the sequential
  * mesher (no lock array) keeps its insertion code as small as before. */
 void tm__unlock_slot(tm_mesh *m, uint32_t t);

@@ -477,6 +477,16 @@ static int refine_item(am_ctx_t *am, par_item *it)
     }
 }
 
+/* The next item of the PE's queues (ref_next), with the busy test on
+ * while locks are about: they exist here only while a thread of this PE
+ * waits for replies or another PE's cavity holds some of ours. Returns 1
+ * with *kind, *id, *rmin set, 0 when nothing is ready. */
+static int pick_item(par_run *pr, int *kind, uint32_t *id, float *rmin)
+{
+    pr->s->r.busy_depth = pr->cc.nblocked_dist > 0 || pr->cc.served.n > 0 ? PAR_RUN_BUSY_DEPTH : 0;
+    return ref_next(&pr->s->r, kind, id, rmin);
+}
+
 /* The next item for a thread whose item is done, taken as start_work
  * would take it (with its check between steps), when nothing else is
  * due: no error, no band to give, no progress report (those stay
@@ -491,8 +501,7 @@ static int chain_item(par_run *pr, par_item *it)
         pr->err = PDR_ETOPOLOGY;
         return 0;
     }
-    pr->s->r.busy_depth = pr->cc.nblocked_dist > 0 || pr->cc.served.n > 0 ? PAR_RUN_BUSY_DEPTH : 0;
-    return ref_next(&pr->s->r, &it->kind, &it->id, &it->rmin);
+    return pick_item(pr, &it->kind, &it->id, &it->rmin);
 }
 
 /* A cavity thread: refines its item, then, while its first item began
@@ -553,10 +562,7 @@ static int start_work(am_ctx_t *am, void *arg)
     int kind;
     uint32_t id;
     float rmin;
-    /* Locks exist here only while a thread of this PE waits for replies
-     * or another PE's cavity holds some of ours. */
-    pr->s->r.busy_depth = pr->cc.nblocked_dist > 0 || pr->cc.served.n > 0 ? PAR_RUN_BUSY_DEPTH : 0;
-    if (!ref_next(&pr->s->r, &kind, &id, &rmin))
+    if (!pick_item(pr, &kind, &id, &rmin))
         return 0;
     par_item *it = pr->free_items;
     if (it) {

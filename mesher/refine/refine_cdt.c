@@ -239,14 +239,11 @@ static int star_locked(const ref_mesher *r, const uint32_t *t, size_t n, uint32_
     if (!r->hooks || !m->lock)
         return 0;
     for (size_t i = 0; i < n; i++) {
-        if (m->lock[t[i]] != 0 && m->lock[t[i]] != own)
+        if (tm_held_by_other(m, t[i], own))
             return 1;
         for (int k = 0; k < 4; k++) {
             tm_link l = m->tets[t[i]].n[k];
-            if (tm_is_special(l))
-                continue;
-            uint32_t u = m->lock[tm_ltet(l)];
-            if (u != 0 && u != own)
+            if (!tm_is_special(l) && tm_held_by_other(m, tm_ltet(l), own))
                 return 1;
         }
     }
