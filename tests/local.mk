@@ -61,6 +61,9 @@ FUZZ_REPLAY = \
 	tests/fuzz/replay_smesh \
 	tests/fuzz/replay_off \
 	tests/fuzz/replay_stl \
+	tests/fuzz/replay_ply \
+	tests/fuzz/replay_obj \
+	tests/fuzz/replay_medit \
 	tests/fuzz/replay_node \
 	tests/fuzz/replay_control \
 	tests/fuzz/replay_bundle \
@@ -79,6 +82,12 @@ tests_fuzz_replay_off_SOURCES = tests/fuzz/fuzz_off.c tests/fuzz/replay_input.c
 tests_fuzz_replay_off_LDADD = $(FUZZ_MESH_LIBS)
 tests_fuzz_replay_stl_SOURCES = tests/fuzz/fuzz_stl.c tests/fuzz/replay_input.c
 tests_fuzz_replay_stl_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_ply_SOURCES = tests/fuzz/fuzz_ply.c tests/fuzz/replay_input.c
+tests_fuzz_replay_ply_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_obj_SOURCES = tests/fuzz/fuzz_obj.c tests/fuzz/replay_input.c
+tests_fuzz_replay_obj_LDADD = $(FUZZ_MESH_LIBS)
+tests_fuzz_replay_medit_SOURCES = tests/fuzz/fuzz_medit.c tests/fuzz/replay_input.c
+tests_fuzz_replay_medit_LDADD = $(FUZZ_MESH_LIBS)
 tests_fuzz_replay_node_SOURCES = tests/fuzz/fuzz_node.c tests/fuzz/replay_input.c
 tests_fuzz_replay_node_LDADD = $(FUZZ_MESH_LIBS)
 tests_fuzz_replay_control_SOURCES = tests/fuzz/fuzz_control.c tests/fuzz/replay_input.c

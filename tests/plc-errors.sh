@@ -41,7 +41,7 @@ four-d.off|four-d.off:1: the 4OFF variant of OFF is not supported (plain OFF, an
 open.off|open.off:8: facet 1: edge (1, 2) belongs to no other facet (the surface is open there)
 welded-open.off|welded-open.off:14: facet 4: edge (2, 5) belongs to no other facet (the surface is open there)
 no-endloop.stl|no-endloop.stl:7: expected 'vertex' or 'endloop', found 'endfacet'
-unknown.xyz|unknown.xyz: unknown input format '.xyz': expected .poly, .smesh, .off or .stl
+unknown.xyz|unknown.xyz: unknown input format '.xyz': expected .poly, .smesh, .off, .stl, .ply, .obj or .mesh
 TABLE
 
 # The valid fixtures pass (colour.off: COFF, a colour after each vertex;

@@ -3,8 +3,10 @@
 #include "config.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -505,6 +507,232 @@ static int validate_text(const char *name, const char *text, pdr_diag *d)
     return rc;
 }
 
+/* ------------------------------------------------ more surface formats */
+
+static const char *surf_fixture(const char *name)
+{
+    static char path[4096];
+    const char *top = getenv("top_srcdir");
+    snprintf(path, sizeof path, "%s/tests/data/surf/%s", top ? top : ".", name);
+    return path;
+}
+
+/* Corner k of the only polygon of facet f. */
+static uint32_t facet_corner(const plc *p, size_t f, uint32_t k)
+{
+    return p->corners[p->polys[p->facets[f].poly_first].first + k];
+}
+
+static uint32_t facet_ncorner(const plc *p, size_t f)
+{
+    return p->polys[p->facets[f].poly_first].n;
+}
+
+/* A value in n bytes, little-endian (be: big-endian). */
+static void put_bytes(FILE *f, uint64_t u, int n, int be)
+{
+    for (int i = 0; i < n; i++)
+        fputc((int)(u >> (8 * (be ? n - 1 - i : i))) & 0xff, f);
+}
+
+static void put_double(FILE *f, double x, int be)
+{
+    uint64_t u;
+    memcpy(&u, &x, sizeof u);
+    put_bytes(f, u, 8, be);
+}
+
+/* Writes surface s in format fmt (0 PLY ascii, 1 PLY binary
+ * little-endian, 2 PLY binary big-endian, 3 OBJ, 4 Medit) with the
+ * decorations other writers add (properties and elements to skip,
+ * texture and normal indices, relative indices, continued lines,
+ * sections to skip); Medit references are facet k's k % 3 + 1 when
+ * refs, else 0. Returns the path. */
+static const char *write_surface(const plc *s, int fmt, int refs)
+{
+    static const char *names[] = {"s.ply", "sle.ply", "sbe.ply", "s.obj", "s.mesh"};
+    static char path[256];
+    snprintf(path, sizeof path, "%s/%s", tmpdir, names[fmt]);
+    FILE *f = fopen(path, "wb");
+    ck_assert_ptr_nonnull(f);
+    size_t nv = s->nv, nf = s->nfacet;
+    if (fmt <= 2) {
+        static const char *form[] = {"ascii", "binary_little_endian", "binary_big_endian"};
+        fprintf(f, "ply\nformat %s 1.0\ncomment written by test_plc\n"
+                   "element material 1\nproperty float shine\n"
+                   "element vertex %zu\nproperty double x\nproperty float64 y\n"
+                   "property float nx\nproperty double z\nproperty uchar red\n"
+                   "element face %zu\nproperty uchar flags\n"
+                   "property list uchar int vertex_indices\n"
+                   "element edge 1\nproperty int vertex1\nproperty int vertex2\n"
+                   "end_header\n",
+                form[fmt], nv, nf);
+        int be = fmt == 2;
+        if (fmt == 0)
+            fprintf(f, "0.5\n");
+        else
+            put_bytes(f, 0x3f000000u, 4, be);
+        for (size_t v = 0; v < nv; v++) {
+            const double *x = s->xyz[v];
+            if (fmt == 0) {
+                fprintf(f, "%.17g %.17g 0.5 %.17g 200\n", x[0], x[1], x[2]);
+            } else {
+                put_double(f, x[0], be);
+                put_double(f, x[1], be);
+                put_bytes(f, 0x3f000000u, 4, be);
+                put_double(f, x[2], be);
+                put_bytes(f, 200, 1, be);
+            }
+        }
+        for (size_t k = 0; k < nf; k++) {
+            uint32_t n = facet_ncorner(s, k);
+            if (fmt == 0) {
+                fprintf(f, "7 %u", n);
+                for (uint32_t i = 0; i < n; i++)
+                    fprintf(f, " %u", facet_corner(s, k, i));
+                fprintf(f, "\n");
+            } else {
+                put_bytes(f, 7, 1, be);
+                put_bytes(f, n, 1, be);
+                for (uint32_t i = 0; i < n; i++)
+                    put_bytes(f, facet_corner(s, k, i), 4, be);
+            }
+        }
+        if (fmt == 0)
+            fprintf(f, "0 1\n");
+        else
+            put_bytes(f, 0, 4, be), put_bytes(f, 1, 4, be);
+    } else if (fmt == 3) {
+        fprintf(f, "# written by test_plc\nmtllib none.mtl\no part\n");
+        /* the first face before the vertices it names */
+        fprintf(f, "f %u %u %u\n", facet_corner(s, 0, 0) + 1, facet_corner(s, 0, 1) + 1,
+                facet_corner(s, 0, 2) + 1);
+        for (size_t v = 0; v < nv; v++)
+            fprintf(f, "v %.17g %.17g %.17g 1 0 0\nvt 0.5 0.5\nvn 0 0 1\n", s->xyz[v][0],
+                    s->xyz[v][1], s->xyz[v][2]);
+        fprintf(f, "g side\ns 1\nusemtl steel\n");
+        for (size_t k = 1; k < nf; k++) {
+            fprintf(f, "f");
+            for (uint32_t i = 0; i < facet_ncorner(s, k); i++) {
+                uint32_t c = facet_corner(s, k, i);
+                if (k % 4 == 1)
+                    fprintf(f, " %u/%u/%u", c + 1, c + 1, c + 1);
+                else if (k % 4 == 2)
+                    fprintf(f, " %u//%u", c + 1, c + 1);
+                else if (k % 4 == 3)
+                    fprintf(f, " %ld", (long)c - (long)nv); /* relative */
+                else
+                    fprintf(f, " %u/%u%s", c + 1, c + 1, i == 0 ? " \\\n " : "");
+            }
+            fprintf(f, "\n");
+        }
+        fprintf(f, "l 1 2\n");
+    } else {
+        fprintf(f, "MeshVersionFormatted 2\n\nDimension\n3\n\nVertices\n%zu\n", nv);
+        for (size_t v = 0; v < nv; v++)
+            fprintf(f, "%.17g %.17g %.17g 0\n", s->xyz[v][0], s->xyz[v][1], s->xyz[v][2]);
+        fprintf(f, "# a comment\nEdges\n1\n1 2 5\nTriangles\n%zu\n", nf);
+        for (size_t k = 0; k < nf; k++)
+            fprintf(f, "%u %u %u %d\n", facet_corner(s, k, 0) + 1, facet_corner(s, k, 1) + 1,
+                    facet_corner(s, k, 2) + 1, refs ? (int)(k % 3) + 1 : 0);
+        fprintf(f, "Corners 2 1 2\nEnd\n");
+    }
+    fclose(f);
+    return path;
+}
+
+/* One closed surface written in five more formats reads as the same PLC:
+ * the same vertices in the same order, the same faces with the same
+ * corners, and it validates. */
+START_TEST(surface_formats_read_alike)
+{
+    plc s;
+    pdr_diag d = {0};
+    plc_init(&s, NULL);
+    ck_assert_int_eq(plc_read(&s, surf_fixture("torus-0.3.off"), &d), 0);
+    ck_assert_uint_gt(s.nfacet, 100);
+    make_tmpdir();
+    for (int fmt = 0; fmt < 5; fmt++) {
+        const char *path = write_surface(&s, fmt, 0);
+        plc p;
+        plc_init(&p, NULL);
+        int rc = plc_read(&p, path, &d);
+        if (!rc)
+            rc = plc_validate(&p, &d);
+        dump(&d);
+        ck_assert_msg(rc == 0, "format %d", fmt);
+        ck_assert_uint_eq(p.nv, s.nv);
+        for (size_t v = 0; v < s.nv; v++)
+            for (int k = 0; k < 3; k++)
+                ck_assert(p.xyz[v][k] == s.xyz[v][k]);
+        ck_assert_uint_eq(p.nfacet, s.nfacet);
+        for (size_t k = 0; k < s.nfacet; k++) {
+            ck_assert_uint_eq(facet_ncorner(&p, k), facet_ncorner(&s, k));
+            for (uint32_t i = 0; i < facet_ncorner(&s, k); i++)
+                ck_assert_uint_eq(facet_corner(&p, k, i), facet_corner(&s, k, i));
+            ck_assert_int_eq(p.facets[k].marker, 0);
+        }
+        plc_free(&p);
+    }
+    /* Medit's triangle references are the facets' markers. */
+    plc p;
+    plc_init(&p, NULL);
+    ck_assert_int_eq(plc_read(&p, write_surface(&s, 4, 1), &d), 0);
+    for (size_t k = 0; k < s.nfacet; k++)
+        ck_assert_int_eq(p.facets[k].marker, (int)(k % 3) + 1);
+    plc_free(&p);
+    plc_free(&s);
+    pdr_diag_free(&d);
+    remove_tmpdir();
+}
+END_TEST
+
+/* What the readers refuse, and that the message names the file and, in
+ * text, the line. */
+START_TEST(surface_format_errors)
+{
+    static const struct {
+        const char *name, *text, *expect;
+    } bad[] = {
+        {"a.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty "
+                  "float y\nproperty float z\nend_header\n0 0 0\n",
+         "a.ply:7: the file has no faces (a point cloud?)"},
+        {"b.ply", "ply\nformat ascii 2.0\nend_header\n", "b.ply:2: PLY version '2.0'"},
+        {"c.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty "
+                  "float y\nproperty float z\nelement face 1\nproperty list uchar int "
+                  "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+         "c.ply:13: vertex index 3 is out of range [0, 2]"},
+        {"d.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float "
+                  "x\nproperty float y\nproperty float z\nelement face 1\nproperty list "
+                  "uchar int vertex_indices\nend_header\n",
+         "d.ply: vertex 0: unexpected end of file"},
+        {"e.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n",
+         "e.ply:4: unexpected end of file in the header"},
+        {"f.ply", "solid\n", "f.ply:1: not a PLY file"},
+        {"a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 9\n",
+         "a.obj:5: vertex 9 is out of range [1, 4]"},
+        {"b.obj", "v 0 0 0\nf -2 1 1\n", "b.obj:2: relative vertex number -2 reaches"},
+        {"c.obj", "v 0 0 0\ncstype bspline\n", "c.obj:2: free-form geometry ('cstype')"},
+        {"d.obj", "v 0 0 0\nf 1 x 2\n", "d.obj:2: face corner 'x' is not a vertex number"},
+        {"e.obj", "v 0 0 0\nl 1 1\n", "e.obj: the file has no faces"},
+        {"a.mesh", "MeshVersionFormatted 2\nDimension 2\n", "a.mesh:2: Dimension 2"},
+        {"b.mesh", "MeshVersionFormatted 1\nDimension 3\nPolygons 0\n",
+         "b.mesh:3: unknown keyword 'Polygons'"},
+        {"c.mesh", "MeshVersionFormatted 1\nVertices 1\n0 0 0 0\nTriangles 1\n1 1 2 0\n",
+         "c.mesh:5: vertex 2 is out of range [1, 1]"},
+        {"d.mesh", "Vertices 1\n0 0 0 0\n", "d.mesh:1: not a Medit mesh"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        pdr_diag d = {0};
+        ck_assert_int_ne(validate_text(bad[i].name, bad[i].text, &d), 0);
+        ck_assert_uint_ge(d.nkept, 1);
+        ck_assert_msg(strstr(d.msgs[0], bad[i].expect) != NULL, "%s: got '%s'", bad[i].name,
+                      d.msgs[0]);
+        pdr_diag_free(&d);
+    }
+}
+END_TEST
+
 START_TEST(coplanar_overlap_and_touching_vertex_are_intersections)
 {
     pdr_diag d = {0};
@@ -802,6 +1030,8 @@ static Suite *plc_suite(void)
     tc = tcase_create("validate");
     tcase_add_test(tc, coplanar_overlap_and_touching_vertex_are_intersections);
     tcase_add_test(tc, shared_internal_facet_is_valid);
+    tcase_add_test(tc, surface_formats_read_alike);
+    tcase_add_test(tc, surface_format_errors);
     suite_add_tcase(s, tc);
     tc = tcase_create("prepare");
     tcase_add_test(tc, coplanar_triangles_merge_into_facets);

@@ -45,7 +45,7 @@ static void usage(FILE *f)
             "fig. 9).\n\n"
             "Options:\n"
             "      --plc IN       the input the mesh was made from (.poly, .smesh, .off,\n"
-            "                     .stl)\n"
+            "                     .stl, .ply, .obj, .mesh)\n"
             "      --merge-angle A, --no-merge  prepare IN as 'pdr mesh' does: coplanar\n"
             "                     triangles merged into facets (default A = %g degrees;\n"
             "                     give the value pdr mesh was given)\n"

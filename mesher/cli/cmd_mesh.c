@@ -1,5 +1,5 @@
 /* cli/cmd_mesh.c -- 'pdr mesh': guaranteed-quality tetrahedral mesh of a PLC
- * (TetGen .poly/.smesh, .off, .stl, or a built-in model problem). This file
+ * (TetGen .poly/.smesh, a surface file, or a built-in model problem). This file
  * is the command line: it parses the options into an mp_opts and runs the
  * stages of cli/mesh_pipeline.h in order. */
 #include "config.h"
@@ -26,7 +26,8 @@
 static void usage(FILE *f)
 {
     fprintf(f,
-            "Usage: pdr mesh [OPTIONS] [IN.poly | IN.smesh | IN.off | IN.stl]\n"
+            "Usage: pdr mesh [OPTIONS] [IN.poly | IN.smesh | IN.off | IN.stl | IN.ply |\n"
+            "                           IN.obj | IN.mesh]\n"
             "       pdr mesh [OPTIONS] --domain cube-in-cube|tee|sphere\n\n"
             "Builds a Delaunay tetrahedral mesh of a piecewise linear complex whose\n"
             "tetrahedra have a circumradius to shortest edge ratio below B (Shewchuk's\n"
@@ -54,7 +55,8 @@ static void usage(FILE *f)
             "      --domain NAME    mesh a built-in domain (cube-in-cube, tee or sphere,\n"
             "                       with the defaults of 'pdr domain') instead of a file\n"
             "      --mo KIND        how the boundary is recovered and kept: 'auto'\n"
-            "                       (default: 'cdt' for .stl and .off input and for an\n"
+            "                       (default: 'cdt' for a surface file (.stl, .off,\n"
+            "                       .ply, .obj, .mesh) and for an\n"
             "                       input with smooth segments (a tessellated curved\n"
             "                       surface) or acute vertices, else 'conform'),\n"
             "                       'conform' (a conforming Delaunay mesh:\n"

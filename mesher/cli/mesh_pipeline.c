@@ -2,7 +2,6 @@
  * refine, export, write, report, verify (see mesh_pipeline.h). */
 #include "config.h"
 
-#include <ctype.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -292,34 +291,20 @@ static int point_limit(mp_ctx *c)
     return PDR_ELIMIT;
 }
 
-/* 1 if file name f ends in .stl or .off (any case): a closed triangle
- * surface. */
-static int surface_format(const char *f)
-{
-    size_t n = f ? strlen(f) : 0;
-    if (n < 4 || f[n - 4] != '.')
-        return 0;
-    char e[4];
-    for (int i = 0; i < 3; i++)
-        e[i] = (char)tolower((unsigned char)f[n - 3 + i]);
-    e[3] = 0;
-    return !strcmp(e, "stl") || !strcmp(e, "off");
-}
-
 int mp_initial_mesh(mp_ctx *c)
 {
     double t = pdr_now();
     c->o.ref.max_points = c->o.max_points < 0 ? ref_point_limit(&c->p, &c->o.ref)
                                               : (size_t)c->o.max_points;
     /* The boundary's treatment (refine/refine_cdt.c): a constrained
-     * Delaunay tetrahedralization for a closed triangle surface (STL, OFF:
-     * what CAD tools and scanners export), a tessellated curved surface or
+     * Delaunay tetrahedralization for a closed triangle surface (STL, OFF,
+     * PLY, OBJ, Medit: what CAD tools and scanners export), a tessellated curved surface or
      * an input with acute vertices, where splitting pieces into each
      * other cascades; conforming Delaunay elsewhere, where the input's
      * angles let Shewchuk's algorithm work (the paper's domains). */
     if (c->o.mo_auto && !c->o.mo.paper)
         c->o.ref.constrained = c->fm.smooth_segments > 0 || c->fm.acute_vertices > 0 ||
-                               surface_format(c->o.in);
+                               c->p.surface_input;
     int rc = ref_init(&c->r, &c->p, &c->o.ref);
     if (rc)
         return fail(c, rc);

@@ -12,4 +12,8 @@ libpdrmesh_la_SOURCES += \
 	mesher/plc/plc.c \
 	mesher/plc/plc_check.c \
 	mesher/plc/plc_read.c \
+	mesher/plc/plc_surf.c \
+	mesher/plc/plc_ply.c \
+	mesher/plc/plc_obj.c \
+	mesher/plc/plc_medit.c \
 	mesher/plc/plc_tri.c

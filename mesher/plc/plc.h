@@ -154,11 +154,14 @@ typedef struct plc {
      * triangles into polygons covers the same points, so it makes none);
      * plc_init() sets 0. */
     int skip_intersections;
-    /* What the surface readers (.off, .stl) mended (plc/plc_read.c):
+    /* 1 when read from a surface file (.off, .stl, .ply, .obj, .mesh):
+     * closed triangle surfaces as CAD tools and scanners export them. */
+    int surface_input;
+    /* What the surface readers mended (plc/plc_surf.c):
      * faces dropped because their corners are fewer than three distinct
      * vertices, polygons that were not planar cut into triangles. */
     size_t read_dropped, read_split;
-    /* ... and OFF vertices merged into an equal one before them; vnum
+    /* ... and vertices merged into an equal one before them; vnum
      * (NULL unless some were) gives each vertex its number in the file. */
     size_t read_welded;
     long *vnum;

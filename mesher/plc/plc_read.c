@@ -1,6 +1,8 @@
 /*
  * plc/plc_read.c -- readers of PLC files: TetGen .poly and .smesh, Geomview
- * .off, ASCII and binary .stl.
+ * .off, ASCII and binary .stl, and the dispatch by extension (.ply, .obj
+ * and Medit .mesh have their own files: plc_ply.c, plc_obj.c,
+ * plc_medit.c; the surface formats share plc_surf.c).
  *
  * Formats as TetGen 1.5 documents them (wias-berlin.de/software/tetgen,
  * "File formats"), with these decisions and limitations:
@@ -59,9 +61,9 @@
 #include "plc/plc_int.h"
 #include "base/textin.h"
 
-#define MAX_COUNT 1000000000L
+#define MAX_COUNT PLC_MAX_COUNT
 
-static int oom(textin *t)
+int plc__oom(textin *t)
 {
     pdr_diag_add(t->diag, t->path, t->line, "out of memory");
     return PDR_ENOMEM;
@@ -69,7 +71,7 @@ static int oom(textin *t)
 
 /* Reads the next content line, failing with "unexpected end of file while
  * reading WHAT" at the end. */
-static int need_line(textin *t, const char *what)
+int plc__need_line(textin *t, const char *what)
 {
     int rc = textin_next(t);
     if (rc == 1)
@@ -79,7 +81,7 @@ static int need_line(textin *t, const char *what)
     return rc;
 }
 
-static int expect_eol(textin *t, const char *what)
+int plc__expect_eol(textin *t, const char *what)
 {
     if (textin_at_eol(t))
         return 0;
@@ -88,10 +90,10 @@ static int expect_eol(textin *t, const char *what)
 }
 
 /* Reads the next integer of a record that may continue on following lines. */
-static int record_long(textin *t, const char *what, long min, long max, long *out)
+int plc__record_long(textin *t, const char *what, long min, long max, long *out)
 {
     if (textin_at_eol(t)) {
-        int rc = need_line(t, what);
+        int rc = plc__need_line(t, what);
         if (rc)
             return rc;
     }
@@ -108,14 +110,14 @@ static int read_vertex_list(plc *p, textin *t, long count)
     if ((rc = textin_long(t, "dimension", 3, 3, &dim)) ||
         (rc = textin_opt_long(t, "attribute count", 0, 1000, &nattr)) < 0 ||
         (rc = textin_opt_long(t, "marker flag", 0, 1, &markers)) < 0 ||
-        (rc = expect_eol(t, "the vertex-list header")))
+        (rc = plc__expect_eol(t, "the vertex-list header")))
         return rc < 0 ? rc : PDR_EPARSE;
     if (nattr > 0 && plc__enable_vattr(p, (size_t)nattr))
-        return oom(t);
+        return plc__oom(t);
     if (markers && plc_enable_vmarkers(p))
-        return oom(t);
+        return plc__oom(t);
     for (long i = 0; i < count; i++) {
-        if ((rc = need_line(t, "the vertex list")))
+        if ((rc = plc__need_line(t, "the vertex list")))
             return rc;
         long num;
         double x[3];
@@ -137,7 +139,7 @@ static int read_vertex_list(plc *p, textin *t, long count)
             return rc;
         uint32_t v;
         if ((rc = plc_add_vertex(p, x, t->line, &v)))
-            return rc == PDR_ENOMEM ? oom(t) : textin_error(t, "too many vertices");
+            return rc == PDR_ENOMEM ? plc__oom(t) : textin_error(t, "too many vertices");
         for (long k = 0; k < nattr; k++)
             if ((rc = textin_double(t, "vertex attribute",
                                     &p->vattr[(size_t)v * p->nvattr + (size_t)k])))
@@ -148,7 +150,7 @@ static int read_vertex_list(plc *p, textin *t, long count)
                 return rc;
             p->vmarker[v] = (int)m;
         }
-        if ((rc = expect_eol(t, "the vertex")))
+        if ((rc = plc__expect_eol(t, "the vertex")))
             return rc;
     }
     return 0;
@@ -163,7 +165,7 @@ static char *sibling_path(const char *path, const char *ext)
 /* Part 1 of .poly/.smesh: inline vertices, or a separate .node file. */
 static int read_part1(plc *p, textin *t)
 {
-    int rc = need_line(t, "the vertex-list header");
+    int rc = plc__need_line(t, "the vertex-list header");
     if (rc)
         return rc;
     long count;
@@ -176,7 +178,7 @@ static int read_part1(plc *p, textin *t)
      * this header line is ignored, as TetGen does. */
     char *node = sibling_path(t->path, ".node");
     if (!node)
-        return oom(t);
+        return plc__oom(t);
     textin nt;
     rc = textin_open(&nt, node, t->diag);
     if (rc) {
@@ -186,7 +188,7 @@ static int read_part1(plc *p, textin *t)
     }
     pr_free(p->vfile);
     p->vfile = node;
-    if (!(rc = need_line(&nt, "the vertex-list header")) &&
+    if (!(rc = plc__need_line(&nt, "the vertex-list header")) &&
         !(rc = textin_long(&nt, "vertex count", 0, MAX_COUNT, &count)))
         rc = read_vertex_list(p, &nt, count);
     if (!rc && textin_next(&nt) == 1)
@@ -199,7 +201,7 @@ static int read_part1(plc *p, textin *t)
 static int read_corner(plc *p, textin *t, uint32_t *out)
 {
     long num;
-    int rc = record_long(t, "vertex index", -MAX_COUNT, MAX_COUNT, &num);
+    int rc = plc__record_long(t, "vertex index", -MAX_COUNT, MAX_COUNT, &num);
     if (rc)
         return rc;
     if (num < p->base || num - p->base >= (long)p->nv) {
@@ -232,7 +234,7 @@ static int read_polygon(plc *p, textin *t, struct corner_buf *cb, int smesh,
      * not in an allocation of gigabytes. */
     for (long i = 0; i < n; i++) {
         if (plc__grow((void **)&cb->c, &cb->cap, (size_t)i + 1, sizeof *cb->c))
-            return oom(t);
+            return plc__oom(t);
         if ((rc = read_corner(p, t, &cb->c[i])))
             return rc;
     }
@@ -242,12 +244,12 @@ static int read_polygon(plc *p, textin *t, struct corner_buf *cb, int smesh,
             return rc;
         *marker = (int)m;
     }
-    if ((rc = expect_eol(t, "the polygon's corners")))
+    if ((rc = plc__expect_eol(t, "the polygon's corners")))
         return rc;
     if (smesh && (rc = plc_begin_facet(p, *marker, line)))
-        return oom(t);
+        return plc__oom(t);
     if ((rc = plc_add_polygon(p, cb->c, (uint32_t)n, line)))
-        return oom(t);
+        return plc__oom(t);
     return 0;
 }
 
@@ -278,15 +280,15 @@ static int demote_flat_facet(plc *p)
 
 static int read_poly_facets(plc *p, textin *t, int smesh)
 {
-    int rc = need_line(t, "the facet-list header");
+    int rc = plc__need_line(t, "the facet-list header");
     long nf, markers = 0;
     if (rc || (rc = textin_long(t, "facet count", 0, MAX_COUNT, &nf)) ||
         (rc = textin_opt_long(t, "marker flag", 0, 1, &markers)) < 0 ||
-        (rc = expect_eol(t, "the facet-list header")))
+        (rc = plc__expect_eol(t, "the facet-list header")))
         return rc < 0 ? rc : PDR_EPARSE;
     struct corner_buf cb = {NULL, 0};
     for (long f = 0; f < nf && !rc; f++) {
-        if ((rc = need_line(t, "the facet list")))
+        if ((rc = plc__need_line(t, "the facet list")))
             break;
         if (smesh) {
             int marker = 0;
@@ -301,30 +303,30 @@ static int read_poly_facets(plc *p, textin *t, int smesh)
         if (markers &&
             (rc = textin_opt_long(t, "facet marker", -MAX_COUNT, MAX_COUNT, &marker)) < 0)
             break;
-        if ((rc = expect_eol(t, "the facet header")))
+        if ((rc = plc__expect_eol(t, "the facet header")))
             break;
         if (plc_begin_facet(p, (int)marker, line)) {
-            rc = oom(t);
+            rc = plc__oom(t);
             break;
         }
         for (long k = 0; k < npoly && !rc; k++)
-            if (!(rc = need_line(t, "a polygon")))
+            if (!(rc = plc__need_line(t, "a polygon")))
                 rc = read_polygon(p, t, &cb, 0, 0, NULL);
         for (long h = 0; h < nhole && !rc; h++) {
             long num;
             double x[3];
-            if ((rc = need_line(t, "a facet hole")) ||
+            if ((rc = plc__need_line(t, "a facet hole")) ||
                 (rc = textin_long(t, "hole number", -MAX_COUNT, MAX_COUNT, &num)) ||
                 (rc = textin_double(t, "x coordinate", &x[0])) ||
                 (rc = textin_double(t, "y coordinate", &x[1])) ||
                 (rc = textin_double(t, "z coordinate", &x[2])) ||
-                (rc = expect_eol(t, "the facet hole")))
+                (rc = plc__expect_eol(t, "the facet hole")))
                 break;
             if (plc_add_facet_hole(p, x, t->line))
-                rc = oom(t);
+                rc = plc__oom(t);
         }
         if (!rc && demote_flat_facet(p))
-            rc = oom(t);
+            rc = plc__oom(t);
     }
     pr_free(cb.c);
     return rc;
@@ -338,41 +340,41 @@ static int read_holes_regions(plc *p, textin *t)
         return rc;
     long n;
     if ((rc = textin_long(t, "hole count", 0, MAX_COUNT, &n)) ||
-        (rc = expect_eol(t, "the hole count")))
+        (rc = plc__expect_eol(t, "the hole count")))
         return rc;
     for (long h = 0; h < n; h++) {
         long num;
         double x[3];
-        if ((rc = need_line(t, "the hole list")) ||
+        if ((rc = plc__need_line(t, "the hole list")) ||
             (rc = textin_long(t, "hole number", -MAX_COUNT, MAX_COUNT, &num)) ||
             (rc = textin_double(t, "x coordinate", &x[0])) ||
             (rc = textin_double(t, "y coordinate", &x[1])) ||
             (rc = textin_double(t, "z coordinate", &x[2])) ||
-            (rc = expect_eol(t, "the hole")))
+            (rc = plc__expect_eol(t, "the hole")))
             return rc;
         if (plc_add_hole(p, x, t->line))
-            return oom(t);
+            return plc__oom(t);
     }
     rc = textin_next(t);
     if (rc <= 0)
         return rc;
     if ((rc = textin_long(t, "region count", 0, MAX_COUNT, &n)) ||
-        (rc = expect_eol(t, "the region count")))
+        (rc = plc__expect_eol(t, "the region count")))
         return rc;
     for (long r = 0; r < n; r++) {
         long num;
         double x[3], attr, maxvol = -1.0;
-        if ((rc = need_line(t, "the region list")) ||
+        if ((rc = plc__need_line(t, "the region list")) ||
             (rc = textin_long(t, "region number", -MAX_COUNT, MAX_COUNT, &num)) ||
             (rc = textin_double(t, "x coordinate", &x[0])) ||
             (rc = textin_double(t, "y coordinate", &x[1])) ||
             (rc = textin_double(t, "z coordinate", &x[2])) ||
             (rc = textin_double(t, "region attribute", &attr)) ||
             (rc = textin_opt_double(t, "maximum volume", &maxvol)) < 0 ||
-            (rc = expect_eol(t, "the region")))
+            (rc = plc__expect_eol(t, "the region")))
             return rc < 0 ? rc : PDR_EPARSE;
         if (plc_add_region(p, x, attr, maxvol, t->line))
-            return oom(t);
+            return plc__oom(t);
     }
     rc = textin_next(t);
     if (rc == 1)
@@ -391,269 +393,6 @@ static int read_tetgen(plc *p, FILE *f, const char *path, pdr_diag *diag, int sm
     return rc;
 }
 
-/* ------------------------------------------------------------ vertex merge */
-
-/* Merges vertices with equal coordinates: open addressing on the bits of
- * the coordinates (with -0 folded into +0, so equal values hash equally). */
-struct vmerge {
-    uint32_t *slot; /* vertex index + 1, 0 when empty */
-    size_t cap;     /* power of two */
-};
-
-static uint64_t hash_point(const double x[3])
-{
-    uint64_t h = 0x9e3779b97f4a7c15u;
-    for (int k = 0; k < 3; k++) {
-        double v = x[k] == 0.0 ? 0.0 : x[k];
-        uint64_t b;
-        memcpy(&b, &v, sizeof b);
-        h ^= b + 0x9e3779b97f4a7c15u + (h << 6) + (h >> 2);
-        h *= 0xff51afd7ed558ccdu;
-        h ^= h >> 33;
-    }
-    return h;
-}
-
-static int vmerge_insert(struct vmerge *m, plc *p, const double x[3], long line,
-                         uint32_t *out)
-{
-    if ((p->nv + 1) * 2 > m->cap) {
-        size_t ncap = m->cap ? m->cap * 2 : 1024;
-        uint32_t *s = pr_calloc(ncap, sizeof *s);
-        if (!s)
-            return PDR_ENOMEM;
-        for (size_t v = 0; v < p->nv; v++) {
-            size_t i = hash_point(p->xyz[v]) & (ncap - 1);
-            while (s[i])
-                i = (i + 1) & (ncap - 1);
-            s[i] = (uint32_t)v + 1;
-        }
-        pr_free(m->slot);
-        m->slot = s;
-        m->cap = ncap;
-    }
-    size_t i = hash_point(x) & (m->cap - 1);
-    while (m->slot[i]) {
-        const double *y = p->xyz[m->slot[i] - 1];
-        if (y[0] == x[0] && y[1] == x[1] && y[2] == x[2]) {
-            *out = m->slot[i] - 1;
-            return 0;
-        }
-        i = (i + 1) & (m->cap - 1);
-    }
-    int rc = plc_add_vertex(p, x, line, out);
-    if (rc)
-        return rc;
-    m->slot[i] = *out + 1;
-    return 0;
-}
-
-/* ----------------------------------------------------------- surface faces */
-
-/* The faces of a surface file (.off, .stl) as CAD tools and scanners write
- * them, mended where the fix is certain and loses nothing:
- *  - a corner repeated next to itself is one corner; a face left with
- *    fewer than three has no area (a triangle whose two corners are one
- *    vertex after the STL vertices are merged) and is dropped: its other
- *    edge is used once in each direction by it, so the surface stays
- *    closed without it;
- *  - a polygon whose corners are not in one plane (quad meshes from
- *    scanners and modellers, nearly flat but beyond the planarity
- *    tolerance) is cut into triangles by ear clipping in its projection
- *    along its Newell normal, each triangle a facet of its own; one whose
- *    projection is no simple polygon is kept whole, and the validation
- *    then names it.
- * Counted in p->read_dropped and p->read_split. */
-
-/* 1 if 2D point q lies inside or on the triangle abc (counterclockwise). */
-static int in_triangle2(const double *a, const double *b, const double *c, const double *q)
-{
-    return pred_orient2d(a, b, q) >= 0 && pred_orient2d(b, c, q) >= 0 &&
-           pred_orient2d(c, a, q) >= 0;
-}
-
-/* Flips the diagonals of an ear-clipped polygon (triangles tri[0..nt) of
- * corner positions, counterclockwise in the projection q) until each is
- * Delaunay there.
- * Ear clipping takes the first ear, so a quadrilateral is always cut
- * along the same diagonal whatever its shape; the Delaunay one is the
- * diagonal the tetrahedralization of the points most likely has already
- * (the surface is nearly flat there), so the boundary recovery need not
- * split it. Only small polygons (quadrilaterals from quad meshes, mostly):
- * the pair search is quadratic. */
-static void delaunay_diagonals(const double (*q)[2], uint32_t n, uint32_t (*tri)[3],
-                               uint32_t nt)
-{
-    if (nt < 2 || n > 32)
-        return;
-    for (uint32_t pass = 0, flipped = 1; flipped && pass < 4 * n; pass++) {
-        flipped = 0;
-        for (uint32_t i = 0; i < nt; i++)
-            for (uint32_t j = i + 1; j < nt; j++)
-                for (int e = 0; e < 3; e++) {
-                    /* edge (x, y) of triangle i, apex w; triangle j has
-                     * (y, x) with apex z */
-                    uint32_t x = tri[i][e], y = tri[i][(e + 1) % 3], w = tri[i][(e + 2) % 3];
-                    int f = -1;
-                    for (int k = 0; k < 3; k++)
-                        if (tri[j][k] == y && tri[j][(k + 1) % 3] == x)
-                            f = k;
-                    if (f < 0)
-                        continue;
-                    uint32_t z = tri[j][(f + 2) % 3];
-                    const double *qx = q[x], *qy = q[y], *qw = q[w], *qz = q[z];
-                    if (pred_incircle(qx, qy, qw, qz) <= 0)
-                        continue;
-                    /* the new diagonal (w, z) must leave two
-                     * counterclockwise triangles: (w, x, z), (z, y, w) */
-                    if (pred_orient2d(qw, qx, qz) <= 0 || pred_orient2d(qz, qy, qw) <= 0)
-                        continue;
-                    tri[i][0] = w, tri[i][1] = x, tri[i][2] = z;
-                    tri[j][0] = z, tri[j][1] = y, tri[j][2] = w;
-                    flipped = 1;
-                    e = 3;
-                }
-    }
-}
-
-/* Ear clipping of polygon c[0..n) (n > 3, distinct corners) projected
- * along normal nrm; adds every triangle as a facet. Returns 0, 1 when the
- * projection has no ear at some step (not a simple polygon: nothing
- * added), or PDR_ENOMEM. */
-static int clip_ears(plc *p, const uint32_t *c, uint32_t n, const double nrm[3], long line)
-{
-    int axis = 0;
-    for (int k = 1; k < 3; k++)
-        if (fabs(nrm[k]) > fabs(nrm[axis]))
-            axis = k;
-    /* (u, v) counterclockwise when seen against the normal */
-    int u = (axis + 1) % 3, v = (axis + 2) % 3;
-    if (nrm[axis] < 0) {
-        int s = u;
-        u = v;
-        v = s;
-    }
-    double (*q)[2] = pr_malloc(n * sizeof *q);
-    uint32_t *idx = pr_malloc(n * sizeof *idx);
-    uint32_t(*tri)[3] = pr_malloc((n - 2) * sizeof *tri);
-    int rc = q && idx && tri ? 0 : PDR_ENOMEM;
-    uint32_t left = n, ntri = 0;
-    for (uint32_t i = 0; i < n && !rc; i++) {
-        q[i][0] = p->xyz[c[i]][u];
-        q[i][1] = p->xyz[c[i]][v];
-        idx[i] = i;
-    }
-    while (!rc && left > 3) {
-        uint32_t ear = left;
-        for (uint32_t i = 0; i < left && ear == left; i++) {
-            uint32_t a = idx[(i + left - 1) % left], b = idx[i], d = idx[(i + 1) % left];
-            if (pred_orient2d(q[a], q[b], q[d]) <= 0)
-                continue;
-            int empty = 1;
-            for (uint32_t j = 0; j < left && empty; j++) {
-                uint32_t o = idx[j];
-                if (o != a && o != b && o != d)
-                    empty = !in_triangle2(q[a], q[b], q[d], q[o]);
-            }
-            if (empty)
-                ear = i;
-        }
-        if (ear == left) {
-            rc = 1;
-            break;
-        }
-        tri[ntri][0] = idx[(ear + left - 1) % left];
-        tri[ntri][1] = idx[ear];
-        tri[ntri][2] = idx[(ear + 1) % left];
-        ntri++;
-        memmove(idx + ear, idx + ear + 1, (left - ear - 1) * sizeof *idx);
-        left--;
-    }
-    if (!rc) {
-        if (pred_orient2d(q[idx[0]], q[idx[1]], q[idx[2]]) <= 0)
-            rc = 1;
-        else {
-            tri[ntri][0] = idx[0];
-            tri[ntri][1] = idx[1];
-            tri[ntri][2] = idx[2];
-            ntri++;
-        }
-    }
-    if (!rc)
-        delaunay_diagonals(q, n, tri, ntri);
-    for (uint32_t i = 0; i < ntri && !rc; i++) {
-        const uint32_t t[3] = {c[tri[i][0]], c[tri[i][1]], c[tri[i][2]]};
-        if (plc_begin_facet(p, 0, line) || plc_add_polygon(p, t, 3, line))
-            rc = PDR_ENOMEM;
-    }
-    pr_free(q);
-    pr_free(idx);
-    pr_free(tri);
-    return rc;
-}
-
-/* Adds face c[0..n) of a surface file as a facet, mended as above (c is
- * changed). tol: the planarity tolerance in length units. Returns 0 or
- * PDR_ENOMEM. */
-static int add_surface_face(plc *p, uint32_t *c, uint32_t n, long line, double tol)
-{
-    uint32_t k = 0;
-    for (uint32_t i = 0; i < n; i++)
-        if (!k || c[i] != c[k - 1])
-            c[k++] = c[i];
-    while (k > 1 && c[k - 1] == c[0])
-        k--;
-    if (k < 3) {
-        p->read_dropped++;
-        return 0;
-    }
-    if (k > 3) {
-        double nrm[3] = {0, 0, 0}, ctr[3] = {0, 0, 0};
-        for (uint32_t i = 0; i < k; i++) {
-            const double *a = p->xyz[c[i]], *b = p->xyz[c[(i + 1) % k]];
-            nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
-            nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
-            nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
-            for (int j = 0; j < 3; j++)
-                ctr[j] += a[j] / k;
-        }
-        double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-        double worst = 0;
-        for (uint32_t i = 0; i < k && len > 0; i++) {
-            const double *a = p->xyz[c[i]];
-            double d = fabs(nrm[0] * (a[0] - ctr[0]) + nrm[1] * (a[1] - ctr[1]) +
-                            nrm[2] * (a[2] - ctr[2])) / len;
-            if (d > worst)
-                worst = d;
-        }
-        if (worst > tol) {
-            int rc = clip_ears(p, c, k, nrm, line);
-            if (rc <= 0) {
-                p->read_split += !rc;
-                return rc;
-            }
-        }
-    }
-    return plc_begin_facet(p, 0, line) || plc_add_polygon(p, c, k, line) ? PDR_ENOMEM : 0;
-}
-
-/* The planarity tolerance in length units of a surface whose vertices are
- * all read: as plc_validate measures it. */
-static double surface_tol(const plc *p)
-{
-    double lo[3], hi[3], s = 0;
-    for (int k = 0; k < 3; k++)
-        lo[k] = hi[k] = p->nv ? p->xyz[0][k] : 0.0;
-    for (size_t v = 1; v < p->nv; v++)
-        for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], p->xyz[v][k]);
-            hi[k] = fmax(hi[k], p->xyz[v][k]);
-        }
-    for (int k = 0; k < 3; k++)
-        s += (hi[k] - lo[k]) * (hi[k] - lo[k]);
-    return p->planar_tol * sqrt(s);
-}
-
 /* --------------------------------------------------------------------- OFF */
 
 static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
@@ -664,12 +403,12 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     p->base = 0;
     long nv, nf, ne;
     double tol = 0;
-    struct vmerge vm = {NULL, 0};
+    struct plc__vmerge vm = {NULL, 0};
     uint32_t *map = NULL;
     size_t cap_map = 0;
     uint32_t *c = NULL;
     size_t cap = 0;
-    if ((rc = need_line(&t, "the OFF header")))
+    if ((rc = plc__need_line(&t, "the OFF header")))
         goto out;
     char *w = textin_word(&t);
     /* The variants whose vertices carry more than x y z: texture
@@ -692,47 +431,47 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
             rc = textin_error(&t, "not an OFF file: it must start with 'OFF'");
         goto out;
     }
-    if (textin_at_eol(&t) && (rc = need_line(&t, "the OFF counts")))
+    if (textin_at_eol(&t) && (rc = plc__need_line(&t, "the OFF counts")))
         goto out;
     if ((rc = textin_long(&t, "vertex count", 0, MAX_COUNT, &nv)) ||
         (rc = textin_long(&t, "face count", 0, MAX_COUNT, &nf)) ||
         (rc = textin_opt_long(&t, "edge count", 0, MAX_COUNT, &ne)) < 0 ||
-        (rc = expect_eol(&t, "the OFF counts")))
+        (rc = plc__expect_eol(&t, "the OFF counts")))
         goto out;
     /* Vertices with equal coordinates are one vertex (meshes exported
      * per part or per face repeat their seams' vertices): map[i] is file
      * vertex i's, and p->vnum keeps the file's numbers for messages. */
     for (long i = 0; i < nv; i++) {
         double x[3];
-        if ((rc = need_line(&t, "the vertex list")) ||
+        if ((rc = plc__need_line(&t, "the vertex list")) ||
             (rc = textin_double(&t, "x coordinate", &x[0])) ||
             (rc = textin_double(&t, "y coordinate", &x[1])) ||
             (rc = textin_double(&t, "z coordinate", &x[2])) ||
-            (!extra && (rc = expect_eol(&t, "the vertex"))))
+            (!extra && (rc = plc__expect_eol(&t, "the vertex"))))
             goto out;
         size_t before = p->nv;
         if (plc__grow((void **)&map, &cap_map, (size_t)i + 1, sizeof *map) ||
-            vmerge_insert(&vm, p, x, t.line, &map[i]) ||
+            plc__vmerge_insert(&vm, p, x, t.line, &map[i]) ||
             (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
              plc__number_vertex(p, p->nv - 1, i))) {
-            rc = oom(&t);
+            rc = plc__oom(&t);
             goto out;
         }
         p->read_welded += p->nv == before;
     }
     for (long f = 0; f < nf; f++) {
         long n;
-        if ((rc = need_line(&t, "the face list")) ||
+        if ((rc = plc__need_line(&t, "the face list")) ||
             (rc = textin_long(&t, "corner count", 3, MAX_COUNT, &n)))
             goto out;
         for (long i = 0; i < n; i++) {
             /* Grown with the corners read, as in read_polygon. */
             if (plc__grow((void **)&c, &cap, (size_t)i + 1, sizeof *c)) {
-                rc = oom(&t);
+                rc = plc__oom(&t);
                 goto out;
             }
             long num;
-            if ((rc = record_long(&t, "vertex index", -MAX_COUNT, MAX_COUNT, &num)))
+            if ((rc = plc__record_long(&t, "vertex index", -MAX_COUNT, MAX_COUNT, &num)))
                 goto out;
             if (num < 0 || num >= nv) {
                 rc = textin_error(&t, "vertex index %ld is out of range [0, %ld]", num, nv - 1);
@@ -742,9 +481,9 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
         }
         /* Anything after the corners is a colour: ignored. */
         if (f == 0)
-            tol = surface_tol(p);
-        if (add_surface_face(p, c, (uint32_t)n, t.line, tol)) {
-            rc = oom(&t);
+            tol = plc__surface_tol(p);
+        if (plc__add_surface_face(p, c, (uint32_t)n, t.line, tol)) {
+            rc = plc__oom(&t);
             goto out;
         }
     }
@@ -763,7 +502,7 @@ out:
 static int read_stl_binary(plc *p, FILE *f, const char *path, unsigned long ntri,
                            pdr_diag *diag)
 {
-    struct vmerge m = {NULL, 0};
+    struct plc__vmerge m = {NULL, 0};
     unsigned char rec[50];
     int rc = 0;
     p->base = 1;
@@ -790,10 +529,10 @@ static int read_stl_binary(plc *p, FILE *f, const char *path, unsigned long ntri
                     rc = PDR_EPARSE;
                 }
             }
-            if (!rc && vmerge_insert(&m, p, x, 0, &c[k]))
+            if (!rc && plc__vmerge_insert(&m, p, x, 0, &c[k]))
                 rc = PDR_ENOMEM;
         }
-        if (!rc && add_surface_face(p, c, 3, 0, 0.0))
+        if (!rc && plc__add_surface_face(p, c, 3, 0, 0.0))
             rc = PDR_ENOMEM;
         if (rc)
             break;
@@ -817,7 +556,7 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
 {
     textin t;
     textin_attach(&t, f, path, diag);
-    struct vmerge m = {NULL, 0};
+    struct plc__vmerge m = {NULL, 0};
     uint32_t *c = NULL;
     size_t cap = 0;
     int rc = 0, in_solid = 0, nsolid = 0;
@@ -848,15 +587,15 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
             (rc = textin_double(&t, "normal x", &nrm)) ||
             (rc = textin_double(&t, "normal y", &nrm)) ||
             (rc = textin_double(&t, "normal z", &nrm)) ||
-            (rc = expect_eol(&t, "the facet normal")) ||
-            (rc = need_line(&t, "a facet")) ||
+            (rc = plc__expect_eol(&t, "the facet normal")) ||
+            (rc = plc__need_line(&t, "a facet")) ||
             (rc = expect_word(&t, "outer", "after the facet normal")) ||
             (rc = expect_word(&t, "loop", "after 'outer'")) ||
-            (rc = expect_eol(&t, "'outer loop'")))
+            (rc = plc__expect_eol(&t, "'outer loop'")))
             break;
         size_t n = 0;
         for (;;) {
-            if ((rc = need_line(&t, "a facet")))
+            if ((rc = plc__need_line(&t, "a facet")))
                 break;
             char *k = textin_word(&t);
             if (!strcmp(k, "endloop"))
@@ -869,11 +608,11 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
             if ((rc = textin_double(&t, "x coordinate", &x[0])) ||
                 (rc = textin_double(&t, "y coordinate", &x[1])) ||
                 (rc = textin_double(&t, "z coordinate", &x[2])) ||
-                (rc = expect_eol(&t, "the vertex")))
+                (rc = plc__expect_eol(&t, "the vertex")))
                 break;
             if (plc__grow((void **)&c, &cap, n + 1, sizeof *c) ||
-                vmerge_insert(&m, p, x, t.line, &c[n])) {
-                rc = oom(&t);
+                plc__vmerge_insert(&m, p, x, t.line, &c[n])) {
+                rc = plc__oom(&t);
                 break;
             }
             n++;
@@ -884,13 +623,13 @@ static int read_stl_ascii(plc *p, FILE *f, const char *path, pdr_diag *diag)
             rc = textin_error(&t, "a facet needs at least 3 vertices, not %zu", n);
             break;
         }
-        if ((rc = need_line(&t, "a facet")) ||
+        if ((rc = plc__need_line(&t, "a facet")) ||
             (rc = expect_word(&t, "endfacet", "after 'endloop'")))
             break;
         /* The vertices are not all read yet: a polygon of more than
          * three corners (which no STL writer makes) is kept whole. */
-        if (add_surface_face(p, c, (uint32_t)n, line, INFINITY)) {
-            rc = oom(&t);
+        if (plc__add_surface_face(p, c, (uint32_t)n, line, INFINITY)) {
+            rc = plc__oom(&t);
             break;
         }
     }
@@ -969,7 +708,7 @@ static int set_paths(plc *p, const char *path, pdr_diag *diag)
 }
 
 /* The reader of path's extension; set *fmt to it, or report it unknown. */
-enum { FMT_POLY, FMT_SMESH, FMT_OFF, FMT_STL };
+enum { FMT_POLY, FMT_SMESH, FMT_OFF, FMT_STL, FMT_PLY, FMT_OBJ, FMT_MEDIT };
 static int format_of(const char *path, pdr_diag *diag, int *fmt)
 {
     const char *slash = strrchr(path, '/');
@@ -983,9 +722,16 @@ static int format_of(const char *path, pdr_diag *diag, int *fmt)
         *fmt = FMT_OFF;
     else if (!strcasecmp(ext, ".stl"))
         *fmt = FMT_STL;
+    else if (!strcasecmp(ext, ".ply"))
+        *fmt = FMT_PLY;
+    else if (!strcasecmp(ext, ".obj"))
+        *fmt = FMT_OBJ;
+    else if (!strcasecmp(ext, ".mesh"))
+        *fmt = FMT_MEDIT;
     else {
         pdr_diag_add(diag, path, 0, "unknown input format '%s': expected .poly, "
-                                    ".smesh, .off or .stl", *ext ? ext : "(no extension)");
+                                    ".smesh, .off, .stl, .ply, .obj or .mesh",
+                     *ext ? ext : "(no extension)");
         return PDR_EUNSUPPORTED;
     }
     return 0;
@@ -996,6 +742,7 @@ int plc_read_stream(plc *p, FILE *f, const char *path, pdr_diag *diag)
     int fmt, rc;
     if ((rc = set_paths(p, path, diag)) || (rc = format_of(path, diag, &fmt)))
         return rc;
+    p->surface_input = fmt != FMT_POLY && fmt != FMT_SMESH;
     switch (fmt) {
     case FMT_POLY:
         return read_tetgen(p, f, path, diag, 0);
@@ -1003,6 +750,12 @@ int plc_read_stream(plc *p, FILE *f, const char *path, pdr_diag *diag)
         return read_tetgen(p, f, path, diag, 1);
     case FMT_OFF:
         return read_off(p, f, path, diag);
+    case FMT_PLY:
+        return plc__read_ply(p, f, path, diag);
+    case FMT_OBJ:
+        return plc__read_obj(p, f, path, diag);
+    case FMT_MEDIT:
+        return plc__read_medit(p, f, path, diag);
     default:
         return read_stl(p, f, path, diag);
     }
@@ -1013,7 +766,7 @@ int plc_read(plc *p, const char *path, pdr_diag *diag)
     int fmt, rc;
     if ((rc = set_paths(p, path, diag)) || (rc = format_of(path, diag, &fmt)))
         return rc;
-    /* Binary for STL; the text formats read the same either way. */
+    /* Binary for STL and PLY; the text formats read the same either way. */
     FILE *f = fopen(path, "rb");
     if (!f) {
         pdr_diag_add(diag, path, 0, "cannot open: %s", strerror(errno));

@@ -1,6 +1,6 @@
 /*
  * fuzz_plc.h -- body of the PLC reader targets (fuzz_poly.c, fuzz_smesh.c,
- * fuzz_off.c, fuzz_stl.c): the input is a file of the format FUZZ_EXT,
+ * fuzz_off.c, fuzz_stl.c, fuzz_ply.c, fuzz_obj.c, fuzz_medit.c): the input is a file of the format FUZZ_EXT,
  * read from memory by plc_read_stream and, when read, checked by
  * plc_validate. Promises: a refused input has at least one message naming
  * the file; an accepted one has every corner, segment end and marker array
