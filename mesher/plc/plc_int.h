@@ -62,6 +62,19 @@ struct plc__vmerge {
  * PDR_ENOMEM. */
 int plc__vmerge_insert(struct plc__vmerge *m, plc *p, const double x[3], long line,
                        uint32_t *out);
+/* A surface file's vertices as read: file vertex i is p's vertex map[i].
+ * Start from all zeros; plc__welder_free releases it. */
+struct plc__welder {
+    struct plc__vmerge vm;
+    uint32_t *map;
+    size_t cap_map;
+};
+/* File vertex i (the next one: i vertices were read before it) at x,
+ * read at line: welded into an equal vertex before it (counted in
+ * p->read_welded) or added, and numbered i for messages when the file's
+ * numbers and p's part. Returns 0 or PDR_ENOMEM. */
+int plc__weld_vertex(plc *p, struct plc__welder *w, long i, const double x[3], long line);
+void plc__welder_free(struct plc__welder *w);
 /* Adds face c[0..n) of a surface file as a facet with marker 0, mended as
  * plc_surf.c says (c is changed); tol: the planarity tolerance in length
  * units (INFINITY: keep every polygon whole). Returns 0 or PDR_ENOMEM. */

@@ -83,11 +83,10 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
     textin t;
     textin_attach(&t, f, path, diag);
     p->base = 1;
-    struct plc__vmerge vm = {NULL, 0};
+    struct plc__welder wv;
     struct plc__faces fs;
+    memset(&wv, 0, sizeof wv);
     memset(&fs, 0, sizeof fs);
-    uint32_t *map = NULL;
-    size_t cap_map = 0;
     long nv = 0, version = 0, dim = 0;
     int rc = 0, first = 1, have_vertices = 0;
     char *w;
@@ -131,13 +130,8 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
                     (rc = need_double(&t, "z coordinate", &x[2])) ||
                     (rc = need_double(&t, "vertex reference", &ref)))
                     break;
-                size_t before = p->nv;
-                if (plc__grow((void **)&map, &cap_map, (size_t)i + 1, sizeof *map) ||
-                    plc__vmerge_insert(&vm, p, x, t.line, &map[i]) ||
-                    (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
-                     plc__number_vertex(p, p->nv - 1, i)))
+                if (plc__weld_vertex(p, &wv, i, x, t.line))
                     rc = plc__oom(&t);
-                p->read_welded += p->nv == before;
                 nv = i + 1;
             }
         } else if (!strcmp(w, "Triangles") || !strcmp(w, "Quadrilaterals")) {
@@ -188,10 +182,9 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
         rc = PDR_EPARSE;
     }
     if (!rc)
-        rc = plc__faces_commit(p, &fs, map, (size_t)nv, 1, path, diag);
+        rc = plc__faces_commit(p, &fs, wv.map, (size_t)nv, 1, path, diag);
     plc__faces_free(&fs);
-    pr_free(map);
-    pr_free(vm.slot);
+    plc__welder_free(&wv);
     textin_close(&t);
     return rc;
 }

@@ -84,16 +84,17 @@ int plc__read_obj(plc *p, FILE *f, const char *path, pdr_diag *diag)
     textin t;
     textin_attach(&t, f, path, diag);
     p->base = 1;
-    struct plc__vmerge vm = {NULL, 0};
+    struct plc__welder w;
     struct plc__faces fs;
+    memset(&w, 0, sizeof w);
     memset(&fs, 0, sizeof fs);
-    uint32_t *map = NULL, *c = NULL;
-    size_t cap_map = 0, cap_c = 0;
+    uint32_t *c = NULL;
+    size_t cap_c = 0;
     long nv = 0;
     int rc;
     while ((rc = textin_next(&t)) == 1) {
-        char *w = textin_word(&t);
-        if (!strcmp(w, "v")) {
+        char *kw = textin_word(&t);
+        if (!strcmp(kw, "v")) {
             double x[3];
             if ((rc = textin_double(&t, "x coordinate", &x[0])) ||
                 (rc = textin_double(&t, "y coordinate", &x[1])) ||
@@ -103,17 +104,12 @@ int plc__read_obj(plc *p, FILE *f, const char *path, pdr_diag *diag)
                 rc = textin_error(&t, "too many vertices");
                 break;
             }
-            size_t before = p->nv;
-            if (plc__grow((void **)&map, &cap_map, (size_t)nv + 1, sizeof *map) ||
-                plc__vmerge_insert(&vm, p, x, t.line, &map[nv]) ||
-                (p->nv > before && (p->vnum || p->nv != (size_t)nv + 1) &&
-                 plc__number_vertex(p, p->nv - 1, nv))) {
+            if (plc__weld_vertex(p, &w, nv, x, t.line)) {
                 rc = plc__oom(&t);
                 break;
             }
-            p->read_welded += p->nv == before;
             nv++;
-        } else if (!strcmp(w, "f") || !strcmp(w, "fo")) {
+        } else if (!strcmp(kw, "f") || !strcmp(kw, "fo")) {
             long line = t.line;
             uint32_t n = 0;
             char *cw;
@@ -137,9 +133,9 @@ int plc__read_obj(plc *p, FILE *f, const char *path, pdr_diag *diag)
                 rc = plc__oom(&t);
                 break;
             }
-        } else if (is_freeform(w)) {
+        } else if (is_freeform(kw)) {
             rc = textin_error(&t, "free-form geometry ('%s') is not supported: export the "
-                                  "surface as polygons", w);
+                                  "surface as polygons", kw);
             break;
         } else {
             /* anything else: attributes, grouping, display; a statement
@@ -157,11 +153,10 @@ int plc__read_obj(plc *p, FILE *f, const char *path, pdr_diag *diag)
         rc = PDR_EPARSE;
     }
     if (rc == 0)
-        rc = plc__faces_commit(p, &fs, map, (size_t)nv, 1, path, diag);
+        rc = plc__faces_commit(p, &fs, w.map, (size_t)nv, 1, path, diag);
     plc__faces_free(&fs);
-    pr_free(map);
+    plc__welder_free(&w);
     pr_free(c);
-    pr_free(vm.slot);
     textin_close(&t);
     return rc;
 }

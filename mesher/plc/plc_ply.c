@@ -355,9 +355,7 @@ static int skip_element(ply_in *in, const ply_elem *e)
 }
 
 typedef struct ply_read {
-    struct plc__vmerge vm;
-    uint32_t *map; /* file vertex -> plc vertex */
-    size_t cap_map;
+    struct plc__welder w; /* file vertex -> plc vertex */
     uint32_t *c; /* a face's corners */
     size_t cap_c;
     long nv; /* vertices in the file */
@@ -381,14 +379,8 @@ static int read_vertices(ply_in *in, const ply_elem *e, ply_read *r)
         }
         if (!isfinite(x[0]) || !isfinite(x[1]) || !isfinite(x[2]))
             return data_error(in, "a coordinate is not finite");
-        long line = in->format == PLY_ASCII ? in->t.line : 0;
-        size_t before = p->nv;
-        if (plc__grow((void **)&r->map, &r->cap_map, (size_t)i + 1, sizeof *r->map) ||
-            plc__vmerge_insert(&r->vm, p, x, line, &r->map[i]) ||
-            (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
-             plc__number_vertex(p, p->nv - 1, i)))
+        if (plc__weld_vertex(p, &r->w, i, x, in->format == PLY_ASCII ? in->t.line : 0))
             return PDR_ENOMEM;
-        p->read_welded += p->nv == before;
     }
     return 0;
 }
@@ -422,7 +414,7 @@ static int read_faces(ply_in *in, const ply_elem *e, ply_read *r)
                                       r->nv - 1);
                 if (plc__grow((void **)&r->c, &r->cap_c, (size_t)j + 1, sizeof *r->c))
                     return PDR_ENOMEM;
-                r->c[j] = r->map[(long)v];
+                r->c[j] = r->w.map[(long)v];
             }
         }
         if (n < 3)
@@ -446,7 +438,8 @@ int plc__read_ply(plc *p, FILE *f, const char *path, pdr_diag *diag)
     in->diag = diag;
     textin_attach(&in->t, f, path, diag);
     p->base = 0;
-    ply_read r = {{NULL, 0}, NULL, 0, NULL, 0, 0};
+    ply_read r;
+    memset(&r, 0, sizeof r);
     int ev, ef, rc = read_header(in);
     if (!rc)
         rc = assign_roles(in, &ev, &ef);
@@ -468,8 +461,7 @@ int plc__read_ply(plc *p, FILE *f, const char *path, pdr_diag *diag)
     }
     if (rc == PDR_ENOMEM)
         pdr_diag_add(diag, path, in->format == PLY_ASCII ? in->t.line : 0, "out of memory");
-    pr_free(r.vm.slot);
-    pr_free(r.map);
+    plc__welder_free(&r.w);
     pr_free(r.c);
     textin_close(&in->t);
     pr_free(in);

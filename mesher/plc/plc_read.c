@@ -403,9 +403,8 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
     p->base = 0;
     long nv, nf, ne;
     double tol = 0;
-    struct plc__vmerge vm = {NULL, 0};
-    uint32_t *map = NULL;
-    size_t cap_map = 0;
+    struct plc__welder wv;
+    memset(&wv, 0, sizeof wv);
     uint32_t *c = NULL;
     size_t cap = 0;
     if ((rc = plc__need_line(&t, "the OFF header")))
@@ -439,7 +438,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
         (rc = plc__expect_eol(&t, "the OFF counts")))
         goto out;
     /* Vertices with equal coordinates are one vertex (meshes exported
-     * per part or per face repeat their seams' vertices): map[i] is file
+     * per part or per face repeat their seams' vertices): wv.map[i] is file
      * vertex i's, and p->vnum keeps the file's numbers for messages. */
     for (long i = 0; i < nv; i++) {
         double x[3];
@@ -449,15 +448,10 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
             (rc = textin_double(&t, "z coordinate", &x[2])) ||
             (!extra && (rc = plc__expect_eol(&t, "the vertex"))))
             goto out;
-        size_t before = p->nv;
-        if (plc__grow((void **)&map, &cap_map, (size_t)i + 1, sizeof *map) ||
-            plc__vmerge_insert(&vm, p, x, t.line, &map[i]) ||
-            (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
-             plc__number_vertex(p, p->nv - 1, i))) {
+        if (plc__weld_vertex(p, &wv, i, x, t.line)) {
             rc = plc__oom(&t);
             goto out;
         }
-        p->read_welded += p->nv == before;
     }
     for (long f = 0; f < nf; f++) {
         long n;
@@ -477,7 +471,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
                 rc = textin_error(&t, "vertex index %ld is out of range [0, %ld]", num, nv - 1);
                 goto out;
             }
-            c[i] = map[num];
+            c[i] = wv.map[num];
         }
         /* Anything after the corners is a colour: ignored. */
         if (f == 0)
@@ -491,8 +485,7 @@ static int read_off(plc *p, FILE *in, const char *path, pdr_diag *diag)
         rc = textin_error(&t, "unexpected data after the last face");
 out:
     pr_free(c);
-    pr_free(map);
-    pr_free(vm.slot);
+    plc__welder_free(&wv);
     textin_close(&t);
     return rc;
 }

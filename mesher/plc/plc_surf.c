@@ -65,6 +65,25 @@ int plc__vmerge_insert(struct plc__vmerge *m, plc *p, const double x[3], long li
     return 0;
 }
 
+int plc__weld_vertex(plc *p, struct plc__welder *w, long i, const double x[3], long line)
+{
+    size_t before = p->nv;
+    if (plc__grow((void **)&w->map, &w->cap_map, (size_t)i + 1, sizeof *w->map) ||
+        plc__vmerge_insert(&w->vm, p, x, line, &w->map[i]) ||
+        (p->nv > before && (p->vnum || p->nv != (size_t)i + 1) &&
+         plc__number_vertex(p, p->nv - 1, i)))
+        return PDR_ENOMEM;
+    p->read_welded += p->nv == before;
+    return 0;
+}
+
+void plc__welder_free(struct plc__welder *w)
+{
+    pr_free(w->vm.slot);
+    pr_free(w->map);
+    memset(w, 0, sizeof *w);
+}
+
 /* ----------------------------------------------------------- surface faces */
 
 /* The faces of a surface file (.off, .stl, .ply, .obj, .mesh) as CAD tools and scanners write
