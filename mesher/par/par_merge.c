@@ -83,7 +83,10 @@ typedef struct loose {
 
 /* State of one merge; every pointer owned, freed by st_free. */
 typedef struct merge {
-    par_wire *w;     /* [n] decoded messages */
+    const par_wire *w; /* [n] decoded messages (borrowed) */
+    par_wire *own_w; /* w when the merge decoded them itself, else NULL */
+    const par_merge_ahead *ahead; /* [na]: messages 0..na-1's step 4 done */
+    uint32_t na;
     uint32_t n;
     uint32_t **loc;  /* [n][vert.n]: merged vertex of each message vertex */
     uint32_t *base;  /* [n + 1]: slot of each message's first tetrahedron */
@@ -102,13 +105,13 @@ typedef struct merge {
 
 static void st_free(merge *g)
 {
-    if (g->w)
+    if (g->own_w)
         for (uint32_t k = 0; k < g->n; k++)
-            par_wire_clear(&g->w[k]);
+            par_wire_clear(&g->own_w[k]);
     if (g->loc)
         for (uint32_t k = 0; k < g->n; k++)
             pr_free(g->loc[k]);
-    pr_free(g->w);
+    pr_free(g->own_w);
     pr_free(g->loc);
     pr_free(g->base);
     pr_free(g->drop);
@@ -132,15 +135,16 @@ static uint64_t mix(uint64_t x)
     return x;
 }
 
-/* Hashes of vertex sets: the vertices' keys (g->vk, one mix each, made
- * once) summed, so that the order in which a tetrahedron or face lists
+/* Hashes of vertex sets: the vertices' keys (g->vk, one mix of the gid
+ * each, made once: so a message's faces hash alike before its vertices
+ * are merged, see par_merge_check_ahead) summed, so that the order in which a tetrahedron or face lists
  * them does not matter (no sort, and no unpredictable branch per face),
  * then mixed so that every bit of the result depends on all of them
  * (base/hdup partitions by the top bits). The offset keeps vertex 0 from
  * mixing to 0. */
-static uint64_t vkey(uint32_t v)
+static uint64_t vkey(uint64_t gid)
 {
-    return mix((uint64_t)v + UINT64_C(0x2545F4914F6CDD1D));
+    return mix(gid + UINT64_C(0x2545F4914F6CDD1D));
 }
 
 static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
@@ -316,7 +320,7 @@ static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
         if (!g->vk)
             return PDR_ENOMEM;
         for (uint32_t x = 0; x < m->nv; x++)
-            g->vk[x] = vkey(x);
+            g->vk[x] = vkey(m->gid[x]);
     }
     return rc;
 }
@@ -652,38 +656,64 @@ static int link_share_run(void *arg)
  * share, then each share checks its slots and writes its hashes after
  * those of the shares before it. The same counts and hashes as one pass
  * (in the same order). */
-static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsigned n)
+static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsigned n,
+                              uint32_t lo, link_tally *sum)
 {
     link_share sh[LINK_MAX_SHARES];
     fj_task ft[LINK_MAX_SHARES];
+    uint64_t span = m->nslots - lo;
     for (unsigned i = 0; i < n; i++) {
         sh[i] = (link_share){.g = g,
                              .m = m,
-                             .lo = (uint32_t)((uint64_t)m->nslots * i / n),
-                             .hi = (uint32_t)((uint64_t)m->nslots * (i + 1) / n)};
+                             .lo = lo + (uint32_t)(span * i / n),
+                             .hi = lo + (uint32_t)(span * (i + 1) / n)};
         ft[i] = (fj_task){.run = link_share_run, .arg = &sh[i]};
     }
     fj_run(ft, n, n);
     size_t total = 0;
     for (unsigned i = 0; i < n; i++)
         total += sh[i].k.up;
-    if (pdr_grow((void **)&g->hash, &g->caphash, total + g->nlf + 1, sizeof *g->hash))
+    if (pdr_grow((void **)&g->hash, &g->caphash, g->nhash + total + g->nlf + 1,
+                 sizeof *g->hash))
         return PDR_ENOMEM;
-    size_t at = 0;
+    size_t at = g->nhash;
     for (unsigned i = 0; i < n; i++) {
         sh[i].out = g->hash + at;
         at += sh[i].k.up;
         sh[i].k.up = 0;
     }
     fj_run(ft, n, n);
-    link_tally sum = {0};
     for (unsigned i = 0; i < n; i++) {
-        sum.up += sh[i].k.up;
-        sum.down += sh[i].k.down;
+        sum->up += sh[i].k.up;
+        sum->down += sh[i].k.down;
         tally_into(g, rep, &sh[i].k);
     }
-    g->nhash = total;
-    rep->bad_links += sum.up > sum.down ? sum.up - sum.down : sum.down - sum.up;
+    g->nhash += total;
+    return 0;
+}
+
+/* Step 4 of the messages checked ahead (par_merge_check_ahead): their
+ * counts into rep and sum, their hashes to g->hash. */
+static int take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
+{
+    size_t nh = 0;
+    for (uint32_t k = 0; k < g->na; k++)
+        nh += g->ahead[k].nhash;
+    if (pdr_grow((void **)&g->hash, &g->caphash, nh + 1, sizeof *g->hash))
+        return PDR_ENOMEM;
+    for (uint32_t k = 0; k < g->na; k++) {
+        const par_merge_ahead *a = &g->ahead[k];
+        if (a->nhash)
+            memcpy(g->hash + g->nhash, a->hash, a->nhash * sizeof *g->hash);
+        g->nhash += a->nhash;
+        link_tally t = {.bad_links = a->bad_links,
+                        .misoriented = a->misoriented,
+                        .marker_mismatch = a->marker_mismatch,
+                        .suspect = a->suspect};
+        tally_into(g, rep, &t);
+        sum->up += a->up;
+        sum->down += a->down;
+    }
     return 0;
 }
 
@@ -706,15 +736,29 @@ static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsig
 static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
 {
     g->nhash = 0;
-    unsigned shares = !g->drop && m->nslots >= LINK_SHARES_FROM ? fj_cores() : 1;
-    if (shares > 1)
-        return check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES);
+    /* the messages checked ahead: their slots are not read again (no
+     * ahead in the careful run, which may drop copies) */
+    link_tally k = {0};
+    uint32_t lo = 0;
+    if (!g->careful && g->na) {
+        int rc = take_ahead(g, rep, &k);
+        if (rc)
+            return rc;
+        lo = g->base[g->na];
+    }
+    unsigned shares = !g->drop && m->nslots - lo >= LINK_SHARES_FROM ? fj_cores() : 1;
+    if (shares > 1) {
+        int rc = check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES,
+                                    lo, &k);
+        if (!rc)
+            rep->bad_links += k.up > k.down ? k.up - k.down : k.down - k.up;
+        return rc;
+    }
     /* about two linked pairs per tetrahedron, plus the groups of step 5 */
-    size_t want = 2 * (size_t)m->nslots + g->nlf + 1;
+    size_t want = g->nhash + 2 * (size_t)(m->nslots - lo) + g->nlf + 1;
     if (pdr_grow((void **)&g->hash, &g->caphash, want, sizeof *g->hash))
         return PDR_ENOMEM;
-    link_tally k = {0};
-    for (uint32_t t = 0; t < m->nslots; t++) {
+    for (uint32_t t = lo; t < m->nslots; t++) {
         prefetch_ahead(m, t);
         if (dropped(g, t))
             continue;
@@ -980,26 +1024,35 @@ static int dec_task_run(void *arg)
  * one pass would stop at. */
 static int decode_all(merge *g, const void *const *msg, const size_t *len, const plc *p)
 {
-    g->w = pr_calloc(g->n ? g->n : 1, sizeof *g->w);
+    g->w = g->own_w = pr_calloc(g->n ? g->n : 1, sizeof *g->own_w);
     dec_task *d = pr_calloc(g->n ? g->n : 1, sizeof *d);
     fj_task *ft = pr_calloc(g->n ? g->n : 1, sizeof *ft);
     int rc = g->w && d && ft ? 0 : PDR_ENOMEM;
     size_t total = 0;
     for (uint32_t k = 0; k < g->n && !rc; k++) {
-        d[k] = (dec_task){msg[k], len[k], p, &g->w[k]};
+        d[k] = (dec_task){msg[k], len[k], p, &g->own_w[k]};
         ft[k] = (fj_task){.run = dec_task_run, .arg = &d[k]};
         total += len[k] / 32; /* a tetrahedron takes more than 32 bytes */
     }
     if (!rc)
         fj_run(ft, g->n, merge_threads(g->n, total));
-    for (uint32_t k = 0; k < g->n && !rc; k++) {
+    for (uint32_t k = 0; k < g->n && !rc; k++)
         rc = ft[k].rc;
-        if (!rc && (g->w[k].sm->rank != k || g->w[k].sm->size != g->n))
-            rc = PDR_EPARSE;
-    }
     pr_free(d);
     pr_free(ft);
     return rc;
+}
+
+/* Message k is PE k's of n. */
+static int wires_ok(const merge *g)
+{
+    for (uint32_t k = 0; k < g->n; k++)
+        if (!g->w[k].sm || g->w[k].sm->rank != k || g->w[k].sm->size != g->n)
+            return PDR_EPARSE;
+    for (uint32_t k = 0; k < g->na; k++)
+        if (g->ahead[k].tets != g->w[k].sm->tet.n)
+            return PDR_EINVAL; /* not this message's */
+    return 0;
 }
 
 /* Steps 5-6 (the faces) and 7 (the boundary tables): they share nothing
@@ -1013,10 +1066,11 @@ static int faces_and_bd(merge *g, ref_mesher *r, par_merge_report *rep)
     return ft[0].rc ? ft[0].rc : ft[1].rc;
 }
 
-static int merge_all(merge *g, const void *const *msg, const size_t *len, const plc *p,
-                     ref_mesher *out, par_merge_report *rep)
+#include <stdio.h>
+#define GT(l) do { if (getenv("PDR_GT")) fprintf(stderr, "GT 0 %-10s %.4f\n", l, pdr_now()); } while (0)
+static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
 {
-    int rc = decode_all(g, msg, len, p);
+    int rc = wires_ok(g);
     if (rc)
         return rc;
     tm_mesh *m = &out->m;
@@ -1025,14 +1079,18 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
         m->gid[0] = PAR_GID_INF;
         rc = add_vertices(g, out, rep);
     }
+    GT("verts");
     if (!rc)
         rc = add_tets(g, out);
+    GT("tets");
     if (!rc && g->careful)
         rc = find_dup_tets(g, m, rep);
     if (!rc)
         rc = check_links(g, m, rep);
+    GT("links");
     if (!rc)
         rc = faces_and_bd(g, out, rep);
+    GT("faces");
     if (rc)
         return rc;
     tm_rebuild_hints(m);
@@ -1051,20 +1109,26 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
  * a group of loose faces with it (linked as a suspect, or more than two),
  * or alone (open or unmatched). Only then does a second, careful run drop
  * the later copies first and count what is left, as the report says. */
-int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
-                    const ref_opts *o, ref_mesher *out, par_merge_report *rep)
+/* The two runs (see par_merge_build) on the messages w[0..n), decoded
+ * into own (freed here) when the caller gave the bytes. */
+static int build_runs(const par_wire *w, par_wire *own, uint32_t n,
+                      const par_merge_ahead *ahead, uint32_t na, const plc *p,
+                      const ref_opts *o, ref_mesher *out, par_merge_report *rep)
 {
     int rc = 0;
     for (int careful = 0; careful < 2; careful++) {
         memset(rep, 0, sizeof *rep);
         rc = ref_init(out, p, o);
         if (rc)
-            return rc;
+            break;
         merge g;
         memset(&g, 0, sizeof g);
         g.n = n;
+        g.w = w;
+        g.ahead = ahead;
+        g.na = na < n ? na : n;
         g.careful = careful;
-        rc = n ? merge_all(&g, msg, len, p, out, rep) : PDR_EINVAL;
+        rc = n ? merge_all(&g, out, rep) : PDR_EINVAL;
         int again = !careful && (rc == PDR_ETOPOLOGY || (!rc && g.suspect));
         st_free(&g);
         if (rc || again)
@@ -1072,7 +1136,118 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
         if (!again)
             break;
     }
+    if (own)
+        for (uint32_t k = 0; k < n; k++)
+            par_wire_clear(&own[k]);
+    pr_free(own);
     return rc;
+}
+
+int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
+                    const ref_opts *o, ref_mesher *out, par_merge_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    merge g;
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    int rc = n ? decode_all(&g, msg, len, p) : PDR_EINVAL;
+    par_wire *own = g.own_w;
+    g.own_w = NULL;
+    st_free(&g);
+    if (rc) {
+        if (own)
+            for (uint32_t k = 0; k < n; k++)
+                par_wire_clear(&own[k]);
+        pr_free(own);
+        return rc;
+    }
+    return build_runs(own, own, n, NULL, 0, p, o, out, rep);
+}
+
+int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                          uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                          par_merge_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    return build_runs(w, NULL, n, ahead, na, p, o, out, rep);
+}
+
+/* The other side of face x's link, asked for a few faces ahead (as
+ * prefetch_ahead does in the mesh). */
+static void ahead_prefetch(const par_wire *w, size_t x, size_t nf)
+{
+    if (x >= nf)
+        return;
+    uint32_t c = par_wire_link(w, x);
+    if (c < PAR_WIRE_LINK_IFACE && c > x) {
+        PREFETCH(w->link_le + 4 * (size_t)c);
+        PREFETCH(w->sm->tet.v + (size_t)(c & ~UINT32_C(3)));
+        PREFETCH(w->sm->tet.marker + (size_t)c);
+    }
+}
+
+int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
+{
+    memset(a, 0, sizeof *a);
+    const pr_submesh *sm = w->sm;
+    uint32_t nv = sm->vert.n, nt = sm->tet.n;
+    uint64_t *vk = pr_malloc((nv ? nv : 1) * sizeof *vk);
+    /* about two linked pairs per tetrahedron */
+    size_t cap = 2 * (size_t)nt + 1;
+    a->hash = pr_malloc(cap * sizeof *a->hash);
+    if (!vk || !a->hash) {
+        pr_free(vk);
+        par_merge_ahead_free(a);
+        return PDR_ENOMEM;
+    }
+    for (uint32_t i = 0; i < nv; i++)
+        vk[i] = vkey(sm->vert.gid[i]);
+    a->tets = nt;
+    const uint32_t *tv = sm->tet.v;
+    const int32_t *mk = sm->tet.marker;
+    size_t nf = 4 * (size_t)nt;
+    int rc = 0;
+    for (size_t x = 0; x < nf && !rc; x++) {
+        ahead_prefetch(w, x + 4 * PREFETCH_AHEAD, nf);
+        uint32_t c = par_wire_link(w, x);
+        if (c >= PAR_WIRE_LINK_IFACE)
+            continue; /* loose: step 5 */
+        if (c < x) {
+            a->down++; /* checked from the other side */
+            continue;
+        }
+        /* as check_up, on the message's own vertex numbers: the merged
+         * ones are one-to-one with them within a message */
+        a->up++;
+        size_t t = x >> 2, u = c >> 2;
+        int i = (int)(x & 3), j = (int)(c & 3);
+        a->bad_links += par_wire_link(w, c) != x;
+        uint32_t f[3], y[3];
+        for (int q = 0; q < 3; q++) {
+            f[q] = tv[4 * t + (size_t)tm_face_vtx[i][q]];
+            y[q] = tv[4 * u + (size_t)tm_face_vtx[j][q]];
+        }
+        int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
+                      ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
+                      ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+        a->misoriented += (size_t)!opposed;
+        a->marker_mismatch += mk[x] != mk[c];
+        a->suspect |= tv[4 * u + (size_t)j] == tv[4 * t + (size_t)i];
+        if (a->nhash == cap)
+            rc = pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash);
+        if (!rc)
+            a->hash[a->nhash++] = mix(vk[f[0]] + vk[f[1]] + vk[f[2]] + 1);
+    }
+    pr_free(vk);
+    if (rc)
+        par_merge_ahead_free(a);
+    return rc ? PDR_ENOMEM : 0;
+}
+
+void par_merge_ahead_free(par_merge_ahead *a)
+{
+    pr_free(a->hash);
+    memset(a, 0, sizeof *a);
 }
 
 int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, size_t *added)

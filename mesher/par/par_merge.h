@@ -42,6 +42,7 @@
 #include <stdint.h>
 
 #include "par/par_sub.h"
+#include "par/par_wire.h"
 #include "pr.h"
 #include "refine/refine.h"
 
@@ -78,6 +79,33 @@ int par_merge_encode(pr_buf *b, const par_sub *s);
  * freed (empty) and *rep holds what was counted. */
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
                     const ref_opts *o, ref_mesher *out, par_merge_report *rep);
+
+/* Step 4 of the merge (par/par_merge.c: every pair of faces linked
+ * within a message checked and hashed) of one message, done ahead of the
+ * merge: rank 0 checks its own while the other PEs encode and send
+ * theirs. Owns hash. */
+typedef struct par_merge_ahead {
+    uint32_t tets;                 /* the message's tetrahedra (a check) */
+    size_t up, down;               /* links up and down (returning counted) */
+    size_t bad_links, misoriented, marker_mismatch;
+    int suspect;                   /* two linked tetrahedra, one vertex set */
+    uint64_t *hash;                /* [nhash] the pairs' face hashes */
+    size_t nhash;
+} par_merge_ahead;
+
+/* Checks w's links as the merge would (w as par_wire_decode or
+ * par_wire_from_sub gives it). Returns 0 or PDR_ENOMEM (*a empty). */
+int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a);
+void par_merge_ahead_free(par_merge_ahead *a);
+
+/* par_merge_build on messages already decoded, w[k] PE k's (borrowed:
+ * the caller clears them after), with ahead[k] par_merge_check_ahead's
+ * result for w[k] when k < na (na may be 0). The same mesh, report and
+ * return codes as par_merge_build on the messages' bytes (PDR_EINVAL
+ * when an ahead[k] is not w[k]'s). */
+int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                          uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                          par_merge_report *rep);
 
 /* The subsegments and subfacets still missing on PE s when its
  * refinement ends (a piece whose split point lay on another PE, which

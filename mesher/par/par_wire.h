@@ -99,11 +99,12 @@ typedef struct par_wire_src {
     size_t nifc;
 } par_wire_src;
 
-/* A decoded message. Owns every array (par_wire_clear) but the per-
- * tetrahedron ones of the extension, which it reads in place in the
- * message, little-endian (par_wire_tflags, _region, _link): 20 bytes per
- * tetrahedron, which for a merge message of 10^6 tetrahedra took longer
- * to copy (into fresh pages) than to read twice. */
+/* A decoded message. Owns every array (par_wire_clear) but, from
+ * par_wire_decode, the per-tetrahedron ones of the extension, which it
+ * reads in place in the message, little-endian (par_wire_tflags, _region,
+ * _link): 20 bytes per tetrahedron, which for a merge message of 10^6
+ * tetrahedra took longer to copy (into fresh pages) than to read twice.
+ * From par_wire_decode_own and par_wire_from_sub they are in own. */
 typedef struct par_wire {
     pr_submesh *sm;     /* vertex table, tetrahedron table, interface faces */
     uint64_t next_seq;
@@ -113,6 +114,7 @@ typedef struct par_wire {
     const uint8_t *tflags_le; /* u16 [sm->tet.n], in the message */
     const uint8_t *region_le; /* u16 [sm->tet.n], in the message */
     const uint8_t *link_le;   /* u32 [4 sm->tet.n], in the message */
+    uint8_t *own;       /* NULL, or the block of the three arrays above */
     uint32_t nseg;
     uint32_t *seg_v;    /* [2 nseg] */
     uint32_t *seg_id;   /* [nseg] */
@@ -139,6 +141,20 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src);
  * value out of range) or PDR_ENOMEM. */
 int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out);
 void par_wire_clear(par_wire *w);
+
+/* par_wire_decode, then the per-tetrahedron arrays of the extension
+ * copied into out->own (20 bytes per tetrahedron, against the whole
+ * message): msg need not outlive *out. For a receiver that must let the
+ * message go (an active message's handler). Returns as par_wire_decode. */
+int par_wire_decode_own(const void *msg, size_t len, const plc *p, par_wire *out);
+
+/* The decoded form of the message par_wire_encode_sub would make of s,
+ * built in memory without the bytes (no message to write, check and
+ * read): the merge of rank 0's own submesh. Every field equals what
+ * par_wire_decode gives for that message (test_par compares them); out
+ * borrows nothing from s, which may be freed next. Returns as
+ * par_wire_encode_sub; out is empty on error. */
+int par_wire_from_sub(const par_sub *s, par_wire *out);
 
 /* The flags (PAR_WIRE_TFLAGS bits) and region of tetrahedron k < sm->tet.n
  * and the link of face x < 4 sm->tet.n of a decoded message (each checked
