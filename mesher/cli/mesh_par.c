@@ -823,11 +823,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!rc && rank != 0) {
         rc = send_merge(am, &s, &am_err);
     } else if (!rc) {
-        rc = par_wire_from_sub(&s, &min.w[0]);
+        rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
         GT("own");
-        if (!rc && size > 1)
-            rc = par_merge_check_ahead(&min.w[0], &ahead);
-        GT("ahead");
     }
     par_sub_free(&s);
     have_sub = 0;

@@ -128,11 +128,7 @@ static void st_free(merge *g)
  * output: multiplications by odd constants and folds of the high half. */
 static uint64_t mix(uint64_t x)
 {
-    x *= UINT64_C(0x9E3779B97F4A7C15);
-    x ^= x >> 32;
-    x *= UINT64_C(0xD6E8FEB86659FD93);
-    x ^= x >> 32;
-    return x;
+    return par_wire_mix(x);
 }
 
 /* Hashes of vertex sets: the vertices' keys (g->vk, one mix of the gid
@@ -144,7 +140,7 @@ static uint64_t mix(uint64_t x)
  * mixing to 0. */
 static uint64_t vkey(uint64_t gid)
 {
-    return mix(gid + UINT64_C(0x2545F4914F6CDD1D));
+    return par_wire_vkey(gid);
 }
 
 static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
@@ -154,7 +150,7 @@ static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
 
 static uint64_t face_hash(const uint64_t *vk, uint32_t a, uint32_t b, uint32_t c)
 {
-    return mix(vk[a] + vk[b] + vk[c] + 1);
+    return par_wire_face_hash(vk[a], vk[b], vk[c]);
 }
 
 static int add_hash(uint64_t **a, size_t *n, size_t *cap, uint64_t h)
@@ -1236,7 +1232,7 @@ int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
         if (a->nhash == cap)
             rc = pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash);
         if (!rc)
-            a->hash[a->nhash++] = mix(vk[f[0]] + vk[f[1]] + vk[f[2]] + 1);
+            a->hash[a->nhash++] = par_wire_face_hash(vk[f[0]], vk[f[1]], vk[f[2]]);
     }
     pr_free(vk);
     if (rc)
@@ -1244,11 +1240,6 @@ int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
     return rc ? PDR_ENOMEM : 0;
 }
 
-void par_merge_ahead_free(par_merge_ahead *a)
-{
-    pr_free(a->hash);
-    memset(a, 0, sizeof *a);
-}
 
 int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, size_t *added)
 {

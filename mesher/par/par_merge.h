@@ -83,20 +83,13 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
 /* Step 4 of the merge (par/par_merge.c: every pair of faces linked
  * within a message checked and hashed) of one message, done ahead of the
  * merge: rank 0 checks its own while the other PEs encode and send
- * theirs. Owns hash. */
-typedef struct par_merge_ahead {
-    uint32_t tets;                 /* the message's tetrahedra (a check) */
-    size_t up, down;               /* links up and down (returning counted) */
-    size_t bad_links, misoriented, marker_mismatch;
-    int suspect;                   /* two linked tetrahedra, one vertex set */
-    uint64_t *hash;                /* [nhash] the pairs' face hashes */
-    size_t nhash;
-} par_merge_ahead;
+ * theirs (par_wire_from_sub_pairs). */
+typedef par_wire_pairs par_merge_ahead;
 
 /* Checks w's links as the merge would (w as par_wire_decode or
  * par_wire_from_sub gives it). Returns 0 or PDR_ENOMEM (*a empty). */
 int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a);
-void par_merge_ahead_free(par_merge_ahead *a);
+#define par_merge_ahead_free par_wire_pairs_free
 
 /* par_merge_build on messages already decoded, w[k] PE k's (borrowed:
  * the caller clears them after), with ahead[k] par_merge_check_ahead's

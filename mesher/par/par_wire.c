@@ -11,6 +11,13 @@
 #include "base/v3.h"
 #include "par/par_wire.h"
 
+/* A hint to load a cache line now (a no-op where the compiler has none). */
+#if defined(__GNUC__)
+#define WIRE_PREFETCH(p) __builtin_prefetch(p)
+#else
+#define WIRE_PREFETCH(p) ((void)(p))
+#endif
+
 /* Bytes per element of the extension's arrays. */
 #define VEXT_ELEM (1 + 4 + 4)
 #define TEXT_ELEM (2 + 2 + 16)
@@ -625,9 +632,98 @@ static int wire_of_enc(enc *e, const par_wire_src *src, par_wire *w)
     return 0;
 }
 
+void par_wire_pairs_free(par_wire_pairs *a)
+{
+    pr_free(a->hash);
+    memset(a, 0, sizeof *a);
+}
+
+/* The pairs of w, the message wire_of_enc made of src (see
+ * par_wire_from_sub_pairs): face x = 4k+i of the message is face i of
+ * slot t = src->tets[k]; its link c = 4u+j (from w, as sent) is face j of
+ * the slot its mesh link names, whose own link is sent as enc_link makes
+ * it, its vertices as e->idx numbers them and its marker as enc_tets
+ * writes it: the same values as the message's tables hold, read from one
+ * tm_tet of the mesh instead of three tables. */
+static int enc_pairs(const enc *e, const par_wire_src *src, const par_wire *w,
+                     par_wire_pairs *a)
+{
+    const tm_mesh *m = &src->r->m;
+    size_t nt = src->nt, cap = 2 * nt + 1;
+    a->tets = src->nt;
+    a->hash = pr_malloc(cap * sizeof *a->hash);
+    uint64_t *vk = pr_malloc((m->nv ? m->nv : 1) * sizeof *vk);
+    if (!a->hash || !vk) {
+        pr_free(vk);
+        return PDR_ENOMEM;
+    }
+    /* keys of the vertices sent (the others are not read) */
+    for (uint32_t i = 0; i < e->nv; i++)
+        vk[e->verts[i].v] = par_wire_vkey(e->verts[i].gid);
+    for (size_t k = 0; k < nt; k++) {
+        if (k + 16 < nt) {
+            const tm_tet *P = &m->tets[src->tets[k + 16]];
+            for (int i = 0; i < 4; i++)
+                if (!tm_is_special(P->n[i]) && tm_ltet(P->n[i]) < m->nslots) {
+                    WIRE_PREFETCH(&m->tets[tm_ltet(P->n[i])].v[0]);
+                    WIRE_PREFETCH(&m->tets[tm_ltet(P->n[i])].n[3]);
+                }
+        }
+        uint32_t t = src->tets[k];
+        const tm_tet *T = &m->tets[t];
+        for (int i = 0; i < 4; i++) {
+            size_t x = 4 * k + (size_t)i;
+            uint32_t c = par_wire_link(w, x);
+            if (c >= PAR_WIRE_LINK_IFACE)
+                continue; /* loose */
+            if (c < x) {
+                a->down++;
+                continue;
+            }
+            a->up++;
+            /* c names a sent slot, so T's link is that slot's face */
+            uint32_t su = tm_ltet(T->n[i]);
+            int j = (int)(c & 3);
+            const tm_tet *U = &m->tets[su];
+            /* enc_link(u, j) is x exactly when U's link j is face i of
+             * t: a remote link is sent as IFACE, and pos_of is
+             * one-to-one on the slots sent (t's is k) */
+            a->bad_links += U->n[j] != tm_mklink(t, i);
+            uint32_t f[3], y[3];
+            for (int q = 0; q < 3; q++) {
+                f[q] = T->v[tm_face_vtx[i][q]];
+                y[q] = U->v[tm_face_vtx[j][q]];
+            }
+            /* mesh vertices for the message's numbers: one-to-one */
+            int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
+                          ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
+                          ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+            a->misoriented += (size_t)!opposed;
+            if (m->marker)
+                a->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, su, j);
+            a->suspect |= U->v[j] == T->v[i];
+            if (a->nhash == cap &&
+                pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash)) {
+                pr_free(vk);
+                return PDR_ENOMEM;
+            }
+            a->hash[a->nhash++] = par_wire_face_hash(vk[f[0]], vk[f[1]], vk[f[2]]);
+        }
+    }
+    pr_free(vk);
+    return 0;
+}
+
 int par_wire_from_sub(const par_sub *s, par_wire *out)
 {
+    return par_wire_from_sub_pairs(s, out, NULL);
+}
+
+int par_wire_from_sub_pairs(const par_sub *s, par_wire *out, par_wire_pairs *pairs)
+{
     memset(out, 0, sizeof *out);
+    if (pairs)
+        memset(pairs, 0, sizeof *pairs);
     par_wire_src src;
     uint32_t *tets = NULL;
     enc e;
@@ -637,10 +733,15 @@ int par_wire_from_sub(const par_sub *s, par_wire *out)
         rc = enc_build(&e, &src);
     if (!rc)
         rc = wire_of_enc(&e, &src, out);
+    if (!rc && pairs)
+        rc = enc_pairs(&e, &src, out, pairs);
     enc_free(&e);
     pr_free(tets);
-    if (rc)
+    if (rc) {
         par_wire_clear(out);
+        if (pairs)
+            par_wire_pairs_free(pairs);
+    }
     return rc;
 }
 
