@@ -81,6 +81,12 @@ typedef struct loose {
     uint32_t next;   /* next face with the same key, or NO_FACE */
 } loose;
 
+/* What the checks of step 4 count, for one pass or one share of it. */
+typedef struct link_tally {
+    size_t up, down, bad_links, misoriented, marker_mismatch;
+    int suspect;
+} link_tally;
+
 /* State of one merge; every pointer owned, freed by st_free. */
 typedef struct merge {
     const par_wire *w; /* [n] decoded messages (borrowed) */
@@ -101,6 +107,7 @@ typedef struct merge {
     uint64_t *vk;    /* per merged vertex: its key for the hashes */
     int careful;     /* step 3 done (the second run, see par_merge_build) */
     int suspect;     /* two linked tetrahedra with the same vertices */
+    link_tally pairs_k; /* step 4 done in step 2's tasks (the first run) */
 } merge;
 
 static void st_free(merge *g)
@@ -357,6 +364,10 @@ typedef struct tet_task {
     loose *lf;       /* its faces for g->lf, owned until handed over */
     size_t nlf, caplf;
     uint32_t nghost;
+    int pairs;       /* step 4 of this message done here too (see below) */
+    link_tally tally; /* its counts then */
+    uint64_t *hash;  /* its pairs' face hashes then, owned until handed over */
+    size_t nhash, caphash;
 } tet_task;
 
 static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
@@ -365,6 +376,39 @@ static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
         return PDR_ENOMEM;
     a->lf[a->nlf].f = f;
     a->lf[a->nlf++].pe = pe;
+    return 0;
+}
+
+/* Step 4 for face i of t, whose link c (in the message, from base b)
+ * names a face of a tetrahedron stored before it (c < 4j+i): the pair
+ * seen from its higher side, with the other side's tm_tet written a while
+ * ago and so nearer in the caches than the higher side is to the lower in
+ * step 4's pass. That the links come back follows as in check_links, the
+ * links down (checked) and up (counted) swapping roles; the other checks
+ * are symmetric. mk is t's marker on face i as sent. */
+static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t b, uint32_t c,
+                     int32_t mk)
+{
+    const tm_tet *T = &m->tets[t];
+    uint32_t u = b + (c >> 2);
+    int j = (int)(c & 3);
+    const tm_tet *U = &m->tets[u];
+    a->tally.down++;
+    a->tally.bad_links += U->n[j] != tm_mklink(t, i);
+    uint32_t x[3], y[3];
+    face_of(m, t, i, x);
+    face_of(m, u, j, y);
+    int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
+                  ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
+                  ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+    a->tally.misoriented += (size_t)!opposed;
+    /* the merged marker is the sent one + 1, 0 for none */
+    a->tally.marker_mismatch += tm_face_marker(m, u, j) != (mk == PR_MARKER_NONE ? 0 : mk + 1);
+    a->tally.suspect |= U->v[j] == T->v[i];
+    if (a->nhash == a->caphash &&
+        pdr_grow((void **)&a->hash, &a->caphash, a->nhash + 1, sizeof *a->hash))
+        return PDR_ENOMEM;
+    a->hash[a->nhash++] = face_hash(a->g->vk, x[0], x[1], x[2]);
     return 0;
 }
 
@@ -378,16 +422,43 @@ static int tet_task_run(void *arg)
     const pr_submesh *sm = w->sm;
     const uint32_t *loc = g->loc[a->k];
     uint32_t b = g->base[a->k], q = 0;
+    if (a->pairs) {
+        /* about two pairs per tetrahedron */
+        a->caphash = 2 * (size_t)sm->tet.n + 1;
+        a->hash = pr_malloc(a->caphash * sizeof *a->hash);
+        if (!a->hash)
+            return PDR_ENOMEM;
+    }
     for (uint32_t j = 0; j < sm->tet.n; j++) {
         uint32_t t = b + j;
         tm_tet *T = &m->tets[t];
         uint16_t fl = par_wire_tflags(w, j);
+        for (int i = 0; i < 4; i++)
+            T->v[i] = loc[sm->tet.v[4 * (size_t)j + (size_t)i]];
+        if (a->pairs && j + PREFETCH_AHEAD < sm->tet.n)
+            for (int i = 0; i < 4; i++) {
+                uint32_t c = par_wire_link(w, 4 * ((size_t)j + PREFETCH_AHEAD) + (size_t)i);
+                if (c < 4 * (j + PREFETCH_AHEAD)) {
+                    PREFETCH(&m->tets[b + (c >> 2)].v[0]);
+                    PREFETCH(&m->tets[b + (c >> 2)].n[3]);
+                    PREFETCH(&m->flags[b + (c >> 2)]);
+                }
+            }
         for (int i = 0; i < 4; i++) {
             size_t x = 4 * (size_t)j + (size_t)i;
-            T->v[i] = loc[sm->tet.v[x]];
             uint32_t c = par_wire_link(w, x);
             if (c < PAR_WIRE_LINK_IFACE) {
                 T->n[i] = tm_mklink(b + (c >> 2), (int)(c & 3));
+                if (a->pairs && c >> 2 == j) {
+                    a->tally.bad_links++; /* to itself (not decoded: see
+                                             par_wire_from_sub) */
+                } else if (a->pairs && c < x) {
+                    int rc = pair_down(a, m, t, i, b, c, sm->tet.marker[x]);
+                    if (rc)
+                        return rc;
+                } else if (a->pairs) {
+                    a->tally.up++;
+                }
             } else {
                 /* IFACE faces are the listed ones, in the same ascending
                  * order (the decoder checked it). */
@@ -447,7 +518,9 @@ static int add_tets(merge *g, ref_mesher *r)
              * links' offsets assume. */
             if (tm_alloc_tet(m) != b + j)
                 rc = PDR_EINVAL;
-        a[k] = (tet_task){.g = g, .r = r, .k = k};
+        /* step 4 here for the messages not checked ahead, but not in the
+         * careful run (check_links, with the copies dropped) */
+        a[k] = (tet_task){.g = g, .r = r, .k = k, .pairs = !g->careful && k >= g->na};
         ft[k] = (fj_task){.run = tet_task_run, .arg = &a[k]};
     }
     if (!rc) {
@@ -457,9 +530,37 @@ static int add_tets(merge *g, ref_mesher *r)
     /* The first failure in message order, as one pass would stop at. */
     for (uint32_t k = 0; k < g->n && !rc; k++)
         rc = ft[k].rc;
-    size_t nlf = 0;
-    for (uint32_t k = 0; k < g->n && !rc; k++)
+    size_t nlf = 0, nh = 0;
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
         nlf += a[k].nlf;
+        nh += a[k].nhash;
+    }
+    /* the first run: step 4's hashes, those checked ahead then those of
+     * the tasks, message by message (room for step 5's too), and the
+     * tasks' counts */
+    for (uint32_t k = 0; k < g->na && !rc && !g->careful; k++)
+        nh += g->ahead[k].nhash;
+    if (!rc && !g->careful) {
+        g->nhash = 0;
+        rc = pdr_grow((void **)&g->hash, &g->caphash, nh + nlf + 1, sizeof *g->hash);
+        for (uint32_t k = 0; k < g->na && !rc; k++) {
+            if (g->ahead[k].nhash)
+                memcpy(g->hash + g->nhash, g->ahead[k].hash,
+                       g->ahead[k].nhash * sizeof *g->hash);
+            g->nhash += g->ahead[k].nhash;
+        }
+        for (uint32_t k = 0; k < g->n && !rc; k++) {
+            if (a[k].nhash)
+                memcpy(g->hash + g->nhash, a[k].hash, a[k].nhash * sizeof *g->hash);
+            g->nhash += a[k].nhash;
+            g->pairs_k.up += a[k].tally.up;
+            g->pairs_k.down += a[k].tally.down;
+            g->pairs_k.bad_links += a[k].tally.bad_links;
+            g->pairs_k.misoriented += a[k].tally.misoriented;
+            g->pairs_k.marker_mismatch += a[k].tally.marker_mismatch;
+            g->pairs_k.suspect |= a[k].tally.suspect;
+        }
+    }
     if (!rc && nlf && pdr_grow((void **)&g->lf, &g->caplf, g->nlf + nlf, sizeof *g->lf))
         rc = PDR_ENOMEM;
     for (uint32_t k = 0; k < g->n && a; k++) {
@@ -470,10 +571,12 @@ static int add_tets(merge *g, ref_mesher *r)
             m->nghost += a[k].nghost;
         }
         pr_free(a[k].lf);
+        pr_free(a[k].hash);
     }
     pr_free(a);
     pr_free(ft);
-    g->nhash = g->careful ? m->nslots : 0;
+    if (g->careful)
+        g->nhash = m->nslots;
     return rc;
 }
 
@@ -549,11 +652,6 @@ static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
         rep->marker_mismatch++;
 }
 
-/* What the checks of step 4 count, for one pass or one share of it. */
-typedef struct link_tally {
-    size_t up, down, bad_links, misoriented, marker_mismatch;
-    int suspect;
-} link_tally;
 
 static void prefetch_ahead(const tm_mesh *m, uint32_t t)
 {
@@ -689,19 +787,11 @@ static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsig
 }
 
 /* Step 4 of the messages checked ahead (par_merge_check_ahead): their
- * counts into rep and sum, their hashes to g->hash. */
-static int take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
+ * counts into rep and sum (their hashes are in g->hash, see add_tets). */
+static void take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
 {
-    size_t nh = 0;
-    for (uint32_t k = 0; k < g->na; k++)
-        nh += g->ahead[k].nhash;
-    if (pdr_grow((void **)&g->hash, &g->caphash, nh + 1, sizeof *g->hash))
-        return PDR_ENOMEM;
     for (uint32_t k = 0; k < g->na; k++) {
         const par_merge_ahead *a = &g->ahead[k];
-        if (a->nhash)
-            memcpy(g->hash + g->nhash, a->hash, a->nhash * sizeof *g->hash);
-        g->nhash += a->nhash;
         link_tally t = {.bad_links = a->bad_links,
                         .misoriented = a->misoriented,
                         .marker_mismatch = a->marker_mismatch,
@@ -710,7 +800,6 @@ static int take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
         sum->up += a->up;
         sum->down += a->down;
     }
-    return 0;
 }
 
 /* Every pair linked within a message, checked once from its lower side:
@@ -731,17 +820,19 @@ static int take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
  * hash of each side, in slot order, took as long in hashing. */
 static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
 {
-    g->nhash = 0;
-    /* the messages checked ahead: their slots are not read again (no
-     * ahead in the careful run, which may drop copies) */
     link_tally k = {0};
-    uint32_t lo = 0;
-    if (!g->careful && g->na) {
-        int rc = take_ahead(g, rep, &k);
-        if (rc)
-            return rc;
-        lo = g->base[g->na];
+    if (!g->careful) {
+        /* the first run: every message checked ahead or in step 2, the
+         * hashes in g->hash already */
+        take_ahead(g, rep, &k);
+        tally_into(g, rep, &g->pairs_k);
+        k.up += g->pairs_k.up;
+        k.down += g->pairs_k.down;
+        rep->bad_links += k.up > k.down ? k.up - k.down : k.down - k.up;
+        return 0;
     }
+    g->nhash = 0;
+    uint32_t lo = 0;
     unsigned shares = !g->drop && m->nslots - lo >= LINK_SHARES_FROM ? fj_cores() : 1;
     if (shares > 1) {
         int rc = check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES,
