@@ -813,8 +813,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * (on_merge); rank 0 meanwhile takes its own submesh as it is
      * (par_wire_from_sub: no message) and checks its links
      * (par_merge_check_ahead), then the rows are gathered. */
-#define GT(l) do { if (getenv("PDR_GT")) fprintf(stderr, "GT %d %-10s %.4f\n", rank, l, pdr_now()); } while (0)
-    GT("end");
     pr_buf rb = PR_BUF_INIT;
     size_t nmissing;
     put_row(&rb, &row, &s.r.st);
@@ -824,7 +822,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         rc = send_merge(am, &s, &am_err);
     } else if (!rc) {
         rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
-        GT("own");
     }
     par_sub_free(&s);
     have_sub = 0;
@@ -838,7 +835,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     size_t *row_lens = NULL;
     if (!rc)
         rc = am_gather(am, rb.data, rb.len, &all_rows, &row_lens);
-    GT("rows");
     pr_buf_free(&rb);
     /* Rank 0: the others' merge messages, each decoded in its handler. */
     while (!rc && rank == 0 && min.ngot < size - 1) {
@@ -848,7 +844,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (rc > 0)
             rc = 0;
     }
-    GT("gathered");
     if (rc) {
         fprintf(stderr, "pdr mesh: PE %d: gathering the mesh failed: %s\n", rank,
                 am_strerror(rc));
@@ -884,7 +879,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!rc)
         rc = par_merge_build_wires(min.w, (uint32_t)size, &ahead, size > 1 ? 1 : 0, &c.p,
                                    &c.o.ref, &c.r, &rep);
-    GT("merged");
     for (int k = 0; k < size; k++)
         par_wire_clear(&min.w[k]);
     par_merge_ahead_free(&ahead);
@@ -1005,7 +999,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
     }
     t_cls = pdr_now() - t_cls;
-    GT("finished");
     double t_merged = pdr_now();
     /* The parallel stage, for the summary's rate: from Mo to the merged
      * mesh (distribution, refinement, gathering, merge). */

@@ -16,9 +16,14 @@
  *     par_merge_build): the hashes of all tetrahedra searched for repeats
  *     (base/hdup), those with a repeated hash compared, later copies
  *     dropped;
- *  4. every pair linked within a message, from its lower side: it comes
- *     back, and joins one triangle seen from its two sides with one
- *     marker;
+ *  4. every pair linked within a message: it comes back, and joins one
+ *     triangle seen from its two sides with one marker. In the first run
+ *     (see par_merge_build) a message checked ahead (par_merge_ahead:
+ *     rank 0's own, from its mesh, while the others still encode and
+ *     send theirs) is not read again, and the others are checked within
+ *     step 2, each pair from its higher side when it is stored, against
+ *     the lower side stored a while before; the careful run checks every
+ *     pair in a pass of its own, from its lower side;
  *  5. the faces not linked within their message (interface faces, and
  *     faces with nothing across) matched by their vertices in a hash
  *     table, and checked as the seams they are: a few percent of the
@@ -34,9 +39,10 @@
  * Rank 0 merges alone, the other PEs done: on a large mesh the steps
  * that split cleanly use the other cores (base/fj) -- the messages are
  * decoded and their tetrahedra stored a message per task (step 2 takes
- * the slots first, in order, and joins the tasks' loose faces in message
- * order), step 4 runs in shares of the slots, and steps 5-6 run beside
- * step 7. The mesh, the lists and the counts are those of one pass. */
+ * the slots first, in order, and joins the tasks' loose faces and step
+ * 4's hashes in message order), the careful run's step 4 runs in shares
+ * of the slots, and steps 5-6 run beside step 7. The mesh, the lists and
+ * the counts are those of one pass. */
 #include "config.h"
 
 #include <stdlib.h>
@@ -139,9 +145,9 @@ static uint64_t mix(uint64_t x)
 }
 
 /* Hashes of vertex sets: the vertices' keys (g->vk, one mix of the gid
- * each, made once: so a message's faces hash alike before its vertices
- * are merged, see par_merge_check_ahead) summed, so that the order in which a tetrahedron or face lists
- * them does not matter (no sort, and no unpredictable branch per face),
+ * each, made once: so that a message's faces hash the same before its
+ * vertices are merged, see par_merge_check_ahead) summed, so that the
+ * order in which a tetrahedron or face lists them does not matter (no sort, and no unpredictable branch per face),
  * then mixed so that every bit of the result depends on all of them
  * (base/hdup partitions by the top bits). The offset keeps vertex 0 from
  * mixing to 0. */
@@ -750,39 +756,38 @@ static int link_share_run(void *arg)
  * share, then each share checks its slots and writes its hashes after
  * those of the shares before it. The same counts and hashes as one pass
  * (in the same order). */
-static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsigned n,
-                              uint32_t lo, link_tally *sum)
+static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsigned n)
 {
     link_share sh[LINK_MAX_SHARES];
     fj_task ft[LINK_MAX_SHARES];
-    uint64_t span = m->nslots - lo;
     for (unsigned i = 0; i < n; i++) {
         sh[i] = (link_share){.g = g,
                              .m = m,
-                             .lo = lo + (uint32_t)(span * i / n),
-                             .hi = lo + (uint32_t)(span * (i + 1) / n)};
+                             .lo = (uint32_t)((uint64_t)m->nslots * i / n),
+                             .hi = (uint32_t)((uint64_t)m->nslots * (i + 1) / n)};
         ft[i] = (fj_task){.run = link_share_run, .arg = &sh[i]};
     }
     fj_run(ft, n, n);
     size_t total = 0;
     for (unsigned i = 0; i < n; i++)
         total += sh[i].k.up;
-    if (pdr_grow((void **)&g->hash, &g->caphash, g->nhash + total + g->nlf + 1,
-                 sizeof *g->hash))
+    if (pdr_grow((void **)&g->hash, &g->caphash, total + g->nlf + 1, sizeof *g->hash))
         return PDR_ENOMEM;
-    size_t at = g->nhash;
+    size_t at = 0;
     for (unsigned i = 0; i < n; i++) {
         sh[i].out = g->hash + at;
         at += sh[i].k.up;
         sh[i].k.up = 0;
     }
     fj_run(ft, n, n);
+    link_tally sum = {0};
     for (unsigned i = 0; i < n; i++) {
-        sum->up += sh[i].k.up;
-        sum->down += sh[i].k.down;
+        sum.up += sh[i].k.up;
+        sum.down += sh[i].k.down;
         tally_into(g, rep, &sh[i].k);
     }
-    g->nhash += total;
+    g->nhash = total;
+    rep->bad_links += sum.up > sum.down ? sum.up - sum.down : sum.down - sum.up;
     return 0;
 }
 
@@ -832,20 +837,14 @@ static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
         return 0;
     }
     g->nhash = 0;
-    uint32_t lo = 0;
-    unsigned shares = !g->drop && m->nslots - lo >= LINK_SHARES_FROM ? fj_cores() : 1;
-    if (shares > 1) {
-        int rc = check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES,
-                                    lo, &k);
-        if (!rc)
-            rep->bad_links += k.up > k.down ? k.up - k.down : k.down - k.up;
-        return rc;
-    }
+    unsigned shares = !g->drop && m->nslots >= LINK_SHARES_FROM ? fj_cores() : 1;
+    if (shares > 1)
+        return check_links_shared(g, m, rep, shares < LINK_MAX_SHARES ? shares : LINK_MAX_SHARES);
     /* about two linked pairs per tetrahedron, plus the groups of step 5 */
-    size_t want = g->nhash + 2 * (size_t)(m->nslots - lo) + g->nlf + 1;
+    size_t want = 2 * (size_t)m->nslots + g->nlf + 1;
     if (pdr_grow((void **)&g->hash, &g->caphash, want, sizeof *g->hash))
         return PDR_ENOMEM;
-    for (uint32_t t = lo; t < m->nslots; t++) {
+    for (uint32_t t = 0; t < m->nslots; t++) {
         prefetch_ahead(m, t);
         if (dropped(g, t))
             continue;
@@ -1153,8 +1152,6 @@ static int faces_and_bd(merge *g, ref_mesher *r, par_merge_report *rep)
     return ft[0].rc ? ft[0].rc : ft[1].rc;
 }
 
-#include <stdio.h>
-#define GT(l) do { if (getenv("PDR_GT")) fprintf(stderr, "GT 0 %-10s %.4f\n", l, pdr_now()); } while (0)
 static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
 {
     int rc = wires_ok(g);
@@ -1166,18 +1163,14 @@ static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
         m->gid[0] = PAR_GID_INF;
         rc = add_vertices(g, out, rep);
     }
-    GT("verts");
     if (!rc)
         rc = add_tets(g, out);
-    GT("tets");
     if (!rc && g->careful)
         rc = find_dup_tets(g, m, rep);
     if (!rc)
         rc = check_links(g, m, rep);
-    GT("links");
     if (!rc)
         rc = faces_and_bd(g, out, rep);
-    GT("faces");
     if (rc)
         return rc;
     tm_rebuild_hints(m);

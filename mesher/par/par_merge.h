@@ -87,7 +87,11 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
 typedef par_wire_pairs par_merge_ahead;
 
 /* Checks w's links as the merge would (w as par_wire_decode or
- * par_wire_from_sub gives it). Returns 0 or PDR_ENOMEM (*a empty). */
+ * par_wire_from_sub gives it), from the three tables of the message
+ * (par_wire_from_sub_pairs gets the same from a submesh's mesh, faster).
+ * The merge's first run uses only whether a fault is found (and suspect);
+ * what it reports when there is one comes from the careful run, see
+ * par_merge_build. Returns 0 or PDR_ENOMEM (*a empty). */
 int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a);
 #define par_merge_ahead_free par_wire_pairs_free
 
