@@ -1883,6 +1883,8 @@ static void merge_own_case(const pr_buf *b, const par_sub *subs, uint32_t P, con
         ck_assert_int_eq(par_merge_build_wires(w, P, pairs, na, p, NULL, &m1, &r1), expect);
         ck_assert(!memcmp(&r0, &r1, sizeof r0));
         if (!expect) {
+            ck_assert_int_eq(r1.unmarked_known, 1);
+            ck_assert_uint_eq(r1.unmarked_bounds, ref_unmarked_bounds(&m1));
             same_merged(&m0, &m1);
             ref_free(&m1);
         }
@@ -1942,6 +1944,34 @@ START_TEST(merge_own_submesh_same)
     m->tets[y / 4].n[y % 4] = keep[1];
     m->tets[a / 4].n[a % 4] = keep[2];
     m->tets[c / 4].n[c % 4] = keep[3];
+    /* flags passed on wrong: interior tetrahedra of PE 0 and PE 2 taken
+     * for exterior ones, and an exterior one of PE 1 for interior: the
+     * unmarked faces between inside and outside counted on the way are
+     * those ref_unmarked_bounds finds (checked in merge_own_case) */
+    for (uint32_t k = 0; k < 3; k++) {
+        tm_mesh *mk = &subs[k].r.m;
+        int want_in = k == 1, done = 0;
+        for (uint32_t t = 0; t < mk->nslots && done < 3; t += 5)
+            if (!tm_is_dead(mk, t) && !tm_is_ghost(mk, t) &&
+                ref_is_interior(mk, t) == want_in) {
+                mk->flags[t] ^= REF_F_EXTERIOR;
+                done++;
+            }
+        ck_assert_int_eq(done, 3);
+        pr_buf_free(&b[k]);
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
+    }
+    {
+        ref_mesher mw;
+        par_merge_report rw;
+        ck_assert_int_eq(merge_mesh_on(b, 3, &p, &rw, 0, &mw), 0);
+        ck_assert_int_eq(rw.unmarked_known, 1);
+        ck_assert_uint_gt(rw.unmarked_bounds, 0);
+        ck_assert_uint_eq(rw.unmarked_bounds, ref_unmarked_bounds(&mw));
+        ref_free(&mw);
+    }
+    merge_own_case(b, subs, 3, &p, 0);
     /* one PE alone, as 'pdr mesh -n 1' */
     par_sub one[1];
     pr_buf b1[1] = {PR_BUF_INIT};

@@ -953,7 +953,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * tetrahedron of the void): an unmarked face between inside and
      * outside tells, since the domain's boundary is marked. */
     if (!rc && !cdt && !doubts)
-        doubts = ref_unmarked_bounds(&c.r);
+        doubts = rep.unmarked_known ? rep.unmarked_bounds : ref_unmarked_bounds(&c.r);
     if (!rc && !doubts && !recovered && !cdt && elsewhere)
         rc = par_merge_finish_left(&c.r, &moved, &added);
     else if (!rc && (doubts || recovered || elsewhere || cdt))

@@ -91,6 +91,7 @@ typedef struct loose {
 typedef struct link_tally {
     size_t up, down, bad_links, misoriented, marker_mismatch;
     int suspect;
+    size_t unmarked; /* the first run: see par_merge_report.unmarked_bounds */
 } link_tally;
 
 /* State of one merge; every pointer owned, freed by st_free. */
@@ -391,9 +392,9 @@ static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
  * ago and so nearer in the caches than the higher side is to the lower in
  * step 4's pass. That the links come back follows as in check_links, the
  * links down (checked) and up (counted) swapping roles; the other checks
- * are symmetric. mk is t's marker on face i as sent. */
+ * are symmetric. mk is t's marker on face i and fl its flags as sent. */
 static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t b, uint32_t c,
-                     int32_t mk)
+                     int32_t mk, uint16_t fl)
 {
     const tm_tet *T = &m->tets[t];
     uint32_t u = b + (c >> 2);
@@ -411,6 +412,10 @@ static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t 
     /* the merged marker is the sent one + 1, 0 for none */
     a->tally.marker_mismatch += tm_face_marker(m, u, j) != (mk == PR_MARKER_NONE ? 0 : mk + 1);
     a->tally.suspect |= U->v[j] == T->v[i];
+    /* t's flags are not stored yet: its interior test from what was sent */
+    int tin = !tm_is_ghost(m, t) && !(fl & REF_F_EXTERIOR), uin = ref_is_interior(m, u);
+    if (tin != uin)
+        a->tally.unmarked += tin ? mk == PR_MARKER_NONE : !(m->flags[u] & TM_F_FACEMARK(j));
     if (a->nhash == a->caphash &&
         pdr_grow((void **)&a->hash, &a->caphash, a->nhash + 1, sizeof *a->hash))
         return PDR_ENOMEM;
@@ -459,7 +464,8 @@ static int tet_task_run(void *arg)
                     a->tally.bad_links++; /* to itself (not decoded: see
                                              par_wire_from_sub) */
                 } else if (a->pairs && c < x) {
-                    int rc = pair_down(a, m, t, i, b, c, sm->tet.marker[x]);
+                    int rc = pair_down(a, m, t, i, b, c, sm->tet.marker[x],
+                                       par_wire_tflags(w, j));
                     if (rc)
                         return rc;
                 } else if (a->pairs) {
@@ -565,6 +571,7 @@ static int add_tets(merge *g, ref_mesher *r)
             g->pairs_k.misoriented += a[k].tally.misoriented;
             g->pairs_k.marker_mismatch += a[k].tally.marker_mismatch;
             g->pairs_k.suspect |= a[k].tally.suspect;
+            g->pairs_k.unmarked += a[k].tally.unmarked;
         }
     }
     if (!rc && nlf && pdr_grow((void **)&g->lf, &g->caplf, g->nlf + nlf, sizeof *g->lf))
@@ -707,6 +714,7 @@ static void tally_into(merge *g, par_merge_report *rep, const link_tally *k)
     rep->bad_links += k->bad_links;
     rep->misoriented += k->misoriented;
     rep->marker_mismatch += k->marker_mismatch;
+    rep->unmarked_bounds += k->unmarked;
     g->suspect |= k->suspect;
 }
 
@@ -800,7 +808,8 @@ static void take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
         link_tally t = {.bad_links = a->bad_links,
                         .misoriented = a->misoriented,
                         .marker_mismatch = a->marker_mismatch,
-                        .suspect = a->suspect};
+                        .suspect = a->suspect,
+                        .unmarked = a->unmarked};
         tally_into(g, rep, &t);
         sum->up += a->up;
         sum->down += a->down;
@@ -899,6 +908,9 @@ static void loose_pair(merge *g, tm_mesh *m, const loose *a, const loose *b,
     m->tets[t].n[i] = b->f;
     m->tets[u].n[j] = a->f;
     g->suspect |= m->tets[t].v[i] == m->tets[u].v[j];
+    int tin = ref_is_interior(m, t), uin = ref_is_interior(m, u);
+    if (tin != uin)
+        rep->unmarked_bounds += !(m->flags[tin ? t : u] & TM_F_FACEMARK(tin ? i : j));
     uint32_t st = src_of(g, t), su = src_of(g, u);
     if (st == su) {
         if (a->pe != PAR_PE_NONE || b->pe != PAR_PE_NONE)
@@ -1175,6 +1187,9 @@ static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
         return rc;
     tm_rebuild_hints(m);
     out->classified = 1;
+    rep->unmarked_known = !g->careful;
+    if (g->careful)
+        rep->unmarked_bounds = 0;
     rep->vertices = m->nv;
     rep->tets = m->nlive;
     return par_merge_problems(rep) ? PDR_ETOPOLOGY : 0;
@@ -1283,6 +1298,8 @@ int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
     for (uint32_t i = 0; i < nv; i++)
         vk[i] = vkey(sm->vert.gid[i]);
     a->tets = nt;
+    /* the infinite vertex is vertex 0 when sent */
+    uint32_t vinf = nv && sm->vert.gid[0] == PAR_GID_INF ? 0 : UINT32_MAX;
     const uint32_t *tv = sm->tet.v;
     const int32_t *mk = sm->tet.marker;
     size_t nf = 4 * (size_t)nt;
@@ -1313,6 +1330,14 @@ int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
         a->misoriented += (size_t)!opposed;
         a->marker_mismatch += mk[x] != mk[c];
         a->suspect |= tv[4 * u + (size_t)j] == tv[4 * t + (size_t)i];
+        int tin = !(par_wire_tflags(w, t) & REF_F_EXTERIOR), uin = !(par_wire_tflags(w, u) &
+                                                                     REF_F_EXTERIOR);
+        for (int q = 0; q < 4; q++) {
+            tin &= tv[4 * t + (size_t)q] != vinf;
+            uin &= tv[4 * u + (size_t)q] != vinf;
+        }
+        if (tin != uin)
+            a->unmarked += mk[tin ? x : c] == PR_MARKER_NONE;
         if (a->nhash == cap)
             rc = pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash);
         if (!rc)

@@ -62,6 +62,12 @@ typedef struct par_merge_report {
     size_t marker_mismatch;  /* shared faces whose two sides differ in marker */
     size_t bd_conflicts;     /* subsegments/subfacets sent twice, differing */
     size_t bad_links;        /* links within a message that do not come back */
+    /* With unmarked_known, what ref_unmarked_bounds(out) returns: faces
+     * between an interior tetrahedron and an exterior one or a ghost that
+     * are not marked (a flag a PE passed on wrong), counted on the way
+     * (not when the careful run was needed). Not a mismatch. */
+    size_t unmarked_bounds;
+    int unmarked_known;
 } par_merge_report;
 
 /* Number of mismatches in rep (everything but the sizes). */

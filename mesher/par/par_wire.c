@@ -702,6 +702,9 @@ static int enc_pairs(const enc *e, const par_wire_src *src, const par_wire *w,
             if (m->marker)
                 a->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, su, j);
             a->suspect |= U->v[j] == T->v[i];
+            int tin = ref_is_interior(m, t), uin = ref_is_interior(m, su);
+            if (tin != uin)
+                a->unmarked += !(m->flags[tin ? t : su] & TM_F_FACEMARK(tin ? i : j));
             if (a->nhash == cap &&
                 pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash)) {
                 pr_free(vk);

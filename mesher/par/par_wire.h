@@ -158,6 +158,9 @@ typedef struct par_wire_pairs {
     size_t marker_mismatch;        /* pairs with two markers */
     int suspect;                   /* a pair with one vertex opposite on both
                                       sides (two tetrahedra, one vertex set) */
+    size_t unmarked;               /* pairs with one side interior (not
+                                      exterior, not a ghost) whose face is
+                                      unmarked there (ref_unmarked_bounds) */
     uint64_t *hash;                /* [nhash] each pair's face hash, in face
                                       order (par_wire_face_hash of gids) */
     size_t nhash;
