@@ -1254,7 +1254,11 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
             for (uint32_t k = 0; k < n; k++)
                 par_wire_clear(&own[k]);
         pr_free(own);
-        return rc;
+        /* *out freed (empty), as after a failed run */
+        int irc = ref_init(out, p, o);
+        if (!irc)
+            ref_free(out);
+        return irc ? irc : rc;
     }
     return build_runs(own, own, n, NULL, 0, p, o, out, rep);
 }
