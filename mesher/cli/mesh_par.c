@@ -810,9 +810,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 
     /* The submeshes and the rows to rank 0. Each PE but rank 0 sends its
      * merge message (send_merge), which rank 0 decodes as it comes
-     * (on_merge); rank 0 meanwhile takes its own submesh as it is
-     * (par_wire_from_sub: no message) and checks its links
-     * (par_merge_check_ahead), then the rows are gathered. */
+     * (on_merge); rank 0 meanwhile takes its own submesh as it is and
+     * checks its links on the way (par_wire_from_sub_pairs: no message),
+     * then the rows are gathered. */
     pr_buf rb = PR_BUF_INIT;
     size_t nmissing;
     put_row(&rb, &row, &s.r.st);
@@ -826,7 +826,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_sub_free(&s);
     have_sub = 0;
     if (rc && !am_err) {
-        fprintf(stderr, "pdr mesh: PE %d: cannot make its merge message: %s\n", rank,
+        fprintf(stderr, "pdr mesh: PE %d: cannot %s: %s\n", rank,
+                rank ? "make its merge message" : "take its own submesh for the merge",
                 pdr_strerror(rc));
         fflush(stderr);
         _exit(PDR_EXIT_FAIL); /* the others would wait for its message */
@@ -861,6 +862,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     for (int k = 0; k < size && !rc; k++) {
         rc = get_row(pr, row_lens[k], &rows[k], &sum, &rests[k]);
         pr += row_lens[k];
+    }
+    if (!rc && min.stray) {
+        fprintf(stderr, "pdr mesh: %d merge message%s from rank 0 itself or a second time "
+                "from a PE\n", min.stray, min.stray == 1 ? "" : "s");
+        rc = PDR_EPARSE;
     }
     for (int k = 1; k < size && !rc; k++)
         if (min.rc[k]) {
