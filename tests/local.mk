@@ -69,7 +69,8 @@ FUZZ_REPLAY = \
 	tests/fuzz/replay_bundle \
 	tests/fuzz/replay_cli \
 	tests/fuzz/replay_reply \
-	tests/fuzz/replay_band
+	tests/fuzz/replay_band \
+	tests/fuzz/replay_merge
 check_PROGRAMS += $(FUZZ_REPLAY)
 TESTS += $(FUZZ_REPLAY)
 FUZZ_MESH_CFLAGS = $(AM_CFLAGS) $(METIS_CFLAGS) $(ZMQ_CFLAGS) $(EVENT_CFLAGS)
@@ -114,6 +115,11 @@ tests_fuzz_replay_band_CFLAGS = $(FUZZ_MESH_CFLAGS)
 tests_fuzz_replay_band_LDADD = libpdrmesh.la libam.la libpdrproto.la \
 	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
 tests_fuzz_replay_band_LDFLAGS = $(AM_LDFLAGS) -static
+tests_fuzz_replay_merge_SOURCES = tests/fuzz/fuzz_merge.c tests/fuzz/replay_input.c
+tests_fuzz_replay_merge_CFLAGS = $(FUZZ_MESH_CFLAGS)
+tests_fuzz_replay_merge_LDADD = libpdrmesh.la libam.la libpdrproto.la \
+	$(METIS_LIBS) $(ZMQ_LIBS) $(EVENT_LIBS) -lm
+tests_fuzz_replay_merge_LDFLAGS = $(AM_LDFLAGS) -static
 
 # Absurd counts in headers are refused before anything is allocated for
 # them (run under a small ulimit -v).

@@ -1703,6 +1703,8 @@ static void large_merge_case(plc *p, ref_mesher *mo, par_sub subs[3], pr_buf b[3
     encode_subs(subs, NULL, 3, b, msg, len);
 }
 
+static void same_merged(const ref_mesher *pm1, const ref_mesher *pm2);
+
 /* Step 4 of the merge shares a large mesh's slots among the processors
  * (par_merge.c, check_links_shared): it finds what one pass finds, on a
  * mesh that fits and on one with a link that does not come back and two
@@ -1754,6 +1756,30 @@ START_TEST(merge_threads_same_mesh)
     ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), 0);
     ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r2, 0, &m2), 0);
     ck_assert(!memcmp(&r1, &r2, sizeof r1));
+    same_merged(&m1, &m2);
+    ref_free(&m1);
+    ref_free(&m2);
+    /* a fault: a link of PE 1 that does not come back */
+    uint8_t *keep = b[1].data;
+    uint32_t nt;
+    link_offset(keep, b[1].len, &nt);
+    uint32_t x, u, y, z;
+    two_linked_pairs(keep, b[1].len, nt, &x, &u, &y, &z);
+    b[1].data = with_link(keep, b[1].len, x, y);
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), PDR_ETOPOLOGY);
+    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r2, 0, &m2), PDR_ETOPOLOGY);
+    ck_assert(!memcmp(&r1, &r2, sizeof r1));
+    free(b[1].data);
+    b[1].data = keep;
+    free_merge_case(b, subs, 3, &mo, &p);
+}
+END_TEST
+
+/* Two merged meshes are the same: slots, vertices, links, markers, flags,
+ * regions and boundary tables. */
+static void same_merged(const ref_mesher *pm1, const ref_mesher *pm2)
+{
+    const ref_mesher m1 = *pm1, m2 = *pm2;
     const tm_mesh *a = &m1.m, *c = &m2.m;
     ck_assert_uint_eq(a->nslots, c->nslots);
     ck_assert_uint_eq(a->nlive, c->nlive);
@@ -1782,20 +1808,178 @@ START_TEST(merge_threads_same_mesh)
                   e->flags == f->flags);
     }
     ck_assert(!memcmp(m1.bd.vkind, m2.bd.vkind, (size_t)a->nv * sizeof *m1.bd.vkind));
-    ref_free(&m1);
-    ref_free(&m2);
-    /* a fault: a link of PE 1 that does not come back */
-    uint8_t *keep = b[1].data;
+    ck_assert(!memcmp(m1.bd.vfeat, m2.bd.vfeat, (size_t)a->nv * sizeof *m1.bd.vfeat));
+    ck_assert(!memcmp(m1.bd.vrins, m2.bd.vrins, (size_t)a->nv * sizeof *m1.bd.vrins));
+}
+
+/* par_wire_from_sub's decoded form of a submesh is the decoder's of its
+ * message, array by array; par_wire_decode_own's too. */
+static void same_wire(const par_wire *x, const par_wire *y)
+{
+    const pr_submesh *a = x->sm, *b = y->sm;
+    ck_assert(a->part == b->part && a->rank == b->rank && a->size == b->size &&
+              a->n_facets == b->n_facets);
+    uint32_t nv = a->vert.n, nt = a->tet.n, nf = a->iface.n;
+    ck_assert(nv == b->vert.n && nt == b->tet.n && nf == b->iface.n);
+    ck_assert(!memcmp(a->vert.gid, b->vert.gid, nv * sizeof *a->vert.gid));
+    ck_assert(!memcmp(a->vert.xyz, b->vert.xyz, 3 * (size_t)nv * sizeof *a->vert.xyz));
+    ck_assert(!memcmp(a->vert.flags, b->vert.flags, nv * sizeof *a->vert.flags));
+    ck_assert(!memcmp(a->tet.v, b->tet.v, 4 * (size_t)nt * sizeof *a->tet.v));
+    ck_assert(!memcmp(a->tet.marker, b->tet.marker, 4 * (size_t)nt * sizeof *a->tet.marker));
+    ck_assert(!memcmp(a->tet.subseg, b->tet.subseg, nt));
+    ck_assert(!nf || !memcmp(a->iface.face, b->iface.face, nf * sizeof *a->iface.face));
+    ck_assert(!nf || !memcmp(a->iface.remote, b->iface.remote, nf * sizeof *a->iface.remote));
+    ck_assert_uint_eq(x->next_seq, y->next_seq);
+    ck_assert(!memcmp(x->vkind, y->vkind, nv));
+    ck_assert(!memcmp(x->vfeat, y->vfeat, nv * sizeof *x->vfeat));
+    ck_assert(!memcmp(x->vrins, y->vrins, nv * sizeof *x->vrins));
+    ck_assert(!memcmp(x->tflags_le, y->tflags_le, 2 * (size_t)nt));
+    ck_assert(!memcmp(x->region_le, y->region_le, 2 * (size_t)nt));
+    ck_assert(!memcmp(x->link_le, y->link_le, 16 * (size_t)nt));
+    ck_assert(x->nseg == y->nseg && x->nfac == y->nfac);
+    ck_assert(!memcmp(x->seg_v, y->seg_v, 2 * (size_t)x->nseg * sizeof *x->seg_v));
+    ck_assert(!memcmp(x->seg_id, y->seg_id, x->nseg * sizeof *x->seg_id));
+    ck_assert(!memcmp(x->seg_flags, y->seg_flags, x->nseg * sizeof *x->seg_flags));
+    ck_assert(!memcmp(x->fac_v, y->fac_v, 3 * (size_t)x->nfac * sizeof *x->fac_v));
+    ck_assert(!memcmp(x->fac_id, y->fac_id, x->nfac * sizeof *x->fac_id));
+    ck_assert(!memcmp(x->fac_flags, y->fac_flags, x->nfac * sizeof *x->fac_flags));
+}
+
+static void same_pairs(const par_merge_ahead *a, const par_merge_ahead *b)
+{
+    ck_assert(a->tets == b->tets && a->up == b->up && a->down == b->down &&
+              a->bad_links == b->bad_links && a->misoriented == b->misoriented &&
+              a->marker_mismatch == b->marker_mismatch && a->suspect == b->suspect);
+    ck_assert_uint_eq(a->nhash, b->nhash);
+    ck_assert(!a->nhash || !memcmp(a->hash, b->hash, a->nhash * sizeof *a->hash));
+}
+
+/* The merge as 'pdr mesh' runs it at rank 0 (cli/mesh_par.c): its own
+ * submesh taken as it is (par_wire_from_sub_pairs: no message, its links
+ * checked from the mesh ahead of the merge), the others' messages decoded
+ * as they come (par_wire_decode_own), merged by par_merge_build_wires.
+ * Every wire and every check ahead is the same as from the messages'
+ * bytes, and so are the merged mesh and the counts: with and without the
+ * checks ahead, on a mesh that fits and with faults in PE 0's links. */
+static void merge_own_case(const pr_buf *b, const par_sub *subs, uint32_t P, const plc *p,
+                           int expect)
+{
+    par_wire w[3], wd[3];
+    par_merge_ahead pairs[3], ah[3];
+    ck_assert_uint_le(P, 3);
+    for (uint32_t k = 0; k < P; k++) {
+        ck_assert_int_eq(par_wire_from_sub_pairs(&subs[k], &w[k], &pairs[k]), 0);
+        ck_assert_int_eq(par_wire_decode_own(b[k].data, b[k].len, p, &wd[k]), 0);
+        same_wire(&w[k], &wd[k]);
+        ck_assert_int_eq(par_merge_check_ahead(&wd[k], &ah[k]), 0);
+        same_pairs(&pairs[k], &ah[k]);
+    }
+    ref_mesher m0;
+    par_merge_report r0;
+    ck_assert_int_eq(merge_mesh_on(b, P, p, &r0, 0, &m0), expect);
+    for (uint32_t na = 0; na <= P; na++) {
+        ref_mesher m1;
+        par_merge_report r1;
+        ck_assert_int_eq(par_merge_build_wires(w, P, pairs, na, p, NULL, &m1, &r1), expect);
+        ck_assert(!memcmp(&r0, &r1, sizeof r0));
+        if (!expect) {
+            ck_assert_int_eq(r1.unmarked_known, 1);
+            ck_assert_uint_eq(r1.unmarked_bounds, ref_unmarked_bounds(&m1));
+            same_merged(&m0, &m1);
+            ref_free(&m1);
+        }
+        ck_assert_int_eq(par_merge_build_wires(wd, P, ah, na, p, NULL, &m1, &r1), expect);
+        ck_assert(!memcmp(&r0, &r1, sizeof r0));
+        if (!expect)
+            ref_free(&m1);
+    }
+    /* a check ahead of another message is refused */
+    if (P > 1 && w[0].sm->tet.n != w[1].sm->tet.n) {
+        ref_mesher m1;
+        par_merge_report r1;
+        ck_assert_int_eq(par_merge_build_wires(w, P, pairs + 1, 1, p, NULL, &m1, &r1),
+                         PDR_EINVAL);
+    }
+    if (!expect)
+        ref_free(&m0);
+    for (uint32_t k = 0; k < P; k++) {
+        par_wire_clear(&w[k]);
+        par_wire_clear(&wd[k]);
+        par_merge_ahead_free(&pairs[k]);
+        par_merge_ahead_free(&ah[k]);
+    }
+}
+
+START_TEST(merge_own_submesh_same)
+{
+    plc p;
+    ref_mesher mo;
+    par_sub subs[3];
+    pr_buf b[3];
+    large_merge_case(&p, &mo, subs, b);
+    merge_own_case(b, subs, 3, &p, 0);
+    /* faults in PE 0's mesh (slot k is its message's tetrahedron k): a
+     * link that does not come back, then also two pairs joined across
+     * the wrong faces */
     uint32_t nt;
-    link_offset(keep, b[1].len, &nt);
-    uint32_t x, u, y, z;
-    two_linked_pairs(keep, b[1].len, nt, &x, &u, &y, &z);
-    b[1].data = with_link(keep, b[1].len, x, y);
-    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r1, 1, &m1), PDR_ETOPOLOGY);
-    ck_assert_int_eq(merge_mesh_on(b, 3, &p, &r2, 0, &m2), PDR_ETOPOLOGY);
-    ck_assert(!memcmp(&r1, &r2, sizeof r1));
-    free(b[1].data);
-    b[1].data = keep;
+    link_offset(b[0].data, b[0].len, &nt);
+    uint32_t x, a, y, c;
+    two_linked_pairs(b[0].data, b[0].len, nt, &x, &a, &y, &c);
+    tm_mesh *m = &subs[0].r.m;
+    tm_link keep[4] = {m->tets[x / 4].n[x % 4], m->tets[y / 4].n[y % 4],
+                       m->tets[a / 4].n[a % 4], m->tets[c / 4].n[c % 4]};
+    m->tets[x / 4].n[x % 4] = tm_mklink(y / 4, (int)(y % 4));
+    pr_buf_free(&b[0]);
+    b[0] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[0], &subs[0]), 0);
+    merge_own_case(b, subs, 3, &p, PDR_ETOPOLOGY);
+    m->tets[y / 4].n[y % 4] = tm_mklink(x / 4, (int)(x % 4));
+    m->tets[a / 4].n[a % 4] = tm_mklink(c / 4, (int)(c % 4));
+    m->tets[c / 4].n[c % 4] = tm_mklink(a / 4, (int)(a % 4));
+    pr_buf_free(&b[0]);
+    b[0] = (pr_buf)PR_BUF_INIT;
+    ck_assert_int_eq(par_merge_encode(&b[0], &subs[0]), 0);
+    merge_own_case(b, subs, 3, &p, PDR_ETOPOLOGY);
+    m->tets[x / 4].n[x % 4] = keep[0];
+    m->tets[y / 4].n[y % 4] = keep[1];
+    m->tets[a / 4].n[a % 4] = keep[2];
+    m->tets[c / 4].n[c % 4] = keep[3];
+    /* flags passed on wrong: interior tetrahedra of PE 0 and PE 2 taken
+     * for exterior ones, and an exterior one of PE 1 for interior: the
+     * unmarked faces between inside and outside counted on the way are
+     * those ref_unmarked_bounds finds (checked in merge_own_case) */
+    for (uint32_t k = 0; k < 3; k++) {
+        tm_mesh *mk = &subs[k].r.m;
+        int want_in = k == 1, done = 0;
+        for (uint32_t t = 0; t < mk->nslots && done < 3; t += 5)
+            if (!tm_is_dead(mk, t) && !tm_is_ghost(mk, t) &&
+                ref_is_interior(mk, t) == want_in) {
+                mk->flags[t] ^= REF_F_EXTERIOR;
+                done++;
+            }
+        ck_assert_int_eq(done, 3);
+        pr_buf_free(&b[k]);
+        b[k] = (pr_buf)PR_BUF_INIT;
+        ck_assert_int_eq(par_merge_encode(&b[k], &subs[k]), 0);
+    }
+    {
+        ref_mesher mw;
+        par_merge_report rw;
+        ck_assert_int_eq(merge_mesh_on(b, 3, &p, &rw, 0, &mw), 0);
+        ck_assert_int_eq(rw.unmarked_known, 1);
+        ck_assert_uint_gt(rw.unmarked_bounds, 0);
+        ck_assert_uint_eq(rw.unmarked_bounds, ref_unmarked_bounds(&mw));
+        ref_free(&mw);
+    }
+    merge_own_case(b, subs, 3, &p, 0);
+    /* one PE alone, as 'pdr mesh -n 1' */
+    par_sub one[1];
+    pr_buf b1[1] = {PR_BUF_INIT};
+    subs_of(&mo, 1, one);
+    ck_assert_int_eq(par_merge_encode(&b1[0], &one[0]), 0);
+    merge_own_case(b1, one, 1, &p, 0);
+    pr_buf_free(&b1[0]);
+    par_sub_free(&one[0]);
     free_merge_case(b, subs, 3, &mo, &p);
 }
 END_TEST
@@ -2041,6 +2225,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_finishes_left);
     tcase_add_test(t, merge_shares_agree);
     tcase_add_test(t, merge_threads_same_mesh);
+    tcase_add_test(t, merge_own_submesh_same);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

@@ -28,6 +28,8 @@
 /* Handler of the job message rank 0 sends every PE (below the parallel
  * refinement's own ids). */
 #define H_JOB 90
+/* Handler of the merge messages the PEs but rank 0 send it at the end. */
+#define H_MERGE 91
 /* The default Mo: about the paper's 10^5 tetrahedra, but no more than a
  * tenth of the final mesh when the volume bound tells how large that is. */
 #define MO_SIZE_PAPER 100000.0
@@ -96,6 +98,73 @@ static int wait_job(am_ctx_t *am, job *j)
         if (!j->got && (rc = am_idle(am, 0.25)) < 0)
             return rc;
     }
+    return 0;
+}
+
+/* ------------------------------------------------------ merge messages */
+
+/* Rank 0's receipt of the merge messages: each decoded as it comes, in
+ * its handler (the handler's bytes go with it, so the decoded form keeps
+ * its own copy of what it would read in place, par_wire_decode_own). */
+typedef struct merge_in {
+    const plc *p;  /* rank 0's PLC: loaded before any merge message comes */
+    int size;
+    par_wire *w;   /* [size]: w[k] PE k's message, k > 0 */
+    int *rc;       /* [size]: its decoder's code */
+    uint8_t *got;  /* [size] */
+    int ngot;      /* messages in, of size - 1 */
+    int stray;     /* messages from rank 0 itself, or a second from a PE */
+} merge_in;
+
+static void on_merge(am_ctx_t *am, const am_msg_t *msg, void *arg)
+{
+    (void)am;
+    merge_in *in = arg;
+    int k = msg->src;
+    if (!in->w || k <= 0 || k >= in->size || in->got[k]) {
+        in->stray++;
+        return;
+    }
+    in->got[k] = 1;
+    in->ngot++;
+    in->rc[k] = par_wire_decode_own(msg->data, msg->len, in->p, &in->w[k]);
+}
+
+static void free_frame(void *frame, void *hint)
+{
+    (void)hint;
+    pr_free(frame);
+}
+
+/* A PE but rank 0: its merge message to rank 0, encoded after room for
+ * the runtime's header and handed over without a copy (am_send_zc): 33
+ * MB at 10^6 tetrahedra on 2 PEs, which the gather copied into its own
+ * frame first. Returns 0, a PDR_ code of the encoder or an AM_ code. */
+static int send_merge(am_ctx_t *am, const par_sub *s, int *am_err)
+{
+    *am_err = 0;
+    pr_buf b = PR_BUF_INIT;
+    if (pr_buf_reserve(&b, AM_HEADROOM))
+        return PDR_ENOMEM;
+    memset(b.data, 0, AM_HEADROOM);
+    b.len = AM_HEADROOM;
+    int rc = par_merge_encode(&b, s);
+    if (rc) {
+        pr_buf_free(&b);
+        return rc;
+    }
+    size_t len;
+    uint8_t *frame = pr_buf_take(&b, &len);
+    if (!frame)
+        return PDR_ENOMEM;
+    rc = am_send_zc(am, 0, H_MERGE, frame, len - AM_HEADROOM, free_frame, NULL);
+    if (rc) {
+        pr_free(frame);
+        *am_err = 1;
+        return rc;
+    }
+    /* out now, not at the rows' gather: rank 0 decodes it meanwhile */
+    am_flush(am);
     return 0;
 }
 
@@ -537,11 +606,25 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_table1 row, *rows = NULL;
     size_t mo_tets = 0;
     int status = PDR_EXIT_FAIL;
+    merge_in min = {.p = &p, .size = size};
+    par_merge_ahead ahead;
+    memset(&ahead, 0, sizeof ahead);
+    if (rank == 0) {
+        min.w = pr_calloc((size_t)size, sizeof *min.w);
+        min.rc = pr_calloc((size_t)size, sizeof *min.rc);
+        min.got = pr_calloc((size_t)size, 1);
+        if (!min.w || !min.rc || !min.got) {
+            fprintf(stderr, "pdr mesh: PE 0: out of memory\n");
+            goto done;
+        }
+    }
     /* Rank 0's clock: conforming mesh, Mo and partition done, refinement
      * started and ended, submeshes gathered (the merge's own time is
      * measured around it). */
     double t_prep[3] = {0, 0, 0}, t_start = 0, t_end = 0, t_gathered = 0;
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
+    if (!rc)
+        rc = am_register(am, H_MERGE, "mesh-merge", on_merge, &min);
     if (!rc)
         rc = am_barrier(am);
     if (rc)
@@ -725,26 +808,43 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
             fprintf(stderr, "pdr mesh: PE %d: cannot write its submesh\n", rank);
     }
 
-    /* Gather the rows and the submeshes to rank 0. */
-    pr_buf rb = PR_BUF_INIT, mb = PR_BUF_INIT;
+    /* The submeshes and the rows to rank 0. Each PE but rank 0 sends its
+     * merge message (send_merge), which rank 0 decodes as it comes
+     * (on_merge); rank 0 meanwhile takes its own submesh as it is and
+     * checks its links on the way (par_wire_from_sub_pairs: no message),
+     * then the rows are gathered. */
+    pr_buf rb = PR_BUF_INIT;
     size_t nmissing;
     put_row(&rb, &row, &s.r.st);
     rc = rb.err ? PDR_ENOMEM : par_merge_put_missing(&rb, &s, &nmissing);
-    if (!rc)
-        rc = par_merge_encode(&mb, &s);
+    int am_err = 0;
+    if (!rc && rank != 0) {
+        rc = send_merge(am, &s, &am_err);
+    } else if (!rc) {
+        rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
+    }
     par_sub_free(&s);
     have_sub = 0;
-    void *all_rows = NULL, *all_mesh = NULL;
-    size_t *row_lens = NULL, *mesh_lens = NULL;
+    if (rc && !am_err) {
+        fprintf(stderr, "pdr mesh: PE %d: cannot %s: %s\n", rank,
+                rank ? "make its merge message" : "take its own submesh for the merge",
+                pdr_strerror(rc));
+        fflush(stderr);
+        _exit(PDR_EXIT_FAIL); /* the others would wait for its message */
+    }
+    void *all_rows = NULL;
+    size_t *row_lens = NULL;
     if (!rc)
         rc = am_gather(am, rb.data, rb.len, &all_rows, &row_lens);
-    /* Rank 0's own message stays where it is: through the gather it would
-     * be copied once more, tens of megabytes of fresh memory. */
-    if (!rc)
-        rc = am_gather(am, rank ? mb.data : NULL, rank ? mb.len : 0, &all_mesh, &mesh_lens);
     pr_buf_free(&rb);
-    if (rc || rank != 0)
-        pr_buf_free(&mb);
+    /* Rank 0: the others' merge messages, each decoded in its handler. */
+    while (!rc && rank == 0 && min.ngot < size - 1) {
+        rc = am_poll(am);
+        if (rc >= 0)
+            rc = min.ngot < size - 1 ? am_idle(am, 0.25) : 0;
+        if (rc > 0)
+            rc = 0;
+    }
     if (rc) {
         fprintf(stderr, "pdr mesh: PE %d: gathering the mesh failed: %s\n", rank,
                 am_strerror(rc));
@@ -756,17 +856,24 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     t_gathered = pdr_now();
     rows = pr_calloc((size_t)size, sizeof *rows);
-    const void **msgs = pr_calloc((size_t)size, sizeof *msgs);
     size_t *rests = pr_calloc((size_t)size, sizeof *rests);
-    rc = rows && msgs && rests ? 0 : PDR_ENOMEM;
-    const uint8_t *pr = all_rows, *pm = all_mesh;
+    rc = rows && rests ? 0 : PDR_ENOMEM;
+    const uint8_t *pr = all_rows;
     for (int k = 0; k < size && !rc; k++) {
         rc = get_row(pr, row_lens[k], &rows[k], &sum, &rests[k]);
         pr += row_lens[k];
-        msgs[k] = k ? (const void *)pm : mb.data;
-        pm += mesh_lens[k];
     }
-    mesh_lens[0] = mb.len;
+    if (!rc && min.stray) {
+        fprintf(stderr, "pdr mesh: %d merge message%s from rank 0 itself or a second time "
+                "from a PE\n", min.stray, min.stray == 1 ? "" : "s");
+        rc = PDR_EPARSE;
+    }
+    for (int k = 1; k < size && !rc; k++)
+        if (min.rc[k]) {
+            fprintf(stderr, "pdr mesh: PE %d's merge message: %s\n", k,
+                    pdr_strerror(min.rc[k]));
+            rc = min.rc[k];
+        }
     uint64_t miss_s = 0, miss_f = 0;
     for (int k = 0; k < size && !rc; k++) {
         miss_s += rows[k].missing_segs;
@@ -776,7 +883,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     memset(&rep, 0, sizeof rep);
     double tm = pdr_now();
     if (!rc)
-        rc = par_merge_build(msgs, mesh_lens, (uint32_t)size, &c.p, &c.o.ref, &c.r, &rep);
+        rc = par_merge_build_wires(min.w, (uint32_t)size, &ahead, size > 1 ? 1 : 0, &c.p,
+                                   &c.o.ref, &c.r, &rep);
+    for (int k = 0; k < size; k++)
+        par_wire_clear(&min.w[k]);
+    par_merge_ahead_free(&ahead);
     /* A subsegment or subfacet still missing on some PE (its split point
      * lay on a PE that did not know of it) goes into the merged mesh as
      * missing, for rank 0 to recover below. */
@@ -792,13 +903,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         recovered += n;
         pr += row_lens[k];
     }
-    pr_free(msgs);
     pr_free(rests);
     pr_free(all_rows);
-    pr_free(all_mesh);
-    pr_buf_free(&mb);
     pr_free(row_lens);
-    pr_free(mesh_lens);
     if (!rc && rc_missing) {
         rc = rc_missing;
         ref_free(&c.r);
@@ -852,7 +959,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * tetrahedron of the void): an unmarked face between inside and
      * outside tells, since the domain's boundary is marked. */
     if (!rc && !cdt && !doubts)
-        doubts = ref_unmarked_bounds(&c.r);
+        doubts = rep.unmarked_known ? rep.unmarked_bounds : ref_unmarked_bounds(&c.r);
     if (!rc && !doubts && !recovered && !cdt && elsewhere)
         rc = par_merge_finish_left(&c.r, &moved, &added);
     else if (!rc && (doubts || recovered || elsewhere || cdt))
@@ -918,6 +1025,13 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         rc = mp_verify(&c);
     status = rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
 done:
+    if (min.w)
+        for (int k = 0; k < size; k++)
+            par_wire_clear(&min.w[k]);
+    pr_free(min.w);
+    pr_free(min.rc);
+    pr_free(min.got);
+    par_merge_ahead_free(&ahead);
     pr_free(rows);
     pr_free(j.data);
     if (have_sub)

@@ -16,9 +16,14 @@
  *     par_merge_build): the hashes of all tetrahedra searched for repeats
  *     (base/hdup), those with a repeated hash compared, later copies
  *     dropped;
- *  4. every pair linked within a message, from its lower side: it comes
- *     back, and joins one triangle seen from its two sides with one
- *     marker;
+ *  4. every pair linked within a message: it comes back, and joins one
+ *     triangle seen from its two sides with one marker. In the first run
+ *     (see par_merge_build) a message checked ahead (par_merge_ahead:
+ *     rank 0's own, from its mesh, while the others still encode and
+ *     send theirs) is not read again, and the others are checked within
+ *     step 2, each pair from its higher side when it is stored, against
+ *     the lower side stored a while before; the careful run checks every
+ *     pair in a pass of its own, from its lower side;
  *  5. the faces not linked within their message (interface faces, and
  *     faces with nothing across) matched by their vertices in a hash
  *     table, and checked as the seams they are: a few percent of the
@@ -34,9 +39,10 @@
  * Rank 0 merges alone, the other PEs done: on a large mesh the steps
  * that split cleanly use the other cores (base/fj) -- the messages are
  * decoded and their tetrahedra stored a message per task (step 2 takes
- * the slots first, in order, and joins the tasks' loose faces in message
- * order), step 4 runs in shares of the slots, and steps 5-6 run beside
- * step 7. The mesh, the lists and the counts are those of one pass. */
+ * the slots first, in order, and joins the tasks' loose faces and step
+ * 4's hashes in message order), the careful run's step 4 runs in shares
+ * of the slots, and steps 5-6 run beside step 7. The mesh, the lists and
+ * the counts are those of one pass. */
 #include "config.h"
 
 #include <stdlib.h>
@@ -81,9 +87,19 @@ typedef struct loose {
     uint32_t next;   /* next face with the same key, or NO_FACE */
 } loose;
 
+/* What the checks of step 4 count, for one pass or one share of it. */
+typedef struct link_tally {
+    size_t up, down, bad_links, misoriented, marker_mismatch;
+    int suspect;
+    size_t unmarked; /* the first run: see par_merge_report.unmarked_bounds */
+} link_tally;
+
 /* State of one merge; every pointer owned, freed by st_free. */
 typedef struct merge {
-    par_wire *w;     /* [n] decoded messages */
+    const par_wire *w; /* [n] decoded messages (borrowed) */
+    par_wire *own_w; /* w when the merge decoded them itself, else NULL */
+    const par_merge_ahead *ahead; /* [na]: messages 0..na-1's step 4 done */
+    uint32_t na;
     uint32_t n;
     uint32_t **loc;  /* [n][vert.n]: merged vertex of each message vertex */
     uint32_t *base;  /* [n + 1]: slot of each message's first tetrahedron */
@@ -98,17 +114,18 @@ typedef struct merge {
     uint64_t *vk;    /* per merged vertex: its key for the hashes */
     int careful;     /* step 3 done (the second run, see par_merge_build) */
     int suspect;     /* two linked tetrahedra with the same vertices */
+    link_tally pairs_k; /* step 4 done in step 2's tasks (the first run) */
 } merge;
 
 static void st_free(merge *g)
 {
-    if (g->w)
+    if (g->own_w)
         for (uint32_t k = 0; k < g->n; k++)
-            par_wire_clear(&g->w[k]);
+            par_wire_clear(&g->own_w[k]);
     if (g->loc)
         for (uint32_t k = 0; k < g->n; k++)
             pr_free(g->loc[k]);
-    pr_free(g->w);
+    pr_free(g->own_w);
     pr_free(g->loc);
     pr_free(g->base);
     pr_free(g->drop);
@@ -125,22 +142,19 @@ static void st_free(merge *g)
  * output: multiplications by odd constants and folds of the high half. */
 static uint64_t mix(uint64_t x)
 {
-    x *= UINT64_C(0x9E3779B97F4A7C15);
-    x ^= x >> 32;
-    x *= UINT64_C(0xD6E8FEB86659FD93);
-    x ^= x >> 32;
-    return x;
+    return par_wire_mix(x);
 }
 
-/* Hashes of vertex sets: the vertices' keys (g->vk, one mix each, made
- * once) summed, so that the order in which a tetrahedron or face lists
- * them does not matter (no sort, and no unpredictable branch per face),
+/* Hashes of vertex sets: the vertices' keys (g->vk, one mix of the gid
+ * each, made once: so that a message's faces hash the same before its
+ * vertices are merged, see par_merge_check_ahead) summed, so that the
+ * order in which a tetrahedron or face lists them does not matter (no sort, and no unpredictable branch per face),
  * then mixed so that every bit of the result depends on all of them
  * (base/hdup partitions by the top bits). The offset keeps vertex 0 from
  * mixing to 0. */
-static uint64_t vkey(uint32_t v)
+static uint64_t vkey(uint64_t gid)
 {
-    return mix((uint64_t)v + UINT64_C(0x2545F4914F6CDD1D));
+    return par_wire_vkey(gid);
 }
 
 static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
@@ -150,7 +164,7 @@ static uint64_t tet_hash(const uint64_t *vk, const uint32_t v[4])
 
 static uint64_t face_hash(const uint64_t *vk, uint32_t a, uint32_t b, uint32_t c)
 {
-    return mix(vk[a] + vk[b] + vk[c] + 1);
+    return par_wire_face_hash(vk[a], vk[b], vk[c]);
 }
 
 static int add_hash(uint64_t **a, size_t *n, size_t *cap, uint64_t h)
@@ -316,7 +330,7 @@ static int add_vertices(merge *g, ref_mesher *r, par_merge_report *rep)
         if (!g->vk)
             return PDR_ENOMEM;
         for (uint32_t x = 0; x < m->nv; x++)
-            g->vk[x] = vkey(x);
+            g->vk[x] = vkey(m->gid[x]);
     }
     return rc;
 }
@@ -357,6 +371,10 @@ typedef struct tet_task {
     loose *lf;       /* its faces for g->lf, owned until handed over */
     size_t nlf, caplf;
     uint32_t nghost;
+    int pairs;       /* step 4 of this message done here too (see below) */
+    link_tally tally; /* its counts then */
+    uint64_t *hash;  /* its pairs' face hashes then, owned until handed over */
+    size_t nhash, caphash;
 } tet_task;
 
 static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
@@ -365,6 +383,43 @@ static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
         return PDR_ENOMEM;
     a->lf[a->nlf].f = f;
     a->lf[a->nlf++].pe = pe;
+    return 0;
+}
+
+/* Step 4 for face i of t, whose link c (in the message, from base b)
+ * names a face of a tetrahedron stored before it (c < 4j+i): the pair
+ * seen from its higher side, with the other side's tm_tet written a while
+ * ago and so nearer in the caches than the higher side is to the lower in
+ * step 4's pass. That the links come back follows as in check_links, the
+ * links down (checked) and up (counted) swapping roles; the other checks
+ * are symmetric. mk is t's marker on face i and fl its flags as sent. */
+static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t b, uint32_t c,
+                     int32_t mk, uint16_t fl)
+{
+    const tm_tet *T = &m->tets[t];
+    uint32_t u = b + (c >> 2);
+    int j = (int)(c & 3);
+    const tm_tet *U = &m->tets[u];
+    a->tally.down++;
+    a->tally.bad_links += U->n[j] != tm_mklink(t, i);
+    uint32_t x[3], y[3];
+    face_of(m, t, i, x);
+    face_of(m, u, j, y);
+    int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
+                  ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
+                  ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+    a->tally.misoriented += (size_t)!opposed;
+    /* the merged marker is the sent one + 1, 0 for none */
+    a->tally.marker_mismatch += tm_face_marker(m, u, j) != (mk == PR_MARKER_NONE ? 0 : mk + 1);
+    a->tally.suspect |= U->v[j] == T->v[i];
+    /* t's flags are not stored yet: its interior test from what was sent */
+    int tin = !tm_is_ghost(m, t) && !(fl & REF_F_EXTERIOR), uin = ref_is_interior(m, u);
+    if (tin != uin)
+        a->tally.unmarked += tin ? mk == PR_MARKER_NONE : !(m->flags[u] & TM_F_FACEMARK(j));
+    if (a->nhash == a->caphash &&
+        pdr_grow((void **)&a->hash, &a->caphash, a->nhash + 1, sizeof *a->hash))
+        return PDR_ENOMEM;
+    a->hash[a->nhash++] = face_hash(a->g->vk, x[0], x[1], x[2]);
     return 0;
 }
 
@@ -378,16 +433,44 @@ static int tet_task_run(void *arg)
     const pr_submesh *sm = w->sm;
     const uint32_t *loc = g->loc[a->k];
     uint32_t b = g->base[a->k], q = 0;
+    if (a->pairs) {
+        /* about two pairs per tetrahedron */
+        a->caphash = 2 * (size_t)sm->tet.n + 1;
+        a->hash = pr_malloc(a->caphash * sizeof *a->hash);
+        if (!a->hash)
+            return PDR_ENOMEM;
+    }
     for (uint32_t j = 0; j < sm->tet.n; j++) {
         uint32_t t = b + j;
         tm_tet *T = &m->tets[t];
         uint16_t fl = par_wire_tflags(w, j);
+        for (int i = 0; i < 4; i++)
+            T->v[i] = loc[sm->tet.v[4 * (size_t)j + (size_t)i]];
+        if (a->pairs && j + PREFETCH_AHEAD < sm->tet.n)
+            for (int i = 0; i < 4; i++) {
+                uint32_t c = par_wire_link(w, 4 * ((size_t)j + PREFETCH_AHEAD) + (size_t)i);
+                if (c < 4 * (j + PREFETCH_AHEAD)) {
+                    PREFETCH(&m->tets[b + (c >> 2)].v[0]);
+                    PREFETCH(&m->tets[b + (c >> 2)].n[3]);
+                    PREFETCH(&m->flags[b + (c >> 2)]);
+                }
+            }
         for (int i = 0; i < 4; i++) {
             size_t x = 4 * (size_t)j + (size_t)i;
-            T->v[i] = loc[sm->tet.v[x]];
             uint32_t c = par_wire_link(w, x);
             if (c < PAR_WIRE_LINK_IFACE) {
                 T->n[i] = tm_mklink(b + (c >> 2), (int)(c & 3));
+                if (a->pairs && c >> 2 == j) {
+                    a->tally.bad_links++; /* to itself (not decoded: see
+                                             par_wire_from_sub) */
+                } else if (a->pairs && c < x) {
+                    int rc = pair_down(a, m, t, i, b, c, sm->tet.marker[x],
+                                       par_wire_tflags(w, j));
+                    if (rc)
+                        return rc;
+                } else if (a->pairs) {
+                    a->tally.up++;
+                }
             } else {
                 /* IFACE faces are the listed ones, in the same ascending
                  * order (the decoder checked it). */
@@ -447,7 +530,9 @@ static int add_tets(merge *g, ref_mesher *r)
              * links' offsets assume. */
             if (tm_alloc_tet(m) != b + j)
                 rc = PDR_EINVAL;
-        a[k] = (tet_task){.g = g, .r = r, .k = k};
+        /* step 4 here for the messages not checked ahead, but not in the
+         * careful run (check_links, with the copies dropped) */
+        a[k] = (tet_task){.g = g, .r = r, .k = k, .pairs = !g->careful && k >= g->na};
         ft[k] = (fj_task){.run = tet_task_run, .arg = &a[k]};
     }
     if (!rc) {
@@ -457,9 +542,38 @@ static int add_tets(merge *g, ref_mesher *r)
     /* The first failure in message order, as one pass would stop at. */
     for (uint32_t k = 0; k < g->n && !rc; k++)
         rc = ft[k].rc;
-    size_t nlf = 0;
-    for (uint32_t k = 0; k < g->n && !rc; k++)
+    size_t nlf = 0, nh = 0;
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
         nlf += a[k].nlf;
+        nh += a[k].nhash;
+    }
+    /* the first run: step 4's hashes, those checked ahead then those of
+     * the tasks, message by message (room for step 5's too), and the
+     * tasks' counts */
+    for (uint32_t k = 0; k < g->na && !rc && !g->careful; k++)
+        nh += g->ahead[k].nhash;
+    if (!rc && !g->careful) {
+        g->nhash = 0;
+        rc = pdr_grow((void **)&g->hash, &g->caphash, nh + nlf + 1, sizeof *g->hash);
+        for (uint32_t k = 0; k < g->na && !rc; k++) {
+            if (g->ahead[k].nhash)
+                memcpy(g->hash + g->nhash, g->ahead[k].hash,
+                       g->ahead[k].nhash * sizeof *g->hash);
+            g->nhash += g->ahead[k].nhash;
+        }
+        for (uint32_t k = 0; k < g->n && !rc; k++) {
+            if (a[k].nhash)
+                memcpy(g->hash + g->nhash, a[k].hash, a[k].nhash * sizeof *g->hash);
+            g->nhash += a[k].nhash;
+            g->pairs_k.up += a[k].tally.up;
+            g->pairs_k.down += a[k].tally.down;
+            g->pairs_k.bad_links += a[k].tally.bad_links;
+            g->pairs_k.misoriented += a[k].tally.misoriented;
+            g->pairs_k.marker_mismatch += a[k].tally.marker_mismatch;
+            g->pairs_k.suspect |= a[k].tally.suspect;
+            g->pairs_k.unmarked += a[k].tally.unmarked;
+        }
+    }
     if (!rc && nlf && pdr_grow((void **)&g->lf, &g->caplf, g->nlf + nlf, sizeof *g->lf))
         rc = PDR_ENOMEM;
     for (uint32_t k = 0; k < g->n && a; k++) {
@@ -470,10 +584,12 @@ static int add_tets(merge *g, ref_mesher *r)
             m->nghost += a[k].nghost;
         }
         pr_free(a[k].lf);
+        pr_free(a[k].hash);
     }
     pr_free(a);
     pr_free(ft);
-    g->nhash = g->careful ? m->nslots : 0;
+    if (g->careful)
+        g->nhash = m->nslots;
     return rc;
 }
 
@@ -549,11 +665,6 @@ static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
         rep->marker_mismatch++;
 }
 
-/* What the checks of step 4 count, for one pass or one share of it. */
-typedef struct link_tally {
-    size_t up, down, bad_links, misoriented, marker_mismatch;
-    int suspect;
-} link_tally;
 
 static void prefetch_ahead(const tm_mesh *m, uint32_t t)
 {
@@ -603,6 +714,7 @@ static void tally_into(merge *g, par_merge_report *rep, const link_tally *k)
     rep->bad_links += k->bad_links;
     rep->misoriented += k->misoriented;
     rep->marker_mismatch += k->marker_mismatch;
+    rep->unmarked_bounds += k->unmarked;
     g->suspect |= k->suspect;
 }
 
@@ -687,6 +799,23 @@ static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsig
     return 0;
 }
 
+/* Step 4 of the messages checked ahead (par_merge_check_ahead): their
+ * counts into rep and sum (their hashes are in g->hash, see add_tets). */
+static void take_ahead(merge *g, par_merge_report *rep, link_tally *sum)
+{
+    for (uint32_t k = 0; k < g->na; k++) {
+        const par_merge_ahead *a = &g->ahead[k];
+        link_tally t = {.bad_links = a->bad_links,
+                        .misoriented = a->misoriented,
+                        .marker_mismatch = a->marker_mismatch,
+                        .suspect = a->suspect,
+                        .unmarked = a->unmarked};
+        tally_into(g, rep, &t);
+        sum->up += a->up;
+        sum->down += a->down;
+    }
+}
+
 /* Every pair linked within a message, checked once from its lower side:
  * it comes back, joins one triangle seen from its two sides, with one
  * marker; and its face hashed for step 6. A link into a dropped copy
@@ -705,6 +834,17 @@ static int check_links_shared(merge *g, tm_mesh *m, par_merge_report *rep, unsig
  * hash of each side, in slot order, took as long in hashing. */
 static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
 {
+    link_tally k = {0};
+    if (!g->careful) {
+        /* the first run: every message checked ahead or in step 2, the
+         * hashes in g->hash already */
+        take_ahead(g, rep, &k);
+        tally_into(g, rep, &g->pairs_k);
+        k.up += g->pairs_k.up;
+        k.down += g->pairs_k.down;
+        rep->bad_links += k.up > k.down ? k.up - k.down : k.down - k.up;
+        return 0;
+    }
     g->nhash = 0;
     unsigned shares = !g->drop && m->nslots >= LINK_SHARES_FROM ? fj_cores() : 1;
     if (shares > 1)
@@ -713,7 +853,6 @@ static int check_links(merge *g, tm_mesh *m, par_merge_report *rep)
     size_t want = 2 * (size_t)m->nslots + g->nlf + 1;
     if (pdr_grow((void **)&g->hash, &g->caphash, want, sizeof *g->hash))
         return PDR_ENOMEM;
-    link_tally k = {0};
     for (uint32_t t = 0; t < m->nslots; t++) {
         prefetch_ahead(m, t);
         if (dropped(g, t))
@@ -769,6 +908,9 @@ static void loose_pair(merge *g, tm_mesh *m, const loose *a, const loose *b,
     m->tets[t].n[i] = b->f;
     m->tets[u].n[j] = a->f;
     g->suspect |= m->tets[t].v[i] == m->tets[u].v[j];
+    int tin = ref_is_interior(m, t), uin = ref_is_interior(m, u);
+    if (tin != uin)
+        rep->unmarked_bounds += !(m->flags[tin ? t : u] & TM_F_FACEMARK(tin ? i : j));
     uint32_t st = src_of(g, t), su = src_of(g, u);
     if (st == su) {
         if (a->pe != PAR_PE_NONE || b->pe != PAR_PE_NONE)
@@ -980,26 +1122,35 @@ static int dec_task_run(void *arg)
  * one pass would stop at. */
 static int decode_all(merge *g, const void *const *msg, const size_t *len, const plc *p)
 {
-    g->w = pr_calloc(g->n ? g->n : 1, sizeof *g->w);
+    g->w = g->own_w = pr_calloc(g->n ? g->n : 1, sizeof *g->own_w);
     dec_task *d = pr_calloc(g->n ? g->n : 1, sizeof *d);
     fj_task *ft = pr_calloc(g->n ? g->n : 1, sizeof *ft);
     int rc = g->w && d && ft ? 0 : PDR_ENOMEM;
     size_t total = 0;
     for (uint32_t k = 0; k < g->n && !rc; k++) {
-        d[k] = (dec_task){msg[k], len[k], p, &g->w[k]};
+        d[k] = (dec_task){msg[k], len[k], p, &g->own_w[k]};
         ft[k] = (fj_task){.run = dec_task_run, .arg = &d[k]};
         total += len[k] / 32; /* a tetrahedron takes more than 32 bytes */
     }
     if (!rc)
         fj_run(ft, g->n, merge_threads(g->n, total));
-    for (uint32_t k = 0; k < g->n && !rc; k++) {
+    for (uint32_t k = 0; k < g->n && !rc; k++)
         rc = ft[k].rc;
-        if (!rc && (g->w[k].sm->rank != k || g->w[k].sm->size != g->n))
-            rc = PDR_EPARSE;
-    }
     pr_free(d);
     pr_free(ft);
     return rc;
+}
+
+/* Message k is PE k's of n. */
+static int wires_ok(const merge *g)
+{
+    for (uint32_t k = 0; k < g->n; k++)
+        if (!g->w[k].sm || g->w[k].sm->rank != k || g->w[k].sm->size != g->n)
+            return PDR_EPARSE;
+    for (uint32_t k = 0; k < g->na; k++)
+        if (g->ahead[k].tets != g->w[k].sm->tet.n)
+            return PDR_EINVAL; /* not this message's */
+    return 0;
 }
 
 /* Steps 5-6 (the faces) and 7 (the boundary tables): they share nothing
@@ -1013,10 +1164,9 @@ static int faces_and_bd(merge *g, ref_mesher *r, par_merge_report *rep)
     return ft[0].rc ? ft[0].rc : ft[1].rc;
 }
 
-static int merge_all(merge *g, const void *const *msg, const size_t *len, const plc *p,
-                     ref_mesher *out, par_merge_report *rep)
+static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
 {
-    int rc = decode_all(g, msg, len, p);
+    int rc = wires_ok(g);
     if (rc)
         return rc;
     tm_mesh *m = &out->m;
@@ -1037,6 +1187,9 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
         return rc;
     tm_rebuild_hints(m);
     out->classified = 1;
+    rep->unmarked_known = !g->careful;
+    if (g->careful)
+        rep->unmarked_bounds = 0;
     rep->vertices = m->nv;
     rep->tets = m->nlive;
     return par_merge_problems(rep) ? PDR_ETOPOLOGY : 0;
@@ -1051,20 +1204,26 @@ static int merge_all(merge *g, const void *const *msg, const size_t *len, const 
  * a group of loose faces with it (linked as a suspect, or more than two),
  * or alone (open or unmatched). Only then does a second, careful run drop
  * the later copies first and count what is left, as the report says. */
-int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
-                    const ref_opts *o, ref_mesher *out, par_merge_report *rep)
+/* The two runs (see par_merge_build) on the messages w[0..n), decoded
+ * into own (freed here) when the caller gave the bytes. */
+static int build_runs(const par_wire *w, par_wire *own, uint32_t n,
+                      const par_merge_ahead *ahead, uint32_t na, const plc *p,
+                      const ref_opts *o, ref_mesher *out, par_merge_report *rep)
 {
     int rc = 0;
     for (int careful = 0; careful < 2; careful++) {
         memset(rep, 0, sizeof *rep);
         rc = ref_init(out, p, o);
         if (rc)
-            return rc;
+            break;
         merge g;
         memset(&g, 0, sizeof g);
         g.n = n;
+        g.w = w;
+        g.ahead = ahead;
+        g.na = na < n ? na : n;
         g.careful = careful;
-        rc = n ? merge_all(&g, msg, len, p, out, rep) : PDR_EINVAL;
+        rc = n ? merge_all(&g, out, rep) : PDR_EINVAL;
         int again = !careful && (rc == PDR_ETOPOLOGY || (!rc && g.suspect));
         st_free(&g);
         if (rc || again)
@@ -1072,8 +1231,128 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
         if (!again)
             break;
     }
+    if (own)
+        for (uint32_t k = 0; k < n; k++)
+            par_wire_clear(&own[k]);
+    pr_free(own);
     return rc;
 }
+
+int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
+                    const ref_opts *o, ref_mesher *out, par_merge_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    merge g;
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    int rc = n ? decode_all(&g, msg, len, p) : PDR_EINVAL;
+    par_wire *own = g.own_w;
+    g.own_w = NULL;
+    st_free(&g);
+    if (rc) {
+        if (own)
+            for (uint32_t k = 0; k < n; k++)
+                par_wire_clear(&own[k]);
+        pr_free(own);
+        /* *out freed (empty), as after a failed run */
+        int irc = ref_init(out, p, o);
+        if (!irc)
+            ref_free(out);
+        return irc ? irc : rc;
+    }
+    return build_runs(own, own, n, NULL, 0, p, o, out, rep);
+}
+
+int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                          uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                          par_merge_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    return build_runs(w, NULL, n, ahead, na, p, o, out, rep);
+}
+
+/* The other side of face x's link, asked for a few faces ahead (as
+ * prefetch_ahead does in the mesh). */
+static void ahead_prefetch(const par_wire *w, size_t x, size_t nf)
+{
+    if (x >= nf)
+        return;
+    uint32_t c = par_wire_link(w, x);
+    if (c < PAR_WIRE_LINK_IFACE && c > x) {
+        PREFETCH(w->link_le + 4 * (size_t)c);
+        PREFETCH(w->sm->tet.v + (size_t)(c & ~UINT32_C(3)));
+        PREFETCH(w->sm->tet.marker + (size_t)c);
+    }
+}
+
+int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
+{
+    memset(a, 0, sizeof *a);
+    const pr_submesh *sm = w->sm;
+    uint32_t nv = sm->vert.n, nt = sm->tet.n;
+    uint64_t *vk = pr_malloc((nv ? nv : 1) * sizeof *vk);
+    /* about two linked pairs per tetrahedron */
+    size_t cap = 2 * (size_t)nt + 1;
+    a->hash = pr_malloc(cap * sizeof *a->hash);
+    if (!vk || !a->hash) {
+        pr_free(vk);
+        par_merge_ahead_free(a);
+        return PDR_ENOMEM;
+    }
+    for (uint32_t i = 0; i < nv; i++)
+        vk[i] = vkey(sm->vert.gid[i]);
+    a->tets = nt;
+    /* the infinite vertex is vertex 0 when sent */
+    uint32_t vinf = nv && sm->vert.gid[0] == PAR_GID_INF ? 0 : UINT32_MAX;
+    const uint32_t *tv = sm->tet.v;
+    const int32_t *mk = sm->tet.marker;
+    size_t nf = 4 * (size_t)nt;
+    int rc = 0;
+    for (size_t x = 0; x < nf && !rc; x++) {
+        ahead_prefetch(w, x + 4 * PREFETCH_AHEAD, nf);
+        uint32_t c = par_wire_link(w, x);
+        if (c >= PAR_WIRE_LINK_IFACE)
+            continue; /* loose: step 5 */
+        if (c < x) {
+            a->down++; /* checked from the other side */
+            continue;
+        }
+        /* as check_up, on the message's own vertex numbers: the merged
+         * ones are one-to-one with them within a message */
+        a->up++;
+        size_t t = x >> 2, u = c >> 2;
+        int i = (int)(x & 3), j = (int)(c & 3);
+        a->bad_links += par_wire_link(w, c) != x;
+        uint32_t f[3], y[3];
+        for (int q = 0; q < 3; q++) {
+            f[q] = tv[4 * t + (size_t)tm_face_vtx[i][q]];
+            y[q] = tv[4 * u + (size_t)tm_face_vtx[j][q]];
+        }
+        int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
+                      ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
+                      ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+        a->misoriented += (size_t)!opposed;
+        a->marker_mismatch += mk[x] != mk[c];
+        a->suspect |= tv[4 * u + (size_t)j] == tv[4 * t + (size_t)i];
+        int tin = !(par_wire_tflags(w, t) & REF_F_EXTERIOR), uin = !(par_wire_tflags(w, u) &
+                                                                     REF_F_EXTERIOR);
+        for (int q = 0; q < 4; q++) {
+            tin &= tv[4 * t + (size_t)q] != vinf;
+            uin &= tv[4 * u + (size_t)q] != vinf;
+        }
+        if (tin != uin)
+            a->unmarked += mk[tin ? x : c] == PR_MARKER_NONE;
+        if (a->nhash == cap)
+            rc = pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash);
+        if (!rc)
+            a->hash[a->nhash++] = par_wire_face_hash(vk[f[0]], vk[f[1]], vk[f[2]]);
+    }
+    pr_free(vk);
+    if (rc)
+        par_merge_ahead_free(a);
+    return rc ? PDR_ENOMEM : 0;
+}
+
 
 int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved, size_t *added)
 {

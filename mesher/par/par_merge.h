@@ -42,6 +42,7 @@
 #include <stdint.h>
 
 #include "par/par_sub.h"
+#include "par/par_wire.h"
 #include "pr.h"
 #include "refine/refine.h"
 
@@ -61,6 +62,12 @@ typedef struct par_merge_report {
     size_t marker_mismatch;  /* shared faces whose two sides differ in marker */
     size_t bd_conflicts;     /* subsegments/subfacets sent twice, differing */
     size_t bad_links;        /* links within a message that do not come back */
+    /* With unmarked_known, what ref_unmarked_bounds(out) returns: faces
+     * between an interior tetrahedron and an exterior one or a ghost that
+     * are not marked (a flag a PE passed on wrong), counted on the way
+     * (not when the careful run was needed). Not a mismatch. */
+    size_t unmarked_bounds;
+    int unmarked_known;
 } par_merge_report;
 
 /* Number of mismatches in rep (everything but the sizes). */
@@ -78,6 +85,30 @@ int par_merge_encode(pr_buf *b, const par_sub *s);
  * freed (empty) and *rep holds what was counted. */
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
                     const ref_opts *o, ref_mesher *out, par_merge_report *rep);
+
+/* Step 4 of the merge (par/par_merge.c: every pair of faces linked
+ * within a message checked and hashed) of one message, done ahead of the
+ * merge: rank 0 checks its own while the other PEs encode and send
+ * theirs (par_wire_from_sub_pairs). */
+typedef par_wire_pairs par_merge_ahead;
+
+/* Checks w's links as the merge would (w as par_wire_decode or
+ * par_wire_from_sub gives it), from the three tables of the message
+ * (par_wire_from_sub_pairs gets the same from a submesh's mesh, faster).
+ * The merge's first run uses only whether a fault is found (and suspect);
+ * what it reports when there is one comes from the careful run, see
+ * par_merge_build. Returns 0 or PDR_ENOMEM (*a empty). */
+int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a);
+#define par_merge_ahead_free par_wire_pairs_free
+
+/* par_merge_build on messages already decoded, w[k] PE k's (borrowed:
+ * the caller clears them after), with ahead[k] par_merge_check_ahead's
+ * result for w[k] when k < na (na may be 0). The same mesh, report and
+ * return codes as par_merge_build on the messages' bytes (PDR_EINVAL
+ * when an ahead[k] is not w[k]'s). */
+int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                          uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                          par_merge_report *rep);
 
 /* The subsegments and subfacets still missing on PE s when its
  * refinement ends (a piece whose split point lay on another PE, which

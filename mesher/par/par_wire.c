@@ -11,6 +11,13 @@
 #include "base/v3.h"
 #include "par/par_wire.h"
 
+/* A hint to load a cache line now (a no-op where the compiler has none). */
+#if defined(__GNUC__)
+#define WIRE_PREFETCH(p) __builtin_prefetch(p)
+#else
+#define WIRE_PREFETCH(p) ((void)(p))
+#endif
+
 /* Bytes per element of the extension's arrays. */
 #define VEXT_ELEM (1 + 4 + 4)
 #define TEXT_ELEM (2 + 2 + 16)
@@ -114,12 +121,8 @@ static void enc_free(enc *e)
     pr_free(e->sent);
     pr_free(e->below);
     pr_free(e->pos);
-    pr_free(e->sm.vert.gid);
-    pr_free(e->sm.vert.xyz);
-    pr_free(e->sm.vert.flags);
-    pr_free(e->sm.tet.v);
-    pr_free(e->sm.tet.marker);
-    pr_free(e->sm.tet.subseg);
+    pr_free(e->sm.vert.gid); /* one block with xyz and flags (pr_vtable_clear) */
+    pr_free(e->sm.tet.v);    /* one block with marker and subseg (pr_ttable_clear) */
     pr_free(e->sm.iface.face);
     pr_free(e->sm.iface.remote);
     pr_free(e->seen_seg);
@@ -169,11 +172,14 @@ static int enc_vertices(enc *e, const par_wire_src *src)
     e->nv = n;
     pr_vtable *vt = &e->sm.vert;
     vt->n = n;
-    vt->gid = pr_malloc((n ? n : 1) * sizeof *vt->gid);
-    vt->xyz = pr_malloc((n ? 3 * (size_t)n : 1) * sizeof *vt->xyz);
-    vt->flags = pr_calloc(n ? n : 1, sizeof *vt->flags);
-    if (!vt->gid || !vt->xyz || !vt->flags)
+    /* One block, as proto's decoder has it, so that par_wire_from_sub can
+     * hand the table over to a pr_submesh. */
+    vt->gid = pr_malloc((size_t)(n ? n : 1) * (8 + 24 + 4));
+    if (!vt->gid)
         return PDR_ENOMEM;
+    vt->xyz = (double *)(vt->gid + n);
+    vt->flags = (uint32_t *)(vt->xyz + 3 * (size_t)n);
+    memset(vt->flags, 0, (size_t)n * sizeof *vt->flags);
     for (uint32_t i = 0; i < n; i++) {
         uint32_t v = e->verts[i].v;
         vt->gid[i] = e->verts[i].gid;
@@ -299,11 +305,12 @@ static int enc_tets(enc *e, const par_wire_src *src)
     pr_ttable *tt = &e->sm.tet;
     size_t nt = src->nt;
     tt->n = src->nt;
-    tt->v = pr_malloc((nt ? 4 * nt : 1) * sizeof *tt->v);
-    tt->marker = pr_malloc((nt ? 4 * nt : 1) * sizeof *tt->marker);
-    tt->subseg = pr_malloc(nt ? nt : 1);
-    if (!tt->v || !tt->marker || !tt->subseg)
+    /* one block, as for the vertices */
+    tt->v = pr_malloc((nt ? nt : 1) * (16 + 16 + 1));
+    if (!tt->v)
         return PDR_ENOMEM;
+    tt->marker = (int32_t *)(tt->v + 4 * nt);
+    tt->subseg = (uint8_t *)(tt->marker + 4 * nt);
     int rc = enc_positions(e, src);
     if (rc)
         return rc;
@@ -382,6 +389,27 @@ static int enc_bd(enc *e, const par_wire_src *src)
     return 0;
 }
 
+/* The extension's arrays per tetrahedron (TEXT_ELEM bytes each: flags,
+ * regions, links) from q on. Returns 0 or PDR_EINVAL (a link enc_link
+ * refuses). */
+static int put_tet_ext(uint8_t *q, const enc *e, const par_wire_src *src)
+{
+    const ref_mesher *r = src->r;
+    size_t nt = src->nt;
+    for (size_t k = 0; k < nt; k++, q += 2)
+        pr_store_u16(q, r->m.flags[src->tets[k]] & PAR_WIRE_TFLAGS);
+    for (size_t k = 0; k < nt; k++, q += 2)
+        pr_store_u16(q, r->region ? r->region[src->tets[k]] : 0);
+    for (size_t k = 0; k < nt; k++)
+        for (int i = 0; i < 4; i++, q += 4) {
+            uint32_t c;
+            if (enc_link(e, src, k, i, &c))
+                return PDR_EINVAL;
+            pr_store_u32(q, c);
+        }
+    return 0;
+}
+
 /* The extension, stored straight into b (one reservation, no call per
  * value: a merge message has millions of them). Returns 0, PDR_EINVAL (a
  * link enc_link refuses) or PDR_ENOMEM; b->len is then where it was. */
@@ -405,17 +433,9 @@ static int put_ext(pr_buf *b, const enc *e, const par_wire_src *src)
         pr_store_u32(q, f32_bits(bd->vrins[e->verts[i].v]));
     pr_store_u32(q, src->nt);
     q += 4;
-    for (size_t k = 0; k < nt; k++, q += 2)
-        pr_store_u16(q, r->m.flags[src->tets[k]] & PAR_WIRE_TFLAGS);
-    for (size_t k = 0; k < nt; k++, q += 2)
-        pr_store_u16(q, r->region ? r->region[src->tets[k]] : 0);
-    for (size_t k = 0; k < nt; k++)
-        for (int i = 0; i < 4; i++, q += 4) {
-            uint32_t c;
-            if (enc_link(e, src, k, i, &c))
-                return PDR_EINVAL;
-            pr_store_u32(q, c);
-        }
+    if (put_tet_ext(q, e, src))
+        return PDR_EINVAL;
+    q += nt * TEXT_ELEM;
     pr_store_u32(q, e->nseg);
     q += 4;
     for (int c = 0; c < 2; c++)
@@ -438,10 +458,11 @@ static int put_ext(pr_buf *b, const enc *e, const par_wire_src *src)
     return 0;
 }
 
-int par_wire_encode(pr_buf *b, const par_wire_src *src)
+/* The tables of src's message into e (which the caller frees with
+ * enc_free, also on error). Returns as par_wire_encode. */
+static int enc_build(enc *e, const par_wire_src *src)
 {
-    if (b->err)
-        return from_pr(b->err, PDR_EINVAL);
+    memset(e, 0, sizeof *e);
     const ref_mesher *r = src->r;
     const tm_mesh *m = &r->m;
     if (src->nt > PR_MAX_TETS)
@@ -451,17 +472,24 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src)
     for (uint32_t k = 0; k < src->nt; k++)
         if (src->tets[k] >= m->nslots || tm_is_dead(m, src->tets[k]))
             return PDR_EINVAL;
+    e->sm.part = src->part;
+    e->sm.rank = src->rank;
+    e->sm.size = src->size;
+    e->sm.n_facets = (uint32_t)r->p->nfacet;
+    int rc = enc_vertices(e, src);
+    if (!rc)
+        rc = enc_tets(e, src);
+    if (!rc)
+        rc = enc_bd(e, src);
+    return rc;
+}
+
+int par_wire_encode(pr_buf *b, const par_wire_src *src)
+{
+    if (b->err)
+        return from_pr(b->err, PDR_EINVAL);
     enc e;
-    memset(&e, 0, sizeof e);
-    e.sm.part = src->part;
-    e.sm.rank = src->rank;
-    e.sm.size = src->size;
-    e.sm.n_facets = (uint32_t)r->p->nfacet;
-    int rc = enc_vertices(&e, src);
-    if (!rc)
-        rc = enc_tets(&e, src);
-    if (!rc)
-        rc = enc_bd(&e, src);
+    int rc = enc_build(&e, src);
     if (rc) {
         enc_free(&e);
         return rc;
@@ -498,31 +526,225 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src)
     return rc;
 }
 
-int par_wire_encode_sub(pr_buf *b, const par_sub *s)
+/* The message source of every live tetrahedron of s (see
+ * par_wire_encode_sub); *tets gets the list of slots, which the caller
+ * frees. Returns 0, PDR_ENOMEM or PDR_EINVAL. */
+static int sub_src(const par_sub *s, par_wire_src *src, uint32_t **tets)
 {
     const tm_mesh *m = &s->r.m;
     size_t n = m->nlive;
-    uint32_t *tets = pr_malloc((n ? n : 1) * sizeof *tets);
-    if (!tets)
+    *tets = pr_malloc((n ? n : 1) * sizeof **tets);
+    if (!*tets)
         return PDR_ENOMEM;
-    int rc = 0;
     uint32_t k = 0;
-    for (uint32_t t = 0; t < m->nslots && !rc; t++) {
+    for (uint32_t t = 0; t < m->nslots; t++) {
         if (tm_is_dead(m, t))
             continue;
         if (k >= n)
-            rc = PDR_EINVAL; /* nlive is wrong */
-        else
-            tets[k++] = t;
+            return PDR_EINVAL; /* nlive is wrong */
+        (*tets)[k++] = t;
     }
-    if (!rc) {
-        /* the PEs across faces from s's interface table, not a copy of
-         * them per face: a merge message has millions of faces */
-        par_wire_src src = {&s->r,   m->gid,       tets,   k, NULL, s->rank, s->rank,
-                            s->size, s->next_seq, s->ifc, s->nifc};
+    /* the PEs across faces from s's interface table, not a copy of them
+     * per face: a merge message has millions of faces */
+    *src = (par_wire_src){&s->r,   m->gid,       *tets,  k, NULL, s->rank, s->rank,
+                          s->size, s->next_seq, s->ifc, s->nifc};
+    return 0;
+}
+
+int par_wire_encode_sub(pr_buf *b, const par_sub *s)
+{
+    par_wire_src src;
+    uint32_t *tets = NULL;
+    int rc = sub_src(s, &src, &tets);
+    if (!rc)
         rc = par_wire_encode(b, &src);
-    }
     pr_free(tets);
+    return rc;
+}
+
+/* par_wire_from_sub's part after the tables: e's submesh handed over to
+ * w, and the extension's arrays made. */
+static int wire_of_enc(enc *e, const par_wire_src *src, par_wire *w)
+{
+    const bd_set *bd = &src->r->bd;
+    size_t nv = e->nv, nt = src->nt;
+    w->next_seq = src->next_seq;
+    w->sm = pr_calloc(1, sizeof *w->sm);
+    if (!w->sm)
+        return PDR_ENOMEM;
+    *w->sm = e->sm;
+    /* the tables are w's now (one block each, as pr_submesh_free wants);
+     * the interface table becomes one block too */
+    memset(&e->sm.vert, 0, sizeof e->sm.vert);
+    memset(&e->sm.tet, 0, sizeof e->sm.tet);
+    pr_iftable *f = &w->sm->iface;
+    f->face = f->remote = NULL;
+    if (f->n) {
+        f->face = pr_malloc(2 * (size_t)f->n * sizeof *f->face);
+        if (!f->face) {
+            f->n = 0;
+            return PDR_ENOMEM;
+        }
+        f->remote = f->face + f->n;
+        memcpy(f->face, e->sm.iface.face, (size_t)f->n * sizeof *f->face);
+        memcpy(f->remote, e->sm.iface.remote, (size_t)f->n * sizeof *f->remote);
+    }
+    w->vkind = pr_malloc(nv ? nv : 1);
+    w->vfeat = pr_malloc((nv ? nv : 1) * sizeof *w->vfeat);
+    w->vrins = pr_malloc((nv ? nv : 1) * sizeof *w->vrins);
+    w->own = pr_malloc(nt ? nt * TEXT_ELEM : 1);
+    w->nseg = e->nseg;
+    w->seg_v = pr_malloc((e->nseg ? 2 * (size_t)e->nseg : 1) * sizeof *w->seg_v);
+    w->seg_id = pr_malloc((e->nseg ? e->nseg : 1) * sizeof *w->seg_id);
+    w->seg_flags = pr_malloc((e->nseg ? e->nseg : 1) * sizeof *w->seg_flags);
+    w->nfac = e->nfac;
+    w->fac_v = pr_malloc((e->nfac ? 3 * (size_t)e->nfac : 1) * sizeof *w->fac_v);
+    w->fac_id = pr_malloc((e->nfac ? e->nfac : 1) * sizeof *w->fac_id);
+    w->fac_flags = pr_malloc((e->nfac ? e->nfac : 1) * sizeof *w->fac_flags);
+    if (!w->vkind || !w->vfeat || !w->vrins || !w->own || !w->seg_v || !w->seg_id ||
+        !w->seg_flags || !w->fac_v || !w->fac_id || !w->fac_flags)
+        return PDR_ENOMEM;
+    for (size_t i = 0; i < nv; i++) {
+        uint32_t v = e->verts[i].v;
+        w->vkind[i] = bd->vkind[v];
+        w->vfeat[i] = bd->vfeat[v];
+        w->vrins[i] = bd->vrins[v];
+    }
+    if (put_tet_ext(w->own, e, src))
+        return PDR_EINVAL;
+    w->tflags_le = w->own;
+    w->region_le = w->own + 2 * nt;
+    w->link_le = w->own + 4 * nt;
+    for (uint32_t j = 0; j < e->nseg; j++) {
+        const bd_subseg *g = &bd->segs[e->segs[j]];
+        w->seg_v[2 * (size_t)j] = e->idx[g->v[0]];
+        w->seg_v[2 * (size_t)j + 1] = e->idx[g->v[1]];
+        w->seg_id[j] = g->seg;
+        w->seg_flags[j] = g->flags & PAR_WIRE_BDFLAGS;
+    }
+    for (uint32_t j = 0; j < e->nfac; j++) {
+        const bd_subfac *g = &bd->facs[e->facs[j]];
+        for (int c = 0; c < 3; c++)
+            w->fac_v[3 * (size_t)j + (size_t)c] = e->idx[g->v[c]];
+        w->fac_id[j] = g->facet;
+        w->fac_flags[j] = g->flags & PAR_WIRE_BDFLAGS;
+    }
+    return 0;
+}
+
+void par_wire_pairs_free(par_wire_pairs *a)
+{
+    pr_free(a->hash);
+    memset(a, 0, sizeof *a);
+}
+
+/* The pairs of w, the message wire_of_enc made of src (see
+ * par_wire_from_sub_pairs): face x = 4k+i of the message is face i of
+ * slot t = src->tets[k]; its link c = 4u+j (from w, as sent) is face j of
+ * the slot its mesh link names, whose own link is sent as enc_link makes
+ * it, its vertices as e->idx numbers them and its marker as enc_tets
+ * writes it: the same values as the message's tables hold, read from one
+ * tm_tet of the mesh instead of three tables. */
+static int enc_pairs(const enc *e, const par_wire_src *src, const par_wire *w,
+                     par_wire_pairs *a)
+{
+    const tm_mesh *m = &src->r->m;
+    size_t nt = src->nt, cap = 2 * nt + 1;
+    a->tets = src->nt;
+    a->hash = pr_malloc(cap * sizeof *a->hash);
+    uint64_t *vk = pr_malloc((m->nv ? m->nv : 1) * sizeof *vk);
+    if (!a->hash || !vk) {
+        pr_free(vk);
+        return PDR_ENOMEM;
+    }
+    /* keys of the vertices sent (the others are not read) */
+    for (uint32_t i = 0; i < e->nv; i++)
+        vk[e->verts[i].v] = par_wire_vkey(e->verts[i].gid);
+    for (size_t k = 0; k < nt; k++) {
+        if (k + 16 < nt) {
+            const tm_tet *P = &m->tets[src->tets[k + 16]];
+            for (int i = 0; i < 4; i++)
+                if (!tm_is_special(P->n[i]) && tm_ltet(P->n[i]) < m->nslots) {
+                    WIRE_PREFETCH(&m->tets[tm_ltet(P->n[i])].v[0]);
+                    WIRE_PREFETCH(&m->tets[tm_ltet(P->n[i])].n[3]);
+                }
+        }
+        uint32_t t = src->tets[k];
+        const tm_tet *T = &m->tets[t];
+        for (int i = 0; i < 4; i++) {
+            size_t x = 4 * k + (size_t)i;
+            uint32_t c = par_wire_link(w, x);
+            if (c >= PAR_WIRE_LINK_IFACE)
+                continue; /* loose */
+            if (c < x) {
+                a->down++;
+                continue;
+            }
+            a->up++;
+            /* c names a sent slot, so T's link is that slot's face */
+            uint32_t su = tm_ltet(T->n[i]);
+            int j = (int)(c & 3);
+            const tm_tet *U = &m->tets[su];
+            /* enc_link(u, j) is x exactly when U's link j is face i of
+             * t: a remote link is sent as IFACE, and pos_of is
+             * one-to-one on the slots sent (t's is k) */
+            a->bad_links += U->n[j] != tm_mklink(t, i);
+            uint32_t f[3], y[3];
+            for (int q = 0; q < 3; q++) {
+                f[q] = T->v[tm_face_vtx[i][q]];
+                y[q] = U->v[tm_face_vtx[j][q]];
+            }
+            /* mesh vertices for the message's numbers: one-to-one */
+            int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
+                          ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
+                          ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+            a->misoriented += (size_t)!opposed;
+            if (m->marker)
+                a->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, su, j);
+            a->suspect |= U->v[j] == T->v[i];
+            int tin = ref_is_interior(m, t), uin = ref_is_interior(m, su);
+            if (tin != uin)
+                a->unmarked += !(m->flags[tin ? t : su] & TM_F_FACEMARK(tin ? i : j));
+            if (a->nhash == cap &&
+                pdr_grow((void **)&a->hash, &cap, a->nhash + 1, sizeof *a->hash)) {
+                pr_free(vk);
+                return PDR_ENOMEM;
+            }
+            a->hash[a->nhash++] = par_wire_face_hash(vk[f[0]], vk[f[1]], vk[f[2]]);
+        }
+    }
+    pr_free(vk);
+    return 0;
+}
+
+int par_wire_from_sub(const par_sub *s, par_wire *out)
+{
+    return par_wire_from_sub_pairs(s, out, NULL);
+}
+
+int par_wire_from_sub_pairs(const par_sub *s, par_wire *out, par_wire_pairs *pairs)
+{
+    memset(out, 0, sizeof *out);
+    if (pairs)
+        memset(pairs, 0, sizeof *pairs);
+    par_wire_src src;
+    uint32_t *tets = NULL;
+    enc e;
+    memset(&e, 0, sizeof e);
+    int rc = sub_src(s, &src, &tets);
+    if (!rc)
+        rc = enc_build(&e, &src);
+    if (!rc)
+        rc = wire_of_enc(&e, &src, out);
+    if (!rc && pairs)
+        rc = enc_pairs(&e, &src, out, pairs);
+    enc_free(&e);
+    pr_free(tets);
+    if (rc) {
+        par_wire_clear(out);
+        if (pairs)
+            par_wire_pairs_free(pairs);
+    }
     return rc;
 }
 
@@ -531,6 +753,7 @@ int par_wire_encode_sub(pr_buf *b, const par_sub *s)
 void par_wire_clear(par_wire *w)
 {
     pr_submesh_free(&w->sm);
+    pr_free(w->own);
     pr_free(w->vkind);
     pr_free(w->vfeat);
     pr_free(w->vrins);
@@ -731,6 +954,25 @@ int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out)
     if (rc)
         par_wire_clear(out);
     return rc;
+}
+
+int par_wire_decode_own(const void *msg, size_t len, const plc *p, par_wire *out)
+{
+    int rc = par_wire_decode(msg, len, p, out);
+    if (rc)
+        return rc;
+    /* The three arrays lie one after the other in the message. */
+    size_t nt = out->sm->tet.n;
+    out->own = pr_malloc(nt ? nt * TEXT_ELEM : 1);
+    if (!out->own) {
+        par_wire_clear(out);
+        return PDR_ENOMEM;
+    }
+    memcpy(out->own, out->tflags_le, nt * TEXT_ELEM);
+    out->tflags_le = out->own;
+    out->region_le = out->own + 2 * nt;
+    out->link_le = out->own + 4 * nt;
+    return 0;
 }
 
 /* ----------------------------------------------------------------- build */

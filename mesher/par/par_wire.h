@@ -99,11 +99,12 @@ typedef struct par_wire_src {
     size_t nifc;
 } par_wire_src;
 
-/* A decoded message. Owns every array (par_wire_clear) but the per-
- * tetrahedron ones of the extension, which it reads in place in the
- * message, little-endian (par_wire_tflags, _region, _link): 20 bytes per
- * tetrahedron, which for a merge message of 10^6 tetrahedra took longer
- * to copy (into fresh pages) than to read twice. */
+/* A decoded message. Owns every array (par_wire_clear) but, from
+ * par_wire_decode, the per-tetrahedron ones of the extension, which it
+ * reads in place in the message, little-endian (par_wire_tflags, _region,
+ * _link): 20 bytes per tetrahedron, which for a merge message of 10^6
+ * tetrahedra took longer to copy (into fresh pages) than to read twice.
+ * From par_wire_decode_own and par_wire_from_sub they are in own. */
 typedef struct par_wire {
     pr_submesh *sm;     /* vertex table, tetrahedron table, interface faces */
     uint64_t next_seq;
@@ -113,6 +114,7 @@ typedef struct par_wire {
     const uint8_t *tflags_le; /* u16 [sm->tet.n], in the message */
     const uint8_t *region_le; /* u16 [sm->tet.n], in the message */
     const uint8_t *link_le;   /* u32 [4 sm->tet.n], in the message */
+    uint8_t *own;       /* NULL, or the block of the three arrays above */
     uint32_t nseg;
     uint32_t *seg_v;    /* [2 nseg] */
     uint32_t *seg_id;   /* [nseg] */
@@ -122,6 +124,49 @@ typedef struct par_wire {
     uint32_t *fac_id;
     uint16_t *fac_flags;
 } par_wire;
+
+/* The merge's hashes of vertex sets (par/par_merge.c, steps 4-6): a key
+ * per vertex, one mix of its gid, summed over a face's vertices (so that
+ * their order does not matter) and mixed again. */
+static inline uint64_t par_wire_mix(uint64_t x)
+{
+    x *= UINT64_C(0x9E3779B97F4A7C15);
+    x ^= x >> 32;
+    x *= UINT64_C(0xD6E8FEB86659FD93);
+    x ^= x >> 32;
+    return x;
+}
+static inline uint64_t par_wire_vkey(uint64_t gid)
+{
+    return par_wire_mix(gid + UINT64_C(0x2545F4914F6CDD1D));
+}
+static inline uint64_t par_wire_face_hash(uint64_t ka, uint64_t kb, uint64_t kc)
+{
+    return par_wire_mix(ka + kb + kc + 1);
+}
+
+/* What the merge's step 4 finds in one message (par/par_merge.h,
+ * par_merge_check_ahead): each pair of faces linked within it, seen from
+ * its lower face 4t+i < 4u+j, checked as the merge checks it. Owns hash. */
+typedef struct par_wire_pairs {
+    uint32_t tets;                 /* the message's tetrahedra (a check) */
+    size_t up, down;               /* links up (to a higher face) and down */
+    size_t bad_links;              /* links up whose other side does not
+                                      link back */
+    size_t misoriented;            /* pairs not one triangle seen from its
+                                      two sides */
+    size_t marker_mismatch;        /* pairs with two markers */
+    int suspect;                   /* a pair with one vertex opposite on both
+                                      sides (two tetrahedra, one vertex set) */
+    size_t unmarked;               /* pairs with one side interior (not
+                                      exterior, not a ghost) whose face is
+                                      unmarked there (ref_unmarked_bounds) */
+    uint64_t *hash;                /* [nhash] each pair's face hash, in face
+                                      order (par_wire_face_hash of gids) */
+    size_t nhash;
+} par_wire_pairs;
+
+void par_wire_pairs_free(par_wire_pairs *a);
 
 /* Appends the message for src to b. A face whose neighbour is sent too
  * gets its link; one with a PE in face_pe gets PAR_WIRE_LINK_IFACE; any
@@ -139,6 +184,26 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src);
  * value out of range) or PDR_ENOMEM. */
 int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out);
 void par_wire_clear(par_wire *w);
+
+/* par_wire_decode, then the per-tetrahedron arrays of the extension
+ * copied into out->own (20 bytes per tetrahedron, against the whole
+ * message): msg need not outlive *out. For a receiver that must let the
+ * message go (an active message's handler). Returns as par_wire_decode. */
+int par_wire_decode_own(const void *msg, size_t len, const plc *p, par_wire *out);
+
+/* The decoded form of the message par_wire_encode_sub would make of s,
+ * built in memory without the bytes (no message to write, check and
+ * read): the merge of rank 0's own submesh. Every field equals what
+ * par_wire_decode gives for that message (test_par compares them); out
+ * borrows nothing from s, which may be freed next. Returns as
+ * par_wire_encode_sub; out is empty on error. */
+int par_wire_from_sub(const par_sub *s, par_wire *out);
+
+/* par_wire_from_sub, and with pairs not NULL the pairs of out checked on
+ * the way, from s's mesh, where the two sides of a face lie closer than in
+ * the message's tables: *pairs gets what par_merge_check_ahead(out)
+ * would (test_par compares them), empty on error. */
+int par_wire_from_sub_pairs(const par_sub *s, par_wire *out, par_wire_pairs *pairs);
 
 /* The flags (PAR_WIRE_TFLAGS bits) and region of tetrahedron k < sm->tet.n
  * and the link of face x < 4 sm->tet.n of a decoded message (each checked
