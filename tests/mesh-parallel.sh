@@ -111,8 +111,10 @@ grep -q '"work_clock": "cpu"' "$tmp/clk-cpu/table1-1.json" || fail "--work-clock
 grep -q '"latency_tolerance_wall"' "$tmp/clk-cpu/table1-1.json" || fail "no wall-clock tolerance"
 grep -q '^work times on the CPU clock on 2 of 2 PEs' "$tmp/clk-cpu.out" ||
     fail "--work-clock cpu: summary: $(grep -i clock "$tmp/clk-cpu.out")"
-run clk-wall cic -n 2 -a 1e-4 --work-clock wall --stats "$tmp/clk-wall"
-grep -q '"work_clock": "wall"' "$tmp/clk-wall/table1-0.json" || fail "--work-clock wall: JSON row"
+# (--stats makes the directory's missing parents, as mkdir -p does.)
+run clk-wall cic -n 2 -a 1e-4 --work-clock wall --stats "$tmp/clk/wall"
+grep -q '"work_clock": "wall"' "$tmp/clk/wall/table1-0.json" || fail "--work-clock wall: JSON row"
+[ -s "$tmp/clk/wall/stats-1.json" ] || fail "no runtime stats of PE 1 in $tmp/clk/wall"
 ! grep -q '^work times on the CPU clock' "$tmp/clk-wall.out" || fail "--work-clock wall: summary"
 timeout 60 "$PDR" mesh -n 2 --work-clock sundial -o "$tmp/clk-bad" "$tmp/cic.poly" >"$tmp/clk-bad.out" 2>&1
 rc=$?

@@ -1,13 +1,11 @@
 /* cli/mesh_par.c -- the parallel driver of 'pdr mesh' (see cli/mesh_par.h). */
 #include "config.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include <sys/stat.h>
 
 #include "pr_alloc.h"
 #include "am.h"
@@ -184,7 +182,7 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
     char path[4096];
     if (snprintf(path, sizeof path, "%s/table1-%d.json", dir, rank) >= (int)sizeof path)
         return PDR_EINVAL;
-    if (mkdir(dir, 0777) && errno != EEXIST)
+    if (pdr_mkdir_p(dir))
         return PDR_EIO;
     outfile of;
     if (outfile_open(&of, path, NULL))
