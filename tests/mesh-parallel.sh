@@ -7,6 +7,8 @@
 #    (tests/data/surf/gridcube.off), checked the same way;
 #  - 4 PEs, 32 parts, injected latency 100us-1ms: setbacks and distributed
 #    cavities both happened, and the mesh is still correct;
+#  - the summary's refinement line: its points by kind add up to the
+#    vertices added;
 #  - --work-clock cpu|wall: the JSON rows and the summary say which;
 #  - a bad input: every PE exits, status 1, file:line message, no file;
 #  - a PE killed mid-refinement: the job ends non-zero within seconds with
@@ -42,6 +44,14 @@ run() { # NAME DOMAIN ARGS...: a parallel run that must succeed and check
         fail "$name: tetrahedra left above the bound: $(grep '^left' "$tmp/$name.out")"
     grep -q '^table 1 (s):' "$tmp/$name.out" || fail "$name: no Table 1 rows"
     grep -q '^  worst PE [0-9]' "$tmp/$name.out" || fail "$name: no worst-PE row"
+    # The refinement's points by kind add up to the vertices it added
+    # (the kinds once left out the points that made Mo and could wrap
+    # below zero; in the constrained mode the vertices added were eight
+    # short, the corners of the box around the domain).
+    added=$(sed -n 's/^refinement: \([0-9]*\) vertices added (\([0-9]*\) tetrahedra, \([0-9]*\) subfacet, \([0-9]*\) subsegment points).*/\1 \2+\3+\4/p' \
+        "$tmp/$name.out")
+    [ -n "$added" ] && [ "${added% *}" -eq $((${added#* })) ] ||
+        fail "$name: $(grep '^refinement' "$tmp/$name.out")"
     for f in "$tmp"/*.tmp.*; do [ -e "$f" ] && fail "$name: temporary file left: $f"; done
     return 0
 }

@@ -355,6 +355,23 @@ static void mo_unqueue(ref_mesher *r)
         m->flags[t] &= (uint16_t)~TM_F_QUEUED;
 }
 
+/* How many of the merged mesh's vertices have a gid below g (its
+ * vertices 1.. hold their gids in ascending order, par_merge.h; Mo's
+ * vertex v has gid (0, v), par_decomp.c, and the PEs' new vertices come
+ * after them). */
+static uint32_t merged_below(const tm_mesh *m, uint64_t g)
+{
+    uint32_t lo = 1, hi = m->nv;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (m->gid[mid] < g)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo - 1;
+}
+
 /* What rank 0's refinement before the PEs' did (refine_alone). */
 enum { PRE_NONE, PRE_ALONE, PRE_PAUSED };
 
@@ -574,10 +591,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
             status = finish_alone(&c, size, po) ? PDR_EXIT_FAIL : PDR_EXIT_OK;
             goto done;
         }
-        /* The refinement's counts start from Mo's, which rank 0 refined
-         * part of the way (refine_alone). */
-        if (pre == PRE_PAUSED)
-            sum = mo_st;
+        /* The refinement's counts start from Mo's: rank 0 refined the
+         * conforming mesh part of the way (refine_alone) or to Mo's size
+         * (prepare), and the summary counts the points added since the
+         * conforming mesh (mp_print_mesh_summary). */
+        sum = mo_st;
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
@@ -815,6 +833,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     c.have_r = 1;
     c.refined = 1;
     c.r.st = sum;
+    /* "vertices added" counts from the conforming mesh's vertices (v0,
+     * mp_export); the merged mesh holds only those of the PEs'
+     * tetrahedra (in the constrained mode not the corners of the box
+     * around the domain, im.c), and they get its first numbers. */
+    c.v0 = 1 + merged_below(&c.r.m, pr_gid_make(0, c.v0));
     /* When some PE may have passed on a wrong region or exterior flag, or
      * left a piece missing, rank 0 finishes the merged mesh itself
      * (par_merge_reclassify): a few sequential steps. */
