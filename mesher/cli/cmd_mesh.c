@@ -567,13 +567,7 @@ static int run_pipeline(mp_ctx *c, const mp_opts *opts)
     do
         rc = mesh_stages(c, &read);
     while (mp_retry_exact_facets(c, opts, rc, read));
-    if (!rc)
-        rc = mp_write(c);
-    if (!rc)
-        rc = mp_report(c);
-    if (!rc && c->o.check)
-        rc = mp_verify(c);
-    return rc;
+    return rc ? rc : mp_conclude(c, NULL, NULL);
 }
 
 int pdr_cmd_mesh(int argc, char **argv)
