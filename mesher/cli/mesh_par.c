@@ -617,11 +617,20 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
             status = mp_conclude(&c, alone_lines, &a) ? PDR_EXIT_FAIL : PDR_EXIT_OK;
             goto done;
         }
-        /* The refinement's counts start from Mo's: rank 0 refined the
-         * conforming mesh part of the way (refine_alone) or to Mo's size
-         * (prepare), and the summary counts the points added since the
-         * conforming mesh (mp_print_mesh_summary). */
-        sum = mo_st;
+        /* The refinement's counts start from Mo's, which rank 0 refined
+         * part of the way (refine_alone). A Mo refined to its size
+         * (prepare) gives its points and rejections only, which the
+         * summary counts from the conforming mesh on (mp_print_mesh_summary);
+         * the other counts, bounds of rank 0's finish among them
+         * (stuck_splits), start from the PEs' alone. */
+        if (pre == PRE_PAUSED) {
+            sum = mo_st;
+        } else {
+            sum.tet_points = mo_st.tet_points;
+            sum.fac_points = mo_st.fac_points;
+            sum.seg_points = mo_st.seg_points;
+            sum.rejected = mo_st.rejected;
+        }
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
