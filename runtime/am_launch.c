@@ -45,6 +45,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
@@ -156,7 +157,8 @@ static void usage(const launch *L, FILE *out)
             "      --ssh CMD           remote shell command (default $AM_SSH or "
             "ssh)\n"
             "      --stats DIR         every PE writes DIR/stats-RANK.json at "
-            "am_finalize\n"
+            "am_finalize (DIR\n"
+            "                          and its missing parents are created)\n"
             "      --no-curve          tcp without CURVE (no encryption, no keys)\n"
             "      --write-keys FILE   only write a CURVE key file for P PEs "
             "started by another\n"
@@ -173,6 +175,48 @@ static void usage(const launch *L, FILE *out)
             "rank and peers in AM_* environment variables (see am_init in "
             "am.h).\n",
             L->prog, EXIT_TIMEOUT);
+}
+
+/* ------------------------------------------------------------ directories */
+
+/* mkdir of a prefix of the --stats path: 0 when it is a directory
+ * afterwards (made now, or before, perhaps by another process). */
+static int make_dir(const char *dir)
+{
+    if (!mkdir(dir, 0777))
+        return 0;
+    int e = errno;
+    struct stat sb;
+    if (!stat(dir, &sb)) {
+        if (S_ISDIR(sb.st_mode))
+            return 0;
+        e = ENOTDIR;
+    }
+    errno = e;
+    return -1;
+}
+
+/* Creates path and the directories above it that are missing, as
+ * 'mkdir -p' does: 0, or -1 with errno set. */
+static int make_dirs(const char *path)
+{
+    size_t n = strlen(path);
+    if (!n || n >= PATH_MAX) {
+        errno = n ? ENAMETOOLONG : ENOENT;
+        return -1;
+    }
+    char buf[PATH_MAX];
+    memcpy(buf, path, n + 1);
+    for (size_t i = 1; i < n; i++) {
+        if (buf[i] != '/' || buf[i - 1] == '/')
+            continue;
+        buf[i] = '\0';
+        int rc = make_dir(buf);
+        buf[i] = '/';
+        if (rc)
+            return -1;
+    }
+    return make_dir(buf);
 }
 
 /* ---------------------------------------------------------------- hostfile */
@@ -1272,7 +1316,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
     for (int r = 0; r < L.np; r++)
         L.status[r] = -1;
     if (stats) {
-        if (mkdir(stats, 0777) != 0 && errno != EEXIST) {
+        if (make_dirs(stats)) {
             lerr(&L, "cannot create --stats directory %s: %s", stats,
                  strerror(errno));
             goto out;

@@ -7,6 +7,8 @@
 #    (tests/data/surf/gridcube.off), checked the same way;
 #  - 4 PEs, 32 parts, injected latency 100us-1ms: setbacks and distributed
 #    cavities both happened, and the mesh is still correct;
+#  - the summary's refinement line: its points by kind add up to the
+#    vertices added;
 #  - --work-clock cpu|wall: the JSON rows and the summary say which;
 #  - a bad input: every PE exits, status 1, file:line message, no file;
 #  - a PE killed mid-refinement: the job ends non-zero within seconds with
@@ -42,6 +44,14 @@ run() { # NAME DOMAIN ARGS...: a parallel run that must succeed and check
         fail "$name: tetrahedra left above the bound: $(grep '^left' "$tmp/$name.out")"
     grep -q '^table 1 (s):' "$tmp/$name.out" || fail "$name: no Table 1 rows"
     grep -q '^  worst PE [0-9]' "$tmp/$name.out" || fail "$name: no worst-PE row"
+    # The refinement's points by kind add up to the vertices it added
+    # (the kinds once left out the points that made Mo and could wrap
+    # below zero; in the constrained mode the vertices added were eight
+    # short, the corners of the box around the domain).
+    added=$(sed -n 's/^refinement: \([0-9]*\) vertices added (\([0-9]*\) tetrahedra, \([0-9]*\) subfacet, \([0-9]*\) subsegment points).*/\1 \2+\3+\4/p' \
+        "$tmp/$name.out")
+    [ -n "$added" ] && [ "${added% *}" -eq $((${added#* })) ] ||
+        fail "$name: $(grep '^refinement' "$tmp/$name.out")"
     for f in "$tmp"/*.tmp.*; do [ -e "$f" ] && fail "$name: temporary file left: $f"; done
     return 0
 }
@@ -111,8 +121,10 @@ grep -q '"work_clock": "cpu"' "$tmp/clk-cpu/table1-1.json" || fail "--work-clock
 grep -q '"latency_tolerance_wall"' "$tmp/clk-cpu/table1-1.json" || fail "no wall-clock tolerance"
 grep -q '^work times on the CPU clock on 2 of 2 PEs' "$tmp/clk-cpu.out" ||
     fail "--work-clock cpu: summary: $(grep -i clock "$tmp/clk-cpu.out")"
-run clk-wall cic -n 2 -a 1e-4 --work-clock wall --stats "$tmp/clk-wall"
-grep -q '"work_clock": "wall"' "$tmp/clk-wall/table1-0.json" || fail "--work-clock wall: JSON row"
+# (--stats makes the directory's missing parents, as mkdir -p does.)
+run clk-wall cic -n 2 -a 1e-4 --work-clock wall --stats "$tmp/clk/wall"
+grep -q '"work_clock": "wall"' "$tmp/clk/wall/table1-0.json" || fail "--work-clock wall: JSON row"
+[ -s "$tmp/clk/wall/stats-1.json" ] || fail "no runtime stats of PE 1 in $tmp/clk/wall"
 ! grep -q '^work times on the CPU clock' "$tmp/clk-wall.out" || fail "--work-clock wall: summary"
 timeout 60 "$PDR" mesh -n 2 --work-clock sundial -o "$tmp/clk-bad" "$tmp/cic.poly" >"$tmp/clk-bad.out" 2>&1
 rc=$?

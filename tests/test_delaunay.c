@@ -918,6 +918,26 @@ START_TEST(locked_tets_block_the_search)
 }
 END_TEST
 
+/* The memory accounting counts the lock summary bits: enabling locks on
+ * a built mesh adds an owner word and a bit per slot (tm_bytes_per_tet),
+ * and the owner words and the bit words of the slots in use
+ * (tm_bytes_used). */
+START_TEST(bytes_per_tet_count_the_lock_bits)
+{
+    tm_mesh m;
+    random_mesh(&m, 300, 5, 0);
+    ck_assert_double_eq(tm_bytes_per_tet(&m), (double)(sizeof(tm_tet) + sizeof(uint16_t)));
+    double per = tm_bytes_per_tet(&m);
+    size_t used = tm_bytes_used(&m), n = m.nslots;
+    ck_assert_uint_gt(n, 64);
+    ck_assert_int_eq(tm_enable(&m, TM_FEAT_LOCKS), 0);
+    ck_assert_uint_eq(m.nslots, n);
+    ck_assert_double_eq(tm_bytes_per_tet(&m) - per, 4.0 + 1.0 / 8.0);
+    ck_assert_uint_eq(tm_bytes_used(&m) - used, 4 * n + (n + 63) / 64 * 8);
+    tm_free(&m);
+}
+END_TEST
+
 /* The summary bits of the locks (tm_is_locked) against the owners. */
 static void assert_lock_bits(const tm_mesh *m)
 {
@@ -1232,6 +1252,7 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, special_links_are_reported_once_each);
     tcase_add_test(tc, locked_tets_block_the_search);
     tcase_add_test(tc, check_locks_reads_the_lock_bits);
+    tcase_add_test(tc, bytes_per_tet_count_the_lock_bits);
     tcase_add_test(tc, flip23_makes_a_bipyramid_delaunay);
     tcase_add_test(tc, flip32_makes_a_bipyramid_delaunay);
     tcase_add_test(tc, flips_keep_marked_faces);

@@ -285,7 +285,7 @@ int pdr_cmd_delaunay(int argc, char **argv)
         if (out)
             printf("write seconds:        %.3f (%s.node, %s.ele%s)\n", t_written - t_checked, out,
                    out, faces ? ", .face" : "");
-        printf("mesh bytes per tet:   %.1f (%zu bytes per tet slot, %zu per vertex)\n",
+        printf("mesh bytes per tet:   %.1f (%g bytes per tet slot, %zu per vertex)\n",
                ntets ? (double)mesh_bytes / (double)ntets : 0.0, tm_bytes_per_tet(&m),
                tm_bytes_per_vertex(&m));
         printf("peak RSS bytes:       %zu (%.1f per tet)\n", rss,

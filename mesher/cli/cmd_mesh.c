@@ -130,7 +130,8 @@ static void usage(FILE *f)
             "                       own: steadier while other work runs) or auto (core\n"
             "                       where there are as many PEs as cores, not under fifo)\n"
             "      --stats DIR      every PE writes DIR/table1-RANK.json (and, with -n,\n"
-            "                       the runtime's DIR/stats-RANK.json)\n"
+            "                       the runtime's DIR/stats-RANK.json); DIR and its\n"
+            "                       missing parents are created\n"
             "      --submeshes      every PE also writes its part as BASE.pRANK.node/.ele\n"
             "With -a V the initial mesh of a parallel run is refined to about 10^5\n"
             "tetrahedra as in the paper, or a tenth of the expected final size if that is\n"
@@ -568,13 +569,7 @@ static int run_pipeline(mp_ctx *c, const mp_opts *opts)
     do
         rc = mesh_stages(c, &read);
     while (mp_retry_exact_facets(c, opts, rc, read));
-    if (!rc)
-        rc = mp_write(c);
-    if (!rc)
-        rc = mp_report(c);
-    if (!rc && c->o.check)
-        rc = mp_verify(c);
-    return rc;
+    return rc ? rc : mp_conclude(c, NULL, NULL);
 }
 
 int pdr_cmd_mesh(int argc, char **argv)

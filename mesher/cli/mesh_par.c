@@ -1,13 +1,11 @@
 /* cli/mesh_par.c -- the parallel driver of 'pdr mesh' (see cli/mesh_par.h). */
 #include "config.h"
 
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include <sys/stat.h>
 
 #include "pr_alloc.h"
 #include "am.h"
@@ -253,7 +251,7 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
     char path[4096];
     if (snprintf(path, sizeof path, "%s/table1-%d.json", dir, rank) >= (int)sizeof path)
         return PDR_EINVAL;
-    if (mkdir(dir, 0777) && errno != EEXIST)
+    if (pdr_mkdir_p(dir))
         return PDR_EIO;
     outfile of;
     if (outfile_open(&of, path, NULL))
@@ -352,6 +350,32 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
                100.0 * par_table1_tolerance_wall(&avg));
 }
 
+/* Rank 0's lines about the parallel job: Table 1 and the times of its
+ * stages (mp_conclude's lines). */
+typedef struct job_info {
+    const par_table1 *rows; /* one per PE */
+    int size;               /* PEs */
+    uint32_t parts;
+    size_t mo_tets;
+    /* seconds: distribute, refine, gather, merge, rank 0's finish (part
+     * of the merge), and the distribution's Mo, partition and send */
+    double sec[8];
+} job_info;
+
+static void job_lines(const mp_ctx *c, void *arg)
+{
+    const job_info *j = arg;
+    const double *t = j->sec;
+    if (c->o.quiet)
+        return;
+    print_table1(j->rows, j->size, j->parts, j->mo_tets);
+    printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s (of "
+           "which rank 0's finish %.3f)\n",
+           t[0], t[1], t[2], t[3], t[4]);
+    /* The distribution's parts, for the paper's Table 2. */
+    printf("distribute: Mo %.3f, partition %.3f, send %.3f s\n", t[5], t[6], t[7]);
+}
+
 /* PDR_PAR_TRACE=SECONDS: a line per PE that often on stderr (debugging). */
 static void trace_line(void *arg, const par_sub *s, const par_table1 *t)
 {
@@ -424,6 +448,23 @@ static void mo_unqueue(ref_mesher *r)
     tm_mesh *m = &r->m;
     for (uint32_t t = 0; t < m->nslots; t++)
         m->flags[t] &= (uint16_t)~TM_F_QUEUED;
+}
+
+/* How many of the merged mesh's vertices have a gid below g (its
+ * vertices 1.. hold their gids in ascending order, par_merge.h; Mo's
+ * vertex v has gid (0, v), par_decomp.c, and the PEs' new vertices come
+ * after them). */
+static uint32_t merged_below(const tm_mesh *m, uint64_t g)
+{
+    uint32_t lo = 1, hi = m->nv;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (m->gid[mid] < g)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo - 1;
 }
 
 /* What rank 0's refinement before the PEs' did (refine_alone). */
@@ -561,22 +602,21 @@ static int load(const job *j, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
     return rc;
 }
 
-/* Rank 0, when it finished the mesh alone (refine_alone): the rest of
- * the sequential pipeline (cmd_mesh.c, run_pipeline), and a line that
- * says so in place of Table 1. */
-static int finish_alone(mp_ctx *c, int size, const mpar_opts *po)
+/* Rank 0, when it finished the mesh alone (refine_alone): the line that
+ * says so in place of Table 1 (mp_conclude's lines). */
+typedef struct alone_info {
+    int size;           /* PEs in the job */
+    long rank0_points;  /* --rank0-points */
+} alone_info;
+
+static void alone_lines(const mp_ctx *c, void *arg)
 {
-    int rc = mp_write(c);
-    if (!rc && !c->o.quiet)
+    const alone_info *a = arg;
+    if (!c->o.quiet)
         printf("parallel: %d PEs; rank 0 refined the mesh alone: it was finished within "
                "--rank0-points %ld points, too small a job for the parallel refinement to "
                "pay; the other PEs had nothing to do\n",
-               size, po->rank0_points);
-    if (!rc)
-        rc = mp_report(c);
-    if (!rc && c->o.check)
-        rc = mp_verify(c);
-    return rc;
+               a->size, a->rank0_points);
 }
 
 int mpar_run(const mp_opts *mo, const mpar_opts *po)
@@ -656,13 +696,24 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         if (prc)
             goto done;
         if (pre == PRE_ALONE) {
-            status = finish_alone(&c, size, po) ? PDR_EXIT_FAIL : PDR_EXIT_OK;
+            alone_info a = {size, po->rank0_points};
+            status = mp_conclude(&c, alone_lines, &a) ? PDR_EXIT_FAIL : PDR_EXIT_OK;
             goto done;
         }
         /* The refinement's counts start from Mo's, which rank 0 refined
-         * part of the way (refine_alone). */
-        if (pre == PRE_PAUSED)
+         * part of the way (refine_alone). A Mo refined to its size
+         * (prepare) gives its points and rejections only, which the
+         * summary counts from the conforming mesh on (mp_print_mesh_summary);
+         * the other counts, bounds of rank 0's finish among them
+         * (stuck_splits), start from the PEs' alone. */
+        if (pre == PRE_PAUSED) {
             sum = mo_st;
+        } else {
+            sum.tet_points = mo_st.tet_points;
+            sum.fac_points = mo_st.fac_points;
+            sum.seg_points = mo_st.seg_points;
+            sum.rejected = mo_st.rejected;
+        }
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
@@ -924,6 +975,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     c.have_r = 1;
     c.refined = 1;
     c.r.st = sum;
+    /* "vertices added" counts from the conforming mesh's vertices (v0,
+     * mp_export); the merged mesh holds only those of the PEs'
+     * tetrahedra (in the constrained mode not the corners of the box
+     * around the domain, im.c), and they get its first numbers. */
+    c.v0 = 1 + merged_below(&c.r.m, pr_gid_make(0, c.v0));
     /* When some PE may have passed on a wrong region or exterior flag, or
      * left a piece missing, rank 0 finishes the merged mesh itself
      * (par_merge_reclassify): a few sequential steps. */
@@ -1009,20 +1065,15 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     /* The parallel stage, for the summary's rate: from Mo to the merged
      * mesh (distribution, refinement, gathering, merge). */
     c.sec[MP_REFINE] = t_merged - t_prep[0];
-    if ((rc = mp_export(&c)) || (rc = mp_write(&c)))
+    if ((rc = mp_export(&c)))
         goto done;
-    if (!c.o.quiet) {
-        print_table1(rows, size, po->parts ? po->parts : (uint32_t)size, mo_tets);
-        printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s (of "
-               "which rank 0's finish %.3f)\n",
-               t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm, t_cls);
-        /* The distribution's parts, for the paper's Table 2. */
-        printf("distribute: Mo %.3f, partition %.3f, send %.3f s\n", t_prep[1] - t_prep[0],
-               t_prep[2] - t_prep[1], t_start - t_prep[2]);
-    }
-    rc = mp_report(&c);
-    if (!rc && c.o.check)
-        rc = mp_verify(&c);
+    job_info ji = {rows,
+                   size,
+                   po->parts ? po->parts : (uint32_t)size,
+                   mo_tets,
+                   {t_start - t_prep[0], t_end - t_start, t_gathered - t_end, t_merged - tm, t_cls,
+                    t_prep[1] - t_prep[0], t_prep[2] - t_prep[1], t_start - t_prep[2]}};
+    rc = mp_conclude(&c, job_lines, &ji);
     status = rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
 done:
     if (min.w)

@@ -14,9 +14,9 @@
  *             Table 1 row to rank 0 (and writes its part with
  *             --submeshes, its row as JSON with --stats);
  *   rank 0:   merges the submeshes into one mesh, checking that every
- *             interface face matches (par/par_merge.h), then mp_export,
- *             mp_write, mp_report, and the Table 1 rows of the worst PE
- *             and of the average.
+ *             interface face matches (par/par_merge.h), then mp_export
+ *             and mp_conclude: the files, the Table 1 rows of the worst
+ *             PE and of the average, the report.
  *
  * A failure on rank 0 before the refinement (bad input) is sent to every
  * PE, which then exits 1 without a message of its own; rank 0 has

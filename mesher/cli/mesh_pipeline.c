@@ -817,3 +817,17 @@ int mp_verify(mp_ctx *c)
         vf_print(&r, stdout);
     return d ? PDR_ETOPOLOGY : 0;
 }
+
+/* ----------------------------------------------------------- conclude */
+
+int mp_conclude(mp_ctx *c, mp_lines_fn *lines, void *arg)
+{
+    int rc = mp_write(c);
+    if (!rc && lines)
+        lines(c, arg);
+    if (!rc)
+        rc = mp_report(c);
+    if (!rc && c->o.check)
+        rc = mp_verify(c);
+    return rc;
+}

@@ -14,6 +14,9 @@
  *   mp_report        quality, what was left above the bound, the times
  *   mp_verify        exact verification (--check)        "check: ..."
  *
+ * mp_conclude runs the last three in order, with a driver's own lines
+ * after the files are written.
+ *
  * Each stage returns 0 or a negative PDR_E* code. A stage that fails has
  * already told the user why (the reader's or a writer's file messages, or
  * "pdr mesh: <reason>", on stderr; mp_verify's defects on stdout), so its
@@ -184,5 +187,15 @@ int mp_report(mp_ctx *c);
  * orientation, local Delaunay property. Returns 0, PDR_ETOPOLOGY (defects
  * found and listed on stdout) or PDR_ENOMEM. */
 int mp_verify(mp_ctx *c);
+
+/* A driver's own summary lines, printed between "wrote ..." and the
+ * quality (mp_conclude); arg is the driver's. */
+typedef void mp_lines_fn(const mp_ctx *c, void *arg);
+
+/* The tail of every run once out holds the mesh: mp_write, then
+ * lines(c, arg) when lines is not NULL, mp_report, and mp_verify with
+ * --check; each only when the stages before it succeeded. Returns 0 or
+ * the first failure's code. */
+int mp_conclude(mp_ctx *c, mp_lines_fn *lines, void *arg);
 
 #endif /* PDR_MESH_PIPELINE_H */

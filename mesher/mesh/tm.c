@@ -429,10 +429,16 @@ void tm_remove_ghosts(tm_mesh *m)
     m->vhint[TM_VINF] = TM_NONE;
 }
 
-size_t tm_bytes_per_tet(const tm_mesh *m)
+/* The whole bytes of a slot: everything but its lock summary bit. */
+static size_t slot_bytes(const tm_mesh *m)
 {
     return sizeof(tm_tet) + sizeof(uint16_t) + (m->marker ? 4 * sizeof(int32_t) : 0) +
            (m->lock ? sizeof(uint32_t) : 0);
+}
+
+double tm_bytes_per_tet(const tm_mesh *m)
+{
+    return (double)slot_bytes(m) + (m->locked ? 1.0 / 8.0 : 0.0);
 }
 
 size_t tm_bytes_per_vertex(const tm_mesh *m)
@@ -442,5 +448,6 @@ size_t tm_bytes_per_vertex(const tm_mesh *m)
 
 size_t tm_bytes_used(const tm_mesh *m)
 {
-    return (size_t)m->nslots * tm_bytes_per_tet(m) + (size_t)m->nv * tm_bytes_per_vertex(m);
+    size_t bits = m->locked ? ((size_t)m->nslots + 63) / 64 * sizeof(uint64_t) : 0;
+    return (size_t)m->nslots * slot_bytes(m) + bits + (size_t)m->nv * tm_bytes_per_vertex(m);
 }

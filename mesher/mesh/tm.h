@@ -311,10 +311,13 @@ void tm_rebuild_hints(tm_mesh *m);
  * TM_LINK_NONE). */
 void tm_remove_ghosts(tm_mesh *m);
 
-/* Bytes held by the mesh arrays for the slots and vertices in use. */
+/* Bytes held by the mesh arrays for the slots and vertices in use (the
+ * lock summary bits in whole 64-bit words). */
 size_t tm_bytes_used(const tm_mesh *m);
-/* Bytes per tetrahedron slot and per vertex, with the enabled features. */
-size_t tm_bytes_per_tet(const tm_mesh *m);
+/* Bytes per tetrahedron slot and per vertex, with the enabled features;
+ * a slot's is fractional with locks (its summary bit, an eighth of a
+ * byte). */
+double tm_bytes_per_tet(const tm_mesh *m);
 size_t tm_bytes_per_vertex(const tm_mesh *m);
 
 #endif /* PDR_TETMESH_H */
