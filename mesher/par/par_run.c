@@ -525,8 +525,9 @@ static int chain_item(par_run *pr, par_item *it)
  * saves a thread start and a round of the loop per item, and a clock
  * read: the next item's compute segment starts where the last one ended
  * (segment_end), so the bookkeeping between two items counts in the
- * second's time. The bound keeps the polls about as frequent as without
- * chains (the loop polls at most every POLL_GAP, 20 us, anyway). */
+ * second's time. The loop polls between chains (at most every POLL_GAP,
+ * 20 us), so the bound is also how long a frame for this PE may wait:
+ * PAR_RUN_CHAIN_S (par_run.h) weighs that against the loop rounds. */
 static void refine_thread(am_ctx_t *am, void *arg)
 {
     par_item *it = arg;
