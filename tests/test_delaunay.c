@@ -849,6 +849,13 @@ START_TEST(special_links_are_reported_once_each)
             ck_assert_uint_eq(c.bnd[i].tet, c.bnd[i].outer == TM_LINK_REMOTE(7) ? t : tm_ltet(l));
         }
     ck_assert_int_ne(remote, 0); /* each side reported at most once (bits) */
+    /* nremote counts them, for callers that skip the boundary of a cavity
+     * with none. */
+    size_t nremote = 0;
+    for (size_t i = 0; i < c.nbnd; i++)
+        nremote += c.bnd[i].reason == DT_BND_REMOTE;
+    ck_assert_uint_eq(c.nremote, nremote);
+    ck_assert_uint_gt(c.nremote, 0);
     for (size_t i = 0; i < c.nbnd; i++)
         for (size_t j = 0; j < i; j++)
             ck_assert(c.bnd[i].tet != c.bnd[j].tet || c.bnd[i].face != c.bnd[j].face);
@@ -861,6 +868,7 @@ START_TEST(special_links_are_reported_once_each)
         for (size_t i = 0; i < c.nbnd; i++)
             domain += c.bnd[i].reason == DT_BND_DOMAIN;
         ck_assert_int_gt(domain, 0);
+        ck_assert_uint_eq(c.nremote, 0);
         dt_cavity_abandon(&m, &c);
     } else {
         ck_assert_int_eq(c.status, DT_OUTSIDE_DOMAIN);
@@ -976,8 +984,23 @@ START_TEST(check_locks_reads_the_lock_bits)
             tm_set_lock(&m, u, 3 + u % 5);
     assert_lock_bits(&m);
     uint32_t slots = m.nslots;
+    /* The arrays grow into memory that held other data (freed just
+     * before, so that the allocator hands it out again): every slot up to
+     * the new capacity must still read free, lock and bit alike, since
+     * tm__take_slot clears a lock only where the bit says one is held. */
+    size_t junk_n = 8 * (size_t)m.tcap;
+    void *junk[8];
+    for (int k = 0; k < 8; k++) {
+        junk[k] = malloc(junk_n * sizeof(uint32_t));
+        ck_assert_ptr_nonnull(junk[k]);
+        memset(junk[k], 0xA5, junk_n * sizeof(uint32_t));
+    }
+    for (int k = 0; k < 8; k++)
+        free(junk[k]);
     ck_assert_int_eq(tm_reserve(&m, m.nv, 8 * (size_t)m.tcap), 0);
     assert_lock_bits(&m);
+    for (uint32_t u = slots; u < m.tcap; u++)
+        ck_assert_uint_eq(m.lock[u], 0);
     uint32_t v = 0;
     while (v < slots && (tm_is_dead(&m, v) || !m.lock[v]))
         v++;

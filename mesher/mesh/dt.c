@@ -258,20 +258,15 @@ static inline int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *s
     return 0;
 }
 
-int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned flags,
-                     dt_cavity *c)
+/* The search of dt_cavity_search once its mode of locking is known:
+ * lock 0 none, 1 take (DT_LOCK), 2 check (DT_CHECK_LOCKS). Inlined once
+ * per mode, so that each copy tests only what its mode needs: the
+ * sequential mesher's has no lock test at all, and a PE's local search
+ * reads one summary bit per tetrahedron it visits. */
+static inline __attribute__((always_inline)) int search_locked(tm_mesh *m, const double p[3],
+                                                               uint32_t start, unsigned flags,
+                                                               dt_cavity *c, const int lock)
 {
-    if (c->pending)
-        dt_cavity_abandon(m, c);
-    memcpy(c->p, p, sizeof c->p);
-    c->flags = flags;
-    c->status = DT_OK;
-    c->ntets = c->nbnd = c->nnew = c->nmarked = 0;
-    c->located = c->dup_vertex = c->blocker = TM_NONE;
-    int lock = !m->lock ? 0 : (flags & DT_LOCK) ? 1 : (flags & DT_CHECK_LOCKS) ? 2 : 0;
-    if (lock == 1)
-        c->nheld = 0;
-
     uint32_t t0 = start;
     if (flags & DT_LOCATE) {
         tm_link exit = TM_LINK_NONE;
@@ -339,7 +334,9 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
         for (int f = 0; f < 4; f++) {
             tm_link l = T->n[f];
             if (tm_is_special(l)) {
-                rc = add_bface(c, t, f, l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE, l);
+                int remote = l != TM_LINK_NONE;
+                rc = add_bface(c, t, f, remote ? DT_BND_REMOTE : DT_BND_DOMAIN, l);
+                c->nremote += (size_t)remote;
                 continue;
             }
             int crossed = 0;
@@ -450,6 +447,26 @@ int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned fla
     return 0;
 }
 
+int dt_cavity_search(tm_mesh *m, const double p[3], uint32_t start, unsigned flags,
+                     dt_cavity *c)
+{
+    if (c->pending)
+        dt_cavity_abandon(m, c);
+    memcpy(c->p, p, sizeof c->p);
+    c->flags = flags;
+    c->status = DT_OK;
+    c->ntets = c->nbnd = c->nnew = c->nmarked = c->nremote = 0;
+    c->located = c->dup_vertex = c->blocker = TM_NONE;
+    int lock = !m->lock ? 0 : (flags & DT_LOCK) ? 1 : (flags & DT_CHECK_LOCKS) ? 2 : 0;
+    if (lock == 1) {
+        c->nheld = 0;
+        return search_locked(m, p, start, flags, c, 1);
+    }
+    if (lock == 2)
+        return search_locked(m, p, start, flags, c, 2);
+    return search_locked(m, p, start, flags, c, 0);
+}
+
 int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
 {
     for (size_t i = 0; i < c->nbnd; i++) {
@@ -500,7 +517,7 @@ int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t
         }
         /* The boundary again: every face of a cavity tetrahedron whose
          * neighbour is not in the cavity. */
-        c->nbnd = c->nmarked = 0;
+        c->nbnd = c->nmarked = c->nremote = 0;
         for (size_t i = 0; i < c->ntets; i++) {
             uint32_t t = c->tets[i];
             const tm_tet *T = &m->tets[t];
@@ -518,6 +535,7 @@ int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t
                 if (add_bface(c, t, f, reason, l))
                     return PDR_ENOMEM;
                 c->nmarked += reason == DT_BND_MARKED;
+                c->nremote += reason == DT_BND_REMOTE;
             }
         }
     }
@@ -535,7 +553,7 @@ int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n,
     memcpy(c->p, p, sizeof c->p);
     c->flags = flags;
     c->status = DT_OK;
-    c->ntets = c->nbnd = c->nnew = c->nmarked = 0;
+    c->ntets = c->nbnd = c->nnew = c->nmarked = c->nremote = 0;
     c->located = tets[0];
     c->dup_vertex = c->blocker = TM_NONE;
     if (n > c->cap_tets && pdr_grow((void **)&c->tets, &c->cap_tets, n, sizeof *c->tets))
@@ -569,6 +587,7 @@ int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n,
                 return PDR_ENOMEM;
             }
             c->nmarked += reason == DT_BND_MARKED;
+            c->nremote += reason == DT_BND_REMOTE;
         }
     }
     return 0;

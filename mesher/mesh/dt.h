@@ -122,6 +122,9 @@ typedef struct dt_cavity {
     int (*may_cross)(void *arg, const tm_mesh *m, uint32_t t, int f);
     void *cross_arg;
     size_t nmarked;      /* boundary faces of reason DT_BND_MARKED */
+    size_t nremote;      /* boundary faces of reason DT_BND_REMOTE: 0 for
+                            a cavity on this PE alone, which its callers
+                            then need not look through */
     /* Commit scratch: local numbers of the boundary vertices and a table
      * edge (local a, local b) -> first new face seen on it; every entry is
      * consumed by the second face, so it is empty between commits. */

@@ -51,7 +51,12 @@ static int set_tcap(tm_mesh *m, size_t cap)
         (m->lock && resize((void **)&m->lock, cap, sizeof(uint32_t))))
         return PDR_ENOMEM;
     if (m->lock) {
-        /* The summary bits (tm.h, tm_set_lock): the new words zeroed. */
+        /* New slots are free (lock 0), so that a bit clear always means
+         * lock[t] == 0 (tm__take_slot clears only what its bit says is
+         * held); and the summary bits (tm.h, tm_set_lock): the new words
+         * zeroed. */
+        if (cap > m->tcap)
+            memset(m->lock + m->tcap, 0, (cap - m->tcap) * sizeof(uint32_t));
         size_t had = ((size_t)m->tcap + 63) / 64, words = (cap + 63) / 64 + 1;
         if (resize((void **)&m->locked, words, sizeof(uint64_t)))
             return PDR_ENOMEM;

@@ -253,7 +253,12 @@ static inline uint32_t tm__take_slot(tm_mesh *m)
         int32_t *mk = m->marker + 4 * (size_t)t;
         mk[0] = mk[1] = mk[2] = mk[3] = 0;
     }
-    if (m->lock)
+    /* A slot freed while locked keeps its lock until it is taken again;
+     * every other slot's lock is 0 already (the arrays grow with free
+     * locks, tm.c): only the summary bit, which stays in cache, is read,
+     * and lock[t], an array the search seldom touches, only written when
+     * the bit is set. */
+    if (m->lock && tm_is_locked(m, t))
         tm__unlock_slot(m, t);
     return t;
 }

@@ -891,8 +891,12 @@ static void reset_attempt(par_cav *c)
     part_clear(&c->own);
     c->ngt = c->ngv = c->ngp = c->nface = c->nreq = 0;
     c->parts.n = 0;
-    hmap_free(&c->gvmap);
-    hmap_free(&c->facemap);
+    /* Only a distributed attempt fills the maps: a local one (nearly
+     * every attempt) frees nothing. */
+    if (c->gvmap.cap)
+        hmap_free(&c->gvmap);
+    if (c->facemap.cap)
+        hmap_free(&c->facemap);
     c->pending = c->failed = c->err = c->distributed = 0;
 }
 
@@ -932,10 +936,7 @@ static int own_search(par_cav *c, const double p[3], uint32_t start, dt_cavity *
      * waits, is searched again taking its locks. */
     unsigned fl = c->cc->search_flags;
     int rc = dt_cavity_search(m, p, start, DT_CHECK_LOCKS | fl, d);
-    int local = !rc && d->status == DT_OK;
-    for (size_t i = 0; local && i < d->nbnd; i++)
-        if (d->bnd[i].reason == DT_BND_REMOTE)
-            local = 0;
+    int local = !rc && d->status == DT_OK && d->nremote == 0;
     if (!rc && d->status == DT_OK && !local) {
         rc = dt_cavity_search(m, p, start, DT_LOCK | fl, d);
         *remote = 1; /* the same cavity, if it is one (DT_OK) */

@@ -186,7 +186,7 @@ static int hook_committed(void *arg, uint32_t v, const dt_cavity *c)
     uint64_t gid = par_sub_new_gid(s);
     m->gid[v] = gid;
     int rc = par_sub_map_vertex(s, gid, v);
-    for (size_t i = 0; i < c->nbnd && !rc; i++) {
+    for (size_t i = 0; i < c->nbnd && c->nremote && !rc; i++) {
         tm_link l = c->bnd[i].outer;
         if (c->bnd[i].reason == DT_BND_REMOTE && l != TM_LINK_NONE)
             s->ifc[l - TM_LINK_SPECIAL].local = tm_mklink(c->newtets[i], 3);
@@ -270,6 +270,21 @@ static int check_sub(par_run *pr, const char *when)
                 rep.misoriented, rep.bad_remote, rep.stale_ifaces, rep.open_faces,
                 rep.bad_vertices, rep.bad_counts);
     return PDR_ETOPOLOGY;
+}
+
+/* ref_interior_tets(r) without reading every tetrahedron: the live ones
+ * that are no ghost (m->nlive - m->nghost, kept exact: par_verify_sub
+ * checks both) less those flagged exterior, found in the flags (2 bytes
+ * a slot instead of the tetrahedra's 32). Taken at the end of the
+ * refinement, whose time it counts in. */
+static size_t interior_tets(const ref_mesher *r)
+{
+    const tm_mesh *m = &r->m;
+    size_t n = (size_t)m->nlive - m->nghost;
+    for (uint32_t t = 0; t < m->nslots; t++)
+        if ((m->flags[t] & (TM_F_DEAD | REF_F_EXTERIOR)) == REF_F_EXTERIOR && !tm_is_ghost(m, t))
+            n--;
+    return n;
 }
 
 /* ------------------------------------------------------------ threads */
@@ -510,8 +525,9 @@ static int chain_item(par_run *pr, par_item *it)
  * saves a thread start and a round of the loop per item, and a clock
  * read: the next item's compute segment starts where the last one ended
  * (segment_end), so the bookkeeping between two items counts in the
- * second's time. The bound keeps the polls about as frequent as without
- * chains (the loop polls at most every POLL_GAP, 20 us, anyway). */
+ * second's time. The loop polls between chains (at most every POLL_GAP,
+ * 20 us), so the bound is also how long a frame for this PE may wait:
+ * PAR_RUN_CHAIN_S (par_run.h) weighs that against the loop rounds. */
 static void refine_thread(am_ctx_t *am, void *arg)
 {
     par_item *it = arg;
@@ -708,7 +724,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->cav_dist = pr->cc.st.gathers_dist;
     row->tets_in = pr->cc.st.tets_in;
     row->tets_out = pr->cc.st.tets_out;
-    row->tets_end = ref_interior_tets(&s->r);
+    row->tets_end = interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
     row->work = pr->work;

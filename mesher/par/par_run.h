@@ -134,9 +134,13 @@
 /* Chains (par_run.c, refine_thread): a cavity thread whose item is done
  * takes the next one itself while its first item began less than this
  * many seconds ago, instead of ending (pdr mesh: PDR_PAR_CHAIN=SECONDS,
- * negative for none). On 2 PEs at 10^6 tetrahedra three items in four
- * are chained; see bench/parallel.md, run 15. */
-#define PAR_RUN_CHAIN_S 20e-6
+ * negative for none). The loop polls between chains, so this is also
+ * how long a reply or request may wait here; it costs little next to a
+ * round trip between two busy PEs under --sched fifo (0.2-0.5 ms, most
+ * of it ZeroMQ's I/O threads waiting for a core: bench/parallel.md, run
+ * 18). 20 us (run 15: three items in four chained on 2 PEs) was about
+ * 2-4% slower there than 50 us, which chains about 10 items. */
+#define PAR_RUN_CHAIN_S 50e-6
 /* Handler ids used by the parallel refinement (5 of them from here). */
 #define PAR_RUN_HANDLER_BASE 100
 
