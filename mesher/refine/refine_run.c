@@ -1866,18 +1866,20 @@ static int run_and_reclassify(ref_mesher *r)
     return rc;
 }
 
-/* Second passes for the constrained mode: the tetrahedra given up as
- * degenerate (mostly "unseen": faces no flip mends fold the cavity of
- * their circumcentre) and the others given up away from small input
- * angles (ref__at_small_angle; most of them because the cavity of the
- * subsegment split they ask for folds the same way) are queued again
- * with r->shrink_pass set, under which such a cavity of a circumcentre
- * is shrunk to a star (shrink_unseen) and such a subsegment split of one
- * of them (r->leftover, not of the tetrahedra its splits make) takes the
- * tetrahedra around the subsegment (edge_star_cavity, refine_cdt.c);
- * while points are added, at most REF_SHRINK_PASSES times. Those next
- * to small angles are left: retried, they made more (CGAL's handle.off
- * 11,269 -> 13,803 above ratio 2; QUALITY.md). */
+/* Second passes for the constrained mode. Queued again, with
+ * r->shrink_pass set: the tetrahedra given up as degenerate (mostly
+ * "unseen": faces no flip mends fold the cavity of their circumcentre,
+ * which is then shrunk to a star, shrink_unseen), and those given up with
+ * a radius-edge ratio above the bound away from small input angles
+ * (ref__at_small_angle), most of them because the cavity of the
+ * subsegment split they asked for folds the same way: such a split, asked
+ * for by one of them (r->leftover; not by the tetrahedra the passes
+ * make), takes the tetrahedra around the subsegment (edge_star_cavity,
+ * refine_cdt.c). While points are added, at most REF_SHRINK_PASSES
+ * times. Left alone: those next to small angles (retried, CGAL's
+ * handle.off left 13,803 above ratio 2 instead of 11,269), and those
+ * left for the size bound or as slivers (retried, gridtorus.off -a 2e-4
+ * on 2 PEs kept faces no flip mends). QUALITY.md has the measurements. */
 static int shrink_passes(ref_mesher *r)
 {
     tm_mesh *m = &r->m;
@@ -1886,12 +1888,15 @@ static int shrink_passes(ref_mesher *r)
         size_t queued = 0;
         r->nleftover = 0;
         for (uint32_t t = 0; t < m->nslots && !rc; t++) {
-            if (!ref_is_interior(m, t) || !(m->flags[t] & REF_F_GIVEUP) ||
-                (!(m->flags[t] & REF_F_DEGENERATE) && ref__at_small_angle(r, t)))
+            if (!ref_is_interior(m, t) || !(m->flags[t] & REF_F_GIVEUP))
+                continue;
+            double cc[3], q2;
+            int why = ref__tet_bad(r, t, cc, &q2);
+            if (!(m->flags[t] & REF_F_DEGENERATE) &&
+                (!why || !(r->b2 > 0 && q2 >= r->b2) || ref__at_small_angle(r, t)))
                 continue;
             m->flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE);
-            double cc[3];
-            if (!ref__tet_bad(r, t, cc, NULL))
+            if (!why)
                 continue;
             rc = queue_tet(r, t);
             if (!rc)
