@@ -360,6 +360,16 @@ static void left_site(const ref_mesher *r, uint32_t t, int *kind, uint32_t *feat
     *feature = 0;
 }
 
+int ref__seg_small_angle(const ref_mesher *r, uint32_t seg)
+{
+    const plc *p = r->p;
+    if (!p->v_minang || !p->seg_mindih)
+        return 1;
+    return seg < p->nseg &&
+           (p->seg_mindih[seg] < FM_SHARP_DIH || p->v_minang[p->segs[seg].v[0]] < FM_ACUTE_ANG ||
+            p->v_minang[p->segs[seg].v[1]] < FM_ACUTE_ANG);
+}
+
 int ref__at_small_angle(const ref_mesher *r, uint32_t t)
 {
     const plc *p = r->p;
@@ -376,9 +386,7 @@ int ref__at_small_angle(const ref_mesher *r, uint32_t t)
                 return 1;
             break;
         case BD_V_SEGMENT:
-            if (f < p->nseg &&
-                (p->seg_mindih[f] < FM_SHARP_DIH || p->v_minang[p->segs[f].v[0]] < FM_ACUTE_ANG ||
-                 p->v_minang[p->segs[f].v[1]] < FM_ACUTE_ANG))
+            if (ref__seg_small_angle(r, f))
                 return 1;
             break;
         default:
