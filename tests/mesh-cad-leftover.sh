@@ -8,18 +8,20 @@
 # given up because the subsegment split their circumcentre asked for had
 # no cavity: the constrained cavity of a point on the subsegment folded
 # behind faces no flip mends, and could not be shrunk to a star. The
-# passes after the run (shrink_passes, refine_run.c) now queue every
-# tetrahedron the run gave up, and a subsegment split one of those asks
-# for whose cavity folds takes the tetrahedra around the subsegment
+# passes after the run (shrink_passes, refine_run.c) now queue the
+# tetrahedra the run gave up above the radius-edge bound away from small
+# input angles, and a subsegment split one of those asks for whose cavity
+# folds takes the tetrahedra around the subsegment
 # instead (edge_star_cavity, refine_cdt.c), as a split that a face no flip
 # mends asks for does. Before: pinion 247 left above ratio 2 (TetGen 3),
 # pinion_small 164 (TetGen 7), joint 64 (TetGen 5), 44 of joint's given up
-# elsewhere; after: 0, 2, 8 and none.
+# elsewhere; after: 0, 23, 8 and none (the splits on segments at a small
+# input angle keep their old rule).
 #
 # The summary also says which of the tetrahedra given up for want of a
 # usable circumcentre are flat ("degenerate": no circumcentre in conflict
 # with them) and which had one whose cavity could not be made ("hidden");
-# it had one label for both. joint leaves only hidden ones.
+# it had one label for both. joint's are hidden ones.
 #
 # For each part: exit 0 within the time limit, at most 1.5 times
 # TetGen's tetrahedra, pdr check --plc IN --max-ratio 2 finds nothing but
