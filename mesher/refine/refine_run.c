@@ -1407,7 +1407,8 @@ static int split_tet(ref_mesher *r, uint32_t t)
     if (r->shrink_pass && r->nleftover) {
         uint32_t k[4];
         leftover_key(r, t, k);
-        r->leftover_try = bsearch(k, r->leftover, r->nleftover, sizeof *r->leftover, cmp_key) != NULL;
+        r->leftover_try =
+            bsearch(k, r->leftover, r->nleftover, sizeof *r->leftover, cmp_key) != NULL;
     }
     int rc = split_tet_at(r, t);
     r->leftover_try = 0;
