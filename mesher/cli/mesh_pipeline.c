@@ -698,10 +698,12 @@ static void print_left(const mp_ctx *c)
            c->o.ref.ratio);
     if (st->left_ratio)
         printf(" (%zu next to small input angles, %zu given up elsewhere (their splits "
-               "refused), %zu degenerate or hidden (no usable circumcentre), %zu other)",
+               "refused), %zu degenerate (flat: no circumcentre in conflict), %zu hidden "
+               "(circumcentre's cavity not made), %zu other)",
                st->left_ratio_angle, st->left_ratio_refused, st->left_ratio_degenerate,
+               st->left_ratio_hidden,
                st->left_ratio - st->left_ratio_angle - st->left_ratio_refused -
-                   st->left_ratio_degenerate);
+                   st->left_ratio_degenerate - st->left_ratio_hidden);
     if (st->left_size)
         printf(", %zu above the size bound", st->left_size);
     if (st->left_sliver)

@@ -95,6 +95,7 @@ void ref_free(ref_mesher *r)
     pr_free(r->region);
     pr_free(r->seg_acute);
     pr_free(r->corner_steps);
+    pr_free(r->leftover);
     pr_free(r->fac_needle);
     pr_free(r->bflag);
     pr_free(r->breg);

@@ -286,10 +286,17 @@ typedef struct ref_stats {
     size_t left_ratio_refused; /* ... given up away from those: their
                                   splits refused by the floors and bounds
                                   of the constrained mode or the safety net */
-    size_t left_ratio_degenerate; /* ... circumcentre unusable: not
-                                     finite, no cavity, too near a vertex,
-                                     or hidden (constrained: behind faces
-                                     no flip mends, no constraint between) */
+    size_t left_ratio_degenerate; /* ... given up for want of a usable
+                                     circumcentre, flat: none finite, or
+                                     none in conflict with them
+                                     (ref_count_bad tells them apart from
+                                     the next by that geometry) */
+    size_t left_ratio_hidden; /* ... given up so with a circumcentre in
+                                 conflict with them: its cavity could not
+                                 be made (constrained: behind faces no
+                                 flip mends, no constraint between; or a
+                                 walk that leaves the domain) or it lay
+                                 too near a vertex */
     size_t left_stuck;   /* constrained: faces off the facets left not
                             locally Delaunay (ref_count_bad) */
     size_t left_size;    /* interior tetrahedra above the size bound */
@@ -456,6 +463,15 @@ typedef struct ref_mesher {
                           not with REF_ORDER_LIFO; 0: no check (m->lock
                           may be NULL) */
     int shrink_pass;           /* constrained: shrink unseen cavities (shrink_passes) */
+    uint32_t (*leftover)[4];   /* constrained, in shrink_passes: the
+                                  tetrahedra the run before left (each
+                                  one's vertices, ascending; sorted);
+                                  owned */
+    size_t nleftover, cap_leftover;
+    int leftover_try;          /* split_tet works on one of them: a
+                                  subsegment split it asks for whose
+                                  cavity folds takes the edge star
+                                  (refine_run.c, split_subseg_at) */
     uint32_t shrink_keep;      /* constrained: the bad tetrahedron whose
                                   circumcentre's cavity is shrunk (kept) */
     uint32_t split_a, split_b; /* constrained: the subsegment being split

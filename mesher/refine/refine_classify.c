@@ -360,12 +360,17 @@ static void left_site(const ref_mesher *r, uint32_t t, int *kind, uint32_t *feat
     *feature = 0;
 }
 
-/* Whether given-up tetrahedron t is next to a small input angle: across a
- * seditious small angle (constrained mode), or with a vertex on an acute
- * input vertex, on a sharp segment or on a segment that ends at an acute
- * vertex (the thresholds the input preparation reports, plc/fm.h). Without
- * the PLC's feature angles every one counts as next to a small angle. */
-static int at_small_angle(const ref_mesher *r, uint32_t t)
+int ref__seg_small_angle(const ref_mesher *r, uint32_t seg)
+{
+    const plc *p = r->p;
+    if (!p->v_minang || !p->seg_mindih)
+        return 1;
+    return seg < p->nseg &&
+           (p->seg_mindih[seg] < FM_SHARP_DIH || p->v_minang[p->segs[seg].v[0]] < FM_ACUTE_ANG ||
+            p->v_minang[p->segs[seg].v[1]] < FM_ACUTE_ANG);
+}
+
+int ref__at_small_angle(const ref_mesher *r, uint32_t t)
 {
     const plc *p = r->p;
     if (!p->v_minang || !p->seg_mindih)
@@ -381,9 +386,7 @@ static int at_small_angle(const ref_mesher *r, uint32_t t)
                 return 1;
             break;
         case BD_V_SEGMENT:
-            if (f < p->nseg &&
-                (p->seg_mindih[f] < FM_SHARP_DIH || p->v_minang[p->segs[f].v[0]] < FM_ACUTE_ANG ||
-                 p->v_minang[p->segs[f].v[1]] < FM_ACUTE_ANG))
+            if (ref__seg_small_angle(r, f))
                 return 1;
             break;
         default:
@@ -427,7 +430,7 @@ static int cmp_u64(const void *a, const void *b)
 typedef struct count_share {
     const ref_mesher *r;
     uint32_t lo, hi;          /* slots [lo, hi) */
-    size_t ratio, angle, refused, degenerate, size, sliver;
+    size_t ratio, angle, refused, degenerate, hidden, size, sliver;
     uint64_t *keys;           /* (kind, feature) of each given up */
     size_t nkeys, cap;
 } count_share;
@@ -447,10 +450,20 @@ static int count_share_run(void *arg)
         if (r->b2 > 0 && q >= r->b2) {
             c->ratio++;
             if (m->flags[t] & REF_F_GIVEUP) {
-                if ((m->flags[t] & REF_F_DEGENERATE) || !isfinite(q) || !isfinite(cc[0])) {
+                int finite = isfinite(q) && isfinite(cc[0]) && isfinite(cc[1]) &&
+                             isfinite(cc[2]);
+                if (m->flags[t] & REF_F_DEGENERATE) {
+                    /* split_tet's test of a flat tetrahedron: no
+                     * circumcentre in conflict with it. Otherwise that
+                     * point was usable and its cavity was not. */
+                    if (finite && dt_conflict(m, t, cc) > 0)
+                        c->hidden++;
+                    else
+                        c->degenerate++;
+                } else if (!finite) {
                     c->degenerate++;
                 } else {
-                    if (at_small_angle(r, t))
+                    if (ref__at_small_angle(r, t))
                         c->angle++;
                     else
                         c->refused++;
@@ -491,6 +504,7 @@ void ref_count_bad(ref_mesher *r)
     }
     fj_run(ft, n, n);
     r->st.left_ratio = r->st.left_ratio_angle = r->st.left_ratio_degenerate = 0;
+    r->st.left_ratio_hidden = 0;
     r->st.left_ratio_refused = 0;
     r->st.left_size = r->st.left_sliver = 0;
     /* Also without keep_stuck: a split that a face no flip mends asks for
@@ -502,6 +516,7 @@ void ref_count_bad(ref_mesher *r)
         r->st.left_ratio_angle += sh[i].angle;
         r->st.left_ratio_refused += sh[i].refused;
         r->st.left_ratio_degenerate += sh[i].degenerate;
+        r->st.left_ratio_hidden += sh[i].hidden;
         r->st.left_size += sh[i].size;
         r->st.left_sliver += sh[i].sliver;
     }

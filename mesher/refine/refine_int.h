@@ -196,6 +196,16 @@ uint32_t ref__cdt_blocker(const ref_mesher *r, uint32_t t, const double p[3]);
 uint32_t ref__cdt_seditious(const ref_mesher *r, uint32_t a, uint32_t b);
 /* The same for the shortest edge of tetrahedron t. */
 uint32_t ref__cdt_seditious_tet(const ref_mesher *r, uint32_t t);
+
+/* refine_classify.c: 1 if tetrahedron t is next to a small input angle
+ * (the summary's kind of a given-up tetrahedron): across a seditious small
+ * angle (constrained mode), or with a vertex on an acute input vertex, on
+ * a sharp segment or on a segment that ends at an acute vertex (plc/fm.h
+ * thresholds); every one without the PLC's feature angles. */
+int ref__at_small_angle(const ref_mesher *r, uint32_t t);
+/* 1 if input segment seg is sharp or ends at an acute input vertex (the
+ * segment half of ref__at_small_angle; 1 without the feature angles). */
+int ref__seg_small_angle(const ref_mesher *r, uint32_t seg);
 /* 1 if finite tetrahedron t of m holds p (closed: on a face counts),
  * exactly; 0 for a ghost or when p lies beyond a face. */
 int ref__tet_holds(const tm_mesh *m, uint32_t t, const double p[3]);
