@@ -1881,7 +1881,9 @@ static int run_and_reclassify(ref_mesher *r)
  * for by one of them (r->leftover; not by the tetrahedra the passes
  * make), takes the tetrahedra around the subsegment (edge_star_cavity,
  * refine_cdt.c). While points are added, at most REF_SHRINK_PASSES
- * times. Left alone: those next to small angles (retried, CGAL's
+ * times, and not after the passes have added more than REF_SHRINK_GROWTH
+ * of the vertices before them (pipe.off: faces no flip mends along a
+ * thin tube wall keep asking for splits that resolve little). Left alone: those next to small angles (retried, CGAL's
  * handle.off left 13,803 above ratio 2 instead of 11,269), and those
  * left for the size bound or as slivers (retried, gridtorus.off -a 2e-4
  * on 2 PEs kept faces no flip mends). QUALITY.md has the measurements. */
@@ -1889,7 +1891,9 @@ static int shrink_passes(ref_mesher *r)
 {
     tm_mesh *m = &r->m;
     int rc = 0;
-    for (int pass = 0; pass < REF_SHRINK_PASSES && !rc; pass++) {
+    size_t nv0 = m->nv, added = 0;
+    for (int pass = 0; pass < REF_SHRINK_PASSES && !rc && added <= REF_SHRINK_GROWTH * nv0;
+         pass++) {
         size_t queued = 0;
         r->nleftover = 0;
         for (uint32_t t = 0; t < m->nslots && !rc; t++) {
@@ -1919,8 +1923,10 @@ static int shrink_passes(ref_mesher *r)
         rc = run_and_reclassify(r);
         r->shrink_pass = 0;
         r->nleftover = 0;
-        if (r->st.seg_points + r->st.fac_points + r->st.tet_points == before)
+        size_t now = r->st.seg_points + r->st.fac_points + r->st.tet_points;
+        if (now == before)
             break;
+        added += now - before;
     }
     return rc;
 }
