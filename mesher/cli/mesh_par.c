@@ -450,23 +450,6 @@ static void mo_unqueue(ref_mesher *r)
         m->flags[t] &= (uint16_t)~TM_F_QUEUED;
 }
 
-/* How many of the merged mesh's vertices have a gid below g (its
- * vertices 1.. hold their gids in ascending order, par_merge.h; Mo's
- * vertex v has gid (0, v), par_decomp.c, and the PEs' new vertices come
- * after them). */
-static uint32_t merged_below(const tm_mesh *m, uint64_t g)
-{
-    uint32_t lo = 1, hi = m->nv;
-    while (lo < hi) {
-        uint32_t mid = lo + (hi - lo) / 2;
-        if (m->gid[mid] < g)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo - 1;
-}
-
 /* What rank 0's refinement before the PEs' did (refine_alone). */
 enum { PRE_NONE, PRE_ALONE, PRE_PAUSED };
 
@@ -979,7 +962,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * mp_export); the merged mesh holds only those of the PEs'
      * tetrahedra (in the constrained mode not the corners of the box
      * around the domain, im.c), and they get its first numbers. */
-    c.v0 = 1 + merged_below(&c.r.m, pr_gid_make(0, c.v0));
+    c.v0 = 1 + par_merge_vertices_below(&c.r.m, pr_gid_make(0, c.v0));
     /* When some PE may have passed on a wrong region or exterior flag, or
      * left a piece missing, rank 0 finishes the merged mesh itself
      * (par_merge_reclassify): a few sequential steps. */

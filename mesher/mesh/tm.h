@@ -299,6 +299,16 @@ static inline int32_t tm_face_marker(const tm_mesh *m, uint32_t t, int i)
     return (m->flags[t] & TM_F_FACEMARK(i)) ? m->marker[4 * (size_t)t + (size_t)i] : 0;
 }
 
+/* 1 if triangle y is triangle x seen from its other side: x reversed, in
+ * any of its three rotations (the two faces of one link). Without
+ * branches: which rotation is anyone's guess. */
+static inline int tm_faces_opposed(const uint32_t x[3], const uint32_t y[3])
+{
+    return ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
+           ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
+           ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+}
+
 /* Builds the neighbour links of all live tetrahedra from their vertices by
  * sorting faces: faces shared by two tetrahedra are linked, faces of one
  * tetrahedron get TM_LINK_NONE. *nonmanifold (if not NULL) gets the number

@@ -405,9 +405,7 @@ static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t 
     uint32_t x[3], y[3];
     face_of(m, t, i, x);
     face_of(m, u, j, y);
-    int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
-                  ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
-                  ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+    int opposed = tm_faces_opposed(x, y);
     a->tally.misoriented += (size_t)!opposed;
     /* the merged marker is the sent one + 1, 0 for none */
     a->tally.marker_mismatch += tm_face_marker(m, u, j) != (mk == PR_MARKER_NONE ? 0 : mk + 1);
@@ -697,11 +695,7 @@ static uint64_t check_up(const merge *g, const tm_mesh *m, uint32_t t, int i, tm
     uint32_t x[3], y[3];
     face_of(m, t, i, x);
     face_of(m, u, j, y);
-    /* y must be x reversed, in one of its three rotations: tested
-     * without branches, as the rotation is anyone's guess */
-    int opposed = ((y[0] == x[0]) & (y[1] == x[2]) & (y[2] == x[1])) |
-                  ((y[0] == x[2]) & (y[1] == x[1]) & (y[2] == x[0])) |
-                  ((y[0] == x[1]) & (y[1] == x[0]) & (y[2] == x[2]));
+    int opposed = tm_faces_opposed(x, y);
     k->misoriented += (size_t)!opposed;
     /* the flags first: a small array, and markers are rare */
     k->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, u, j);
@@ -1328,9 +1322,7 @@ int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a)
             f[q] = tv[4 * t + (size_t)tm_face_vtx[i][q]];
             y[q] = tv[4 * u + (size_t)tm_face_vtx[j][q]];
         }
-        int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
-                      ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
-                      ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+        int opposed = tm_faces_opposed(f, y);
         a->misoriented += (size_t)!opposed;
         a->marker_mismatch += mk[x] != mk[c];
         a->suspect |= tv[4 * u + (size_t)j] == tv[4 * t + (size_t)i];
@@ -1419,9 +1411,7 @@ int par_merge_put_missing(pr_buf *b, const par_sub *s, size_t *n)
     return b->err ? PDR_ENOMEM : 0;
 }
 
-/* The merged mesh's vertex with this gid (vertices 1.. hold the gids in
- * ascending order, see the top of par_merge.h), or TM_NONE. */
-static uint32_t merged_vertex(const tm_mesh *m, uint64_t g)
+uint32_t par_merge_vertices_below(const tm_mesh *m, uint64_t g)
 {
     uint32_t lo = 1, hi = m->nv;
     while (lo < hi) {
@@ -1431,7 +1421,14 @@ static uint32_t merged_vertex(const tm_mesh *m, uint64_t g)
         else
             hi = mid;
     }
-    return g != 0 && lo < m->nv && m->gid[lo] == g ? lo : TM_NONE;
+    return lo - 1;
+}
+
+/* The merged mesh's vertex with this gid, or TM_NONE. */
+static uint32_t merged_vertex(const tm_mesh *m, uint64_t g)
+{
+    uint32_t v = par_merge_vertices_below(m, g) + 1;
+    return g != 0 && v < m->nv && m->gid[v] == g ? v : TM_NONE;
 }
 
 int par_merge_add_missing(ref_mesher *r, const void *data, size_t len, size_t *added)

@@ -146,4 +146,8 @@ int par_merge_reclassify(ref_mesher *r, int missing, int refine, size_t *moved,
  * classifies only if a step here meets a doubt. Same outputs. */
 int par_merge_finish_left(ref_mesher *r, size_t *moved, size_t *added);
 
+/* How many of the merged mesh's vertices 1.. have a gid below g (they
+ * hold their gids in ascending order, see the top of this file). */
+uint32_t par_merge_vertices_below(const tm_mesh *m, uint64_t g);
+
 #endif /* PDR_PAR_MERGE_H */

@@ -695,9 +695,7 @@ static int enc_pairs(const enc *e, const par_wire_src *src, const par_wire *w,
                 y[q] = U->v[tm_face_vtx[j][q]];
             }
             /* mesh vertices for the message's numbers: one-to-one */
-            int opposed = ((y[0] == f[0]) & (y[1] == f[2]) & (y[2] == f[1])) |
-                          ((y[0] == f[2]) & (y[1] == f[1]) & (y[2] == f[0])) |
-                          ((y[0] == f[1]) & (y[1] == f[0]) & (y[2] == f[2]));
+            int opposed = tm_faces_opposed(f, y);
             a->misoriented += (size_t)!opposed;
             if (m->marker)
                 a->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, su, j);
