@@ -26,6 +26,12 @@
 # facet recovery adopted the mesh's faces of a region planar only by
 # construction (refine_facrec.c): the same checks, one extraction, and
 # for rotor renumbered too (which had lost its boundary: an empty mesh).
+# rotor_small renumbered (k = 13, c = 17) lost its boundary the same way
+# until adopt (refine_facrec.c) took the faces of one layer where flat
+# tetrahedra lie between two triangulations of a thin facet; cheese
+# renumbered (k = 101, c = 5) until a missing subfacet whose split went
+# to a subsegment that refused it was split at its centroid
+# (refine_run.c) instead of being left missing.
 # Without the package the test is skipped (exit 77), never passed.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
@@ -33,7 +39,7 @@ fail() { echo "FAIL: $*"; exit 1; }
 tmp=$(pwd)/mesh-cad-public.$$
 mkdir -p "$tmp" || exit 99
 trap 'rm -rf "$tmp"' EXIT
-cad_extract "$tmp" part joint oblong helmet anchor spool rotor rotor_small homer
+cad_extract "$tmp" part joint oblong helmet anchor spool rotor rotor_small homer cheese
 data=$tmp/data/meshes
 
 # The same oblong with its vertices renumbered (old vertex i becomes
@@ -59,6 +65,8 @@ renumber() { # K C IN: the OFF file IN renumbered, on stdout
 renumber 101 5 "$data/oblong.off" >"$data/oblong-r101.off" || exit 99
 renumber 13 17 "$data/oblong.off" >"$data/oblong-r13.off" || exit 99
 renumber 101 5 "$data/rotor.off" >"$data/rotor-r101.off" || exit 99
+renumber 13 17 "$data/rotor_small.off" >"$data/rotor_small-r13.off" || exit 99
+renumber 101 5 "$data/cheese.off" >"$data/cheese-r101.off" || exit 99
 
 # name  TetGen's tetrahedra (tetgen -pq2.0, TetGen 1.6)
 while read -r name tetgen; do
@@ -84,6 +92,8 @@ oblong-r13 16910
 rotor 25952
 rotor-r101 25952
 rotor_small 40776
+rotor_small-r13 40776
+cheese-r101 613057
 homer 112225
 EOF
 

@@ -1016,19 +1016,71 @@ static int dedge_add(facrec *s, size_t *n, uint32_t a, uint32_t b, int boundary)
     return 0;
 }
 
+/* Which faces adopt_layer() takes where several faces of the mesh through
+ * a boundary edge have a third corner on the region: the first one found
+ * around the edge, or one whose tetrahedron has its fourth vertex above
+ * (below) every triangle of the region, a face of the upper (lower)
+ * envelope of the faces with corners on the floor. */
+enum { FR_LAYER_ANY, FR_LAYER_UP, FR_LAYER_DOWN, FR_LAYERS };
+
+/* The third corner x of a face a b x of the mesh that adopt_layer() takes
+ * for boundary edge a-b (region on its left, turning as turn in facet f's
+ * 2D view): x a corner of the region on its side, and for FR_LAYER_UP or
+ * FR_LAYER_DOWN the tetrahedron holding a b x with its fourth vertex on
+ * that side of the region. *x is TM_NONE when there is none. Returns 0,
+ * 1 (give up) or a negative code. */
+static int adopt_corner(facrec *s, uint32_t a, uint32_t b, uint32_t f, int turn, int layer,
+                        uint32_t *x)
+{
+    ref_mesher *r = s->r;
+    tm_mesh *m = &r->m;
+    uint32_t t;
+    *x = TM_NONE;
+    if (!ref__find_in_star(m, a, b, TM_NONE, &t))
+        return 1;
+    s->nring = 0;
+    if (ref_around_edge(m, t, a, b, gather, s) != 0)
+        return 1;
+    for (size_t j = 0; j < s->nring; j++) {
+        const uint32_t *tv = m->tets[s->ring[j]].v;
+        for (int k = 0; k < 4; k++) {
+            uint32_t c = tv[k];
+            if (c == a || c == b || c == TM_VINF || s->vside[c] != FR_V_FLOOR)
+                continue;
+            if (ref__orient_facet(r->p, f, X(m, a), X(m, b), X(m, c)) != turn)
+                continue;
+            if (layer != FR_LAYER_ANY) {
+                /* the fourth vertex: the one that is none of a, b, c */
+                uint32_t d = tv[0] + tv[1] + tv[2] + tv[3] - a - b - c;
+                if (d == TM_VINF)
+                    continue;
+                int sd = vside(s, d);
+                if (sd < 0)
+                    return PDR_ENOMEM;
+                if (sd != (layer == FR_LAYER_UP ? FR_V_UP : FR_V_DOWN))
+                    continue;
+            }
+            *x = c;
+            return 0;
+        }
+    }
+    return 0;
+}
+
 /* Step 5 of the top comment: the faces of the mesh that triangulate the
  * region otherwise (the mesh took other diagonals: cocircular vertices of
  * a planar face, or a facet that is planar only up to rounding or the
  * merge's tolerance). They are found from the region's boundary inwards
  * (for each edge, a face of the mesh through it whose third corner is a
  * corner of the region on the region's side in the facet's 2D view,
- * ref__orient_facet) and, if they triangulate the region exactly (every
- * boundary edge used once, every inner edge once each way, all turning as
- * the region's triangles do: by the winding number they tile it), they
- * replace its subfacets in the facet's triangulation. Only corners of the
- * region are used, and they lie on the facet by construction, so the new
- * subfacets do too. Returns 0 (replaced), 1 (not so) or a negative code. */
-static int adopt(facrec *s)
+ * ref__orient_facet, chosen as layer says) and, if they triangulate the
+ * region exactly (every boundary edge used once, every inner edge once
+ * each way, all turning as the region's triangles do: by the winding
+ * number they tile it), they replace its subfacets in the facet's
+ * triangulation. Only corners of the region are used, and they lie on the
+ * facet by construction, so the new subfacets do too. Returns 0
+ * (replaced), 1 (not so) or a negative code. */
+static int adopt_layer(facrec *s, int layer)
 {
     ref_mesher *r = s->r;
     tm_mesh *m = &r->m;
@@ -1062,25 +1114,9 @@ static int adopt(facrec *s)
         fr_dedge e = s->de[i];
         if (e.used)
             continue;
-        uint32_t t;
-        if (!ref__find_in_star(m, e.a, e.b, TM_NONE, &t))
-            return 1;
-        s->nring = 0;
-        if (ref_around_edge(m, t, e.a, e.b, gather, s) != 0)
-            return 1;
-        uint32_t x = TM_NONE;
-        for (size_t j = 0; j < s->nring && x == TM_NONE; j++) {
-            const uint32_t *tv = m->tets[s->ring[j]].v;
-            for (int k = 0; k < 4; k++) {
-                uint32_t c = tv[k];
-                if (c == e.a || c == e.b || c == TM_VINF || s->vside[c] != FR_V_FLOOR)
-                    continue;
-                if (ref__orient_facet(r->p, f, X(m, e.a), X(m, e.b), X(m, c)) != turn)
-                    continue;
-                x = c;
-                break;
-            }
-        }
+        uint32_t x;
+        if ((rc = adopt_corner(s, e.a, e.b, f, turn, layer, &x)))
+            return rc;
         if (x == TM_NONE || ntri == maxtri)
             return 1;
         uint32_t tri[3] = {e.a, e.b, x};
@@ -1116,6 +1152,19 @@ static int adopt(facrec *s)
     }
     s->adopted += s->nreg;
     return 0;
+}
+
+/* adopt_layer with the first face found through each edge, as before;
+ * where that mixes layers (flat tetrahedra with all four corners on the
+ * region lie between faces of the mesh that triangulate it in two ways:
+ * a triangle of one layer then overlaps one of the other, an edge used
+ * twice), with the faces of the upper envelope, then of the lower one. */
+static int adopt(facrec *s)
+{
+    int rc = 1;
+    for (int layer = 0; layer < FR_LAYERS && rc == 1; layer++)
+        rc = adopt_layer(s, layer);
+    return rc;
 }
 
 /* Recovers the region of missing subfacet id: 0 done (cavity

@@ -722,6 +722,32 @@ static int split_encroached_subsegs(ref_mesher *r, double rmin, size_t *done, in
     return 0;
 }
 
+static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], double rmin,
+                            int *result);
+
+/* The recovery with segments first (r->keep_stuck): missing subfacet id,
+ * whose split at c found no valid constrained cavity or went to a
+ * subsegment that refused it, split at its centroid instead, once
+ * (r->centroid_try). The circumcentre of a thin triangle lies far off,
+ * beyond the facet's subsegments or with a wide 2D cavity; the centroid
+ * lies inside it. Returns 1 (and *rc, *result as split_subfac_cdt sets
+ * them) if it was tried, 0 if not (not missing, not in that recovery, or
+ * already a centroid). */
+static int split_at_centroid(ref_mesher *r, uint32_t id, const bd_subfac *G, int missing,
+                             double rmin, int *result, int *rc)
+{
+    if (!missing || !r->keep_stuck || r->centroid_try)
+        return 0;
+    const tm_mesh *m = &r->m;
+    double ctr[3];
+    for (int k = 0; k < 3; k++)
+        ctr[k] = (X(m, G->v[0])[k] + X(m, G->v[1])[k] + X(m, G->v[2])[k]) / 3.0;
+    r->centroid_try = 1;
+    *rc = split_subfac_cdt(r, id, ctr, rmin, result);
+    r->centroid_try = 0;
+    return 1;
+}
+
 /* split_subfac in the constrained mode (refine_cdt.c): the 2D cavity of
  * circumcentre c first, then the 3D cavity that crosses exactly its
  * subfacets. */
@@ -752,6 +778,11 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
         *result = res == SPLIT_DONE        ? SPLIT_DEFERRED
                   : res == SPLIT_ELSEWHERE ? SPLIT_ELSEWHERE
                                            : SPLIT_REFUSED;
+        /* A missing subfacet is not left so (nothing would split it
+         * again, and the exterior would flood in through it: cheese.off
+         * renumbered, 30 subfacets): its centroid. */
+        if (!rc && *result == SPLIT_REFUSED)
+            split_at_centroid(r, id, &G, missing, rmin, result, &rc);
         return rc;
     }
     rc = ref__cdt_search_piece(r, c, G.v[0], G.v[1], G.v[2], missing, 0);
@@ -765,18 +796,9 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
             *result = SPLIT_ELSEWHERE;
             return 0;
         }
-        if (missing && r->keep_stuck && !r->centroid_try) {
-            /* The recovery with segments first: a missing subfacet whose
-             * circumcentre (of a thin triangle: far off, its 2D cavity
-             * wide) has no valid cavity is split at its centroid, once. */
-            double ctr[3];
-            for (int k = 0; k < 3; k++)
-                ctr[k] = (X(m, G.v[0])[k] + X(m, G.v[1])[k] + X(m, G.v[2])[k]) / 3.0;
-            r->centroid_try = 1;
-            rc = split_subfac_cdt(r, id, ctr, rmin, result);
-            r->centroid_try = 0;
+        /* no valid constrained cavity at c */
+        if (split_at_centroid(r, id, &G, missing, rmin, result, &rc))
             return rc;
-        }
         if (missing)
             return hidden_piece(r, c, missing, &r->bd.facs[id].flags, BD_V_FACET, G.facet);
         r->bd.facs[id].flags |= BD_F_TOLERATED;
