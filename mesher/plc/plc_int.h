@@ -47,6 +47,8 @@ int plc__need_line(textin *t, const char *what);
 int plc__expect_eol(textin *t, const char *what);
 /* Reads the next integer of a record that may continue on following lines. */
 int plc__record_long(textin *t, const char *what, long min, long max, long *out);
+/* The same for a number. */
+int plc__record_double(textin *t, const char *what, double *out);
 
 /* --------------------------------------------------- surfaces (plc_surf.c) */
 

@@ -58,26 +58,6 @@ static char *next_word(textin *t, int *rc)
     return textin_word(t);
 }
 
-static int need_long(textin *t, const char *what, long min, long max, long *out)
-{
-    if (textin_at_eol(t)) {
-        int rc = plc__need_line(t, what);
-        if (rc)
-            return rc;
-    }
-    return textin_long(t, what, min, max, out);
-}
-
-static int need_double(textin *t, const char *what, double *out)
-{
-    if (textin_at_eol(t)) {
-        int rc = plc__need_line(t, what);
-        if (rc)
-            return rc;
-    }
-    return textin_double(t, what, out);
-}
-
 int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
 {
     textin t;
@@ -100,7 +80,7 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
         if (!strcmp(w, "End"))
             break;
         if (!strcmp(w, "MeshVersionFormatted")) {
-            if ((rc = need_long(&t, "the format version", 0, 4, &version)))
+            if ((rc = plc__record_long(&t, "the format version", 0, 4, &version)))
                 break;
             if (version != 1 && version != 2) {
                 rc = textin_error(&t, "MeshVersionFormatted %ld is not supported (1 or 2)",
@@ -108,7 +88,7 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
                 break;
             }
         } else if (!strcmp(w, "Dimension")) {
-            if ((rc = need_long(&t, "the dimension", 0, 1000, &dim)))
+            if ((rc = plc__record_long(&t, "the dimension", 0, 1000, &dim)))
                 break;
             if (dim != 3) {
                 rc = textin_error(&t, "Dimension %ld: only 3D meshes can be read", dim);
@@ -121,14 +101,14 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
                 break;
             }
             have_vertices = 1;
-            if ((rc = need_long(&t, "the vertex count", 0, PLC_MAX_COUNT, &n)))
+            if ((rc = plc__record_long(&t, "the vertex count", 0, PLC_MAX_COUNT, &n)))
                 break;
             for (long i = 0; i < n && !rc; i++) {
                 double x[3], ref;
-                if ((rc = need_double(&t, "x coordinate", &x[0])) ||
-                    (rc = need_double(&t, "y coordinate", &x[1])) ||
-                    (rc = need_double(&t, "z coordinate", &x[2])) ||
-                    (rc = need_double(&t, "vertex reference", &ref)))
+                if ((rc = plc__record_double(&t, "x coordinate", &x[0])) ||
+                    (rc = plc__record_double(&t, "y coordinate", &x[1])) ||
+                    (rc = plc__record_double(&t, "z coordinate", &x[2])) ||
+                    (rc = plc__record_double(&t, "vertex reference", &ref)))
                     break;
                 if (plc__weld_vertex(p, &wv, i, x, t.line))
                     rc = plc__oom(&t);
@@ -137,17 +117,17 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
         } else if (!strcmp(w, "Triangles") || !strcmp(w, "Quadrilaterals")) {
             uint32_t k = w[0] == 'T' ? 3 : 4;
             long n;
-            if ((rc = need_long(&t, "the face count", 0, PLC_MAX_COUNT, &n)))
+            if ((rc = plc__record_long(&t, "the face count", 0, PLC_MAX_COUNT, &n)))
                 break;
             for (long i = 0; i < n && !rc; i++) {
                 uint32_t c[4];
                 long v, ref = 0, line = 0;
                 for (uint32_t j = 0; j < k && !rc; j++) {
-                    if (!(rc = need_long(&t, "vertex number", 1, PLC_MAX_COUNT, &v)))
+                    if (!(rc = plc__record_long(&t, "vertex number", 1, PLC_MAX_COUNT, &v)))
                         c[j] = (uint32_t)(v - 1);
                     line = t.line;
                 }
-                if (rc || (rc = need_long(&t, "face reference", -2147483647L, 2147483647L,
+                if (rc || (rc = plc__record_long(&t, "face reference", -2147483647L, 2147483647L,
                                           &ref)))
                     break;
                 if (plc__faces_add(&fs, c, k, (int)ref, line))
@@ -162,11 +142,11 @@ int plc__read_medit(plc *p, FILE *f, const char *path, pdr_diag *diag)
                 break;
             }
             long n;
-            if ((rc = need_long(&t, "the record count", 0, PLC_MAX_COUNT, &n)))
+            if ((rc = plc__record_long(&t, "the record count", 0, PLC_MAX_COUNT, &n)))
                 break;
             for (long i = 0; i < n * skipped[s].values && !rc; i++) {
                 double x;
-                rc = need_double(&t, skipped[s].name, &x);
+                rc = plc__record_double(&t, skipped[s].name, &x);
             }
         }
         if (rc)

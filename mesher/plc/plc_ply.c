@@ -298,17 +298,14 @@ static int next_value(ply_in *in, int type, const char *what, double *out)
 {
     if (in->format != PLY_ASCII)
         return binary_value(in, type, out);
-    int rc;
-    if (textin_at_eol(&in->t) && (rc = plc__need_line(&in->t, what)))
-        return rc;
     if (is_integer_type(type)) {
         long v;
-        if ((rc = textin_long(&in->t, what, -2147483648L, 4294967295L, &v)))
-            return rc;
-        *out = (double)v;
-        return 0;
+        int rc = plc__record_long(&in->t, what, -2147483648L, 4294967295L, &v);
+        if (!rc)
+            *out = (double)v;
+        return rc;
     }
-    return textin_double(&in->t, what, out);
+    return plc__record_double(&in->t, what, out);
 }
 
 /* The count of a list: an integer in [0, max]. */

@@ -100,6 +100,16 @@ int plc__record_long(textin *t, const char *what, long min, long max, long *out)
     return textin_long(t, what, min, max, out);
 }
 
+int plc__record_double(textin *t, const char *what, double *out)
+{
+    if (textin_at_eol(t)) {
+        int rc = plc__need_line(t, what);
+        if (rc)
+            return rc;
+    }
+    return textin_double(t, what, out);
+}
+
 /* ---------------------------------------------------------------- vertices */
 
 /* Reads a vertex list: the header on the current line, then the vertices. */
