@@ -140,14 +140,9 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
     }
     size_t lost = 0;
     for (size_t j = 0; j < p->nregion && !rc; j++) {
-        uint32_t t;
-        tm_link exit;
-        int l = dt_locate(m, p->regions[j].xyz, TM_NONE, &t, &exit);
-        if (l < 0) {
-            rc = l;
+        uint32_t c = located(r, up, p->regions[j].xyz, &rc);
+        if (rc)
             break;
-        }
-        uint32_t c = l == 0 && !tm_is_ghost(m, t) ? uf_find(up, t) : TM_NONE;
         if (c == TM_NONE || state[c] == 1) {
             lost++;
             if (diag)
@@ -164,8 +159,7 @@ int ref_classify(ref_mesher *r, size_t *unreached, size_t *changed, pdr_diag *di
          * seed: the walk draws from the mesh's random state (m->rng), on
          * which every later location depends, so the meshes stay the
          * ones of before. */
-        if ((l = dt_locate(m, p->regions[j].xyz, TM_NONE, &t, &exit)) < 0)
-            rc = l;
+        located(r, up, p->regions[j].xyz, &rc);
     }
     /* every tetrahedron takes its component's state and region */
     for (uint32_t t = 0; t < m->nslots && !rc; t++) {
