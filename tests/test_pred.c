@@ -574,6 +574,12 @@ START_TEST(extreme_exponents_agree_with_gmp)
         int ro = ref_orient3d(p[0], p[1], p[2], p[3]), ri = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ro);
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ri);
+        int xw = pred__orient3d_dw(p[0], p[1], p[2], p[3]);
+        if (xw != 2)
+            ck_assert_int_eq(xw, ro);
+        xw = pred__insphere_dw(p[0], p[1], p[2], p[3], p[4]);
+        if (xw != 2)
+            ck_assert_int_eq(xw, ri);
         for (int st = 0; st <= 3; st++) {
             int x = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
             if (x != 2)
@@ -586,6 +592,75 @@ START_TEST(extreme_exponents_agree_with_gmp)
         ck_assert_int_eq(pred_incircle(p[0], p[1], p[2], p[3]),
                          ref_incircle(p[0], p[1], p[2], p[3]));
     }
+}
+END_TEST
+
+/* Nearly flat tetrahedra and nearly cospherical points with arbitrary
+ * doubles (not lattice points: the differences are inexact), as tessellated
+ * CAD surfaces give them: the two permanent-bounded filters decline, and
+ * the double-word filter must either decline or give the exact sign. It
+ * must also decide most of them (else it would be no filter at all). */
+START_TEST(double_word_filter_agrees_with_gmp)
+{
+    int hard_i = 0, decided_i = 0, hard_o = 0, decided_o = 0;
+    for (int it = 0; it < 6000; it++) {
+        double sc = ldexp(1.0, it % 5 == 0 ? rndint(120) - 60 : rndint(8) - 4);
+        double off = it % 3 == 0 ? 0 : (rnd01() - 0.5) * 1000 * sc;
+        double p[5][3];
+        if (it % 2 == 0) {
+            /* a flat tetrahedron abcd (d on the plane of abc, rounded, then
+             * moved by a few ulps) and a fifth point near it */
+            for (int i = 0; i < 3; i++)
+                for (int k = 0; k < 3; k++)
+                    p[i][k] = (rnd01() - 0.5) * sc + off;
+            double s1 = rnd01() * 2 - 0.5, s2 = rnd01() * 2 - 0.5;
+            for (int k = 0; k < 3; k++)
+                p[3][k] = p[0][k] + s1 * (p[1][k] - p[0][k]) + s2 * (p[2][k] - p[0][k]);
+            p[3][rndint(3)] = ulps(p[3][rndint(3)], rndint(7) - 3);
+            double near = it % 4 == 0 ? 1e-6 : 1;
+            for (int k = 0; k < 3; k++)
+                p[4][k] = p[rndint(4)][k] + (rnd01() - 0.5) * sc * near;
+        } else {
+            /* five points on a sphere, each rounded */
+            double c[3] = {off + sc * rnd01(), off - sc * rnd01(), off}, r = sc * (0.5 + rnd01());
+            for (int i = 0; i < 5; i++) {
+                double v[3], n = 0;
+                for (int k = 0; k < 3; k++) {
+                    v[k] = rnd01() - 0.5;
+                    n += v[k] * v[k];
+                }
+                n = sqrt(n);
+                for (int k = 0; k < 3; k++)
+                    p[i][k] = c[k] + r * v[k] / n;
+            }
+        }
+        int ri = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
+        int f = pred__insphere_filter2(p[0], p[1], p[2], p[3], p[4]);
+        int w = pred__insphere_dw(p[0], p[1], p[2], p[3], p[4]);
+        if (w != 2)
+            ck_assert_int_eq(w, ri);
+        if (f == 2 && ri != 0) {
+            hard_i++;
+            decided_i += w != 2;
+        }
+        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ri);
+        int ro = ref_orient3d(p[0], p[1], p[2], p[3]);
+        f = pred__orient3d_filter2(p[0], p[1], p[2], p[3]);
+        w = pred__orient3d_dw(p[0], p[1], p[2], p[3]);
+        if (w != 2)
+            ck_assert_int_eq(w, ro);
+        if (f == 2 && ro != 0) {
+            hard_o++;
+            decided_o += w != 2;
+        }
+        ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ro);
+    }
+    /* the inputs really are hard for the first filters, and the double-word
+     * filter takes nearly all of them */
+    ck_assert_int_gt(hard_i, 500);
+    ck_assert_int_gt(hard_o, 200);
+    ck_assert_int_ge(decided_i * 10, hard_i * 9);
+    ck_assert_int_ge(decided_o * 10, hard_o * 9);
 }
 END_TEST
 
@@ -658,6 +733,7 @@ static Suite *pred_suite(void)
     tcase_add_test(tc, near_degenerate_2d_agree_with_gmp);
     tcase_add_test(tc, extreme_exponents_agree_with_gmp);
     tcase_add_test(tc, coplanar_incircle_agrees_with_every_sphere);
+    tcase_add_test(tc, double_word_filter_agrees_with_gmp);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -57,6 +57,12 @@
  * margin of the constants above and rules out overflow of the monomials.
  * Outside those ranges the filter declines and exact arithmetic decides.
  *
+ * A third filter, in double-word arithmetic (orient3d and insphere, after
+ * the permanent-bounded second one; derivation at pred__insphere_dw),
+ * decides the nearly flat and nearly cospherical cases that are not
+ * exactly degenerate, which tessellated CAD surfaces make common, for a
+ * fraction of the cost of the exact stages below.
+ *
  * ------------------------------------------------------ exact evaluation
  * A double is m * 2^e with an integer m < 2^53 (subnormals included). A
  * monomial of k doubles is the integer product of their mantissas (at most
@@ -646,6 +652,8 @@ static int orient3d_exact(const double *a, const double *b, const double *c, con
             return 0;
     int s = pred__orient3d_exact(a, b, c, d, 0);
     if (s == 2)
+        s = pred__orient3d_dw(a, b, c, d);
+    if (s == 2)
         s = pred__orient3d_exact(a, b, c, d, 1);
     if (s == 2)
         s = pred__orient3d_exact(a, b, c, d, 2);
@@ -741,6 +749,8 @@ static int insphere_exact(const double *a, const double *b, const double *c, con
 {
     int s = pred__insphere_exact(a, b, c, d, e, 0);
     if (s == 2)
+        s = pred__insphere_dw(a, b, c, d, e);
+    if (s == 2)
         s = pred__insphere_exact(a, b, c, d, e, 1);
     if (s == 2)
         s = pred__insphere_exact(a, b, c, d, e, 2);
@@ -800,6 +810,206 @@ int pred__insphere_filter2(const double *a, const double *b, const double *c, co
         if (det < -bound)
             return -1;
     }
+    return 2;
+}
+
+/* The permanent of the insphere determinant (filter2's P) from the rounded
+ * differences. */
+static double insphere_perm(const double *a, const double *b, const double *c, const double *d,
+                            const double *e)
+{
+    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
+    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
+    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
+    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
+    double la = (ax * ax + ay * ay) + az * az, lb = (bx * bx + by * by) + bz * bz;
+    double lc = (cx * cx + cy * cy) + cz * cz, ld = (dx * dx + dy * dy) + dz * dz;
+    double pab = fabs(ax * by) + fabs(bx * ay), pac = fabs(ax * cy) + fabs(cx * ay);
+    double pad = fabs(ax * dy) + fabs(dx * ay), pbc = fabs(bx * cy) + fabs(cx * by);
+    double pbd = fabs(bx * dy) + fabs(dx * by), pcd = fabs(cx * dy) + fabs(dx * cy);
+    double pbcd = (fabs(bz) * pcd + fabs(cz) * pbd) + fabs(dz) * pbc;
+    double pacd = (fabs(az) * pcd + fabs(cz) * pad) + fabs(dz) * pac;
+    double pabd = (fabs(az) * pbd + fabs(bz) * pad) + fabs(dz) * pab;
+    double pabc = (fabs(az) * pbc + fabs(bz) * pac) + fabs(cz) * pab;
+    return (la * pbcd + lb * pacd) + (lc * pabd + ld * pabc);
+}
+
+/* ============================================ double-word filter
+ * A third filter between the permanent-bounded one and the exact stages:
+ * the insphere determinant in double-word arithmetic (a value is an
+ * unevaluated sum hi + lo of two doubles, |lo| <= ulp(hi) / 2). Far more
+ * cases reach it than degeneracies: a tetrahedron that is nearly flat (a
+ * sliver on a thin input triangle, tessellated CAD surfaces) makes the
+ * determinant tiny next to its permanent for every fifth point, and the
+ * first two filters, with bounds near 2^-49 P, decline; the multi-word
+ * exact stage then costs about a microsecond a test. This filter decides
+ * all but determinants within about 2^-97 P of zero, exact zeros included
+ * never.
+ *
+ * The bound. The differences are exact double-words (two_sum). The
+ * building blocks are the accurate sum of two double-words and the
+ * product of two double-words from Dekker's exact product (Joldes, Muller
+ * and Popescu, "Tight and rigorous error bounds for basic building blocks
+ * of double-word arithmetic", ACM TOMS 2017: relative errors below 3u^2
+ * and 7u^2, u = 2^-53); we take g = 16u^2 per operation. With relative
+ * errors g per operation, a value computed by a tree of operations is off
+ * by at most ((1+g)^K - 1) times its permanent (the same tree with every
+ * input and operation taken in absolute value), K the largest number of
+ * operations on a path where products add their operands' counts and
+ * sums take the larger: 3 for a lift (ax*ax + ay*ay) + az*az, 2 for a
+ * 2x2 minor, 5 for a 3x3 one, 9 for a lift times a minor, 11 for the
+ * determinant. So the error is below 11.01 g P = 176.2 u^2 P < 2^-98.5 P,
+ * P the permanent of the exact differences; P as filter2 computes it from
+ * the rounded differences is at most 1 + 2^-47 times smaller, and the
+ * bound used is 2^-97 P. That model holds without underflow or overflow:
+ * every difference at most 2^100 in magnitude keeps every value below
+ * 2^510 (and Dekker's splitting far from overflow); an underflowed
+ * product or error term is off by at most 2^-1074, amplified by at most
+ * 2^510 through the later products, some hundreds of times: below 2^-550,
+ * negligible next to the bound when P >= 2^-400, which is required. */
+
+typedef struct dw {
+    double h, l;
+} dw;
+
+static inline dw dw_two_sum(double a, double b)
+{
+    double s = a + b, bv = s - a, av = s - bv;
+    dw r = {s, (a - av) + (b - bv)};
+    return r;
+}
+
+static inline dw dw_fast_two_sum(double a, double b)
+{
+    double s = a + b;
+    dw r = {s, b - (s - a)};
+    return r;
+}
+
+/* Dekker's split: a = hi + lo, each with at most 26 significant bits. */
+static inline void dw_split(double a, double *hi, double *lo)
+{
+    double c = 134217729.0 * a; /* 2^27 + 1 */
+    double big = c - a;
+    *hi = c - big;
+    *lo = a - *hi;
+}
+
+/* The exact product a * b as a double-word (Dekker). */
+static inline dw dw_two_prod(double a, double b)
+{
+    double p = a * b, ah, al, bh, bl;
+    dw_split(a, &ah, &al);
+    dw_split(b, &bh, &bl);
+    double err = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    dw r = {p, err};
+    return r;
+}
+
+/* Accurate double-word sum. */
+static inline dw dw_add(dw x, dw y)
+{
+    dw s = dw_two_sum(x.h, y.h), t = dw_two_sum(x.l, y.l);
+    double c = s.l + t.h;
+    dw v = dw_fast_two_sum(s.h, c);
+    double w = t.l + v.l;
+    return dw_fast_two_sum(v.h, w);
+}
+
+static inline dw dw_neg(dw x)
+{
+    dw r = {-x.h, -x.l};
+    return r;
+}
+
+/* Double-word product (without fused multiply-add). */
+static inline dw dw_mul(dw x, dw y)
+{
+    dw c = dw_two_prod(x.h, y.h);
+    double t = x.h * y.l + x.l * y.h;
+    return dw_fast_two_sum(c.h, c.l + t);
+}
+
+int pred__insphere_dw(const double *a, const double *b, const double *c, const double *d,
+                      const double *e)
+{
+    const double *pt[4] = {a, b, c, d};
+    dw r[4][3], l[4];
+    double hi = 0;
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++) {
+            r[i][k] = dw_two_sum(pt[i][k], -e[k]);
+            hi = dmax(hi, fabs(r[i][k].h));
+        }
+    if (!(hi <= 0x1p+100))
+        return 2; /* also NaN and infinities */
+    double perm = insphere_perm(a, b, c, d, e);
+    if (!(perm >= 0x1p-400))
+        return 2;
+    for (int i = 0; i < 4; i++)
+        l[i] = dw_add(dw_add(dw_mul(r[i][0], r[i][0]), dw_mul(r[i][1], r[i][1])),
+                      dw_mul(r[i][2], r[i][2]));
+    /* 2x2 minors of (x, y), as in filter2: ab ac ad bc bd cd */
+    static const int pairs[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    dw mi[6];
+    for (int q = 0; q < 6; q++) {
+        int i = pairs[q][0], j = pairs[q][1];
+        mi[q] = dw_add(dw_mul(r[i][0], r[j][1]), dw_neg(dw_mul(r[j][0], r[i][1])));
+    }
+    enum { AB, AC, AD, BC, BD, CD };
+    static const int tri[4][6] = {
+        {1, 2, 3, CD, BD, BC}, {0, 2, 3, CD, AD, AC}, {0, 1, 3, BD, AD, AB}, {0, 1, 2, BC, AC, AB}};
+    dw t[4];
+    for (int q = 0; q < 4; q++) {
+        const int *T = tri[q];
+        dw m = dw_add(dw_add(dw_mul(r[T[0]][2], mi[T[3]]), dw_neg(dw_mul(r[T[1]][2], mi[T[4]]))),
+                      dw_mul(r[T[2]][2], mi[T[5]]));
+        t[q] = dw_mul(l[q], m);
+    }
+    /* det = (la*D(bcd) - lb*D(acd)) + (lc*D(abd) - ld*D(abc)) */
+    dw det = dw_add(dw_add(t[0], dw_neg(t[1])), dw_add(t[2], dw_neg(t[3])));
+    double v = det.h + det.l, bound = 0x1p-97 * perm;
+    if (v > bound)
+        return 1;
+    if (v < -bound)
+        return -1;
+    return 2;
+}
+
+/* The same for orient3d: -det[a-d; b-d; c-d] evaluated as filter2 does,
+ * K = 5 (2x2 minors 2, times an entry 3, two sums), so the error is below
+ * 5.01 g P < 2^-99.6 P; the bound used is 2^-98 P, under the same
+ * conditions on the differences and P. */
+int pred__orient3d_dw(const double *a, const double *b, const double *c, const double *d)
+{
+    const double *pt[3] = {a, b, c};
+    dw r[3][3];
+    double hi = 0;
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) {
+            r[i][k] = dw_two_sum(pt[i][k], -d[k]);
+            hi = dmax(hi, fabs(r[i][k].h));
+        }
+    if (!(hi <= 0x1p+100))
+        return 2;
+    double ux = r[0][0].h, uy = r[0][1].h, uz = r[0][2].h;
+    double vx = r[1][0].h, vy = r[1][1].h, vz = r[1][2].h;
+    double wx = r[2][0].h, wy = r[2][1].h, wz = r[2][2].h;
+    double perm = fabs(ux) * (fabs(vy * wz) + fabs(vz * wy)) +
+                  fabs(uy) * (fabs(vz * wx) + fabs(vx * wz)) +
+                  fabs(uz) * (fabs(vx * wy) + fabs(vy * wx));
+    if (!(perm >= 0x1p-400))
+        return 2;
+    const dw *u = r[0], *v = r[1], *w = r[2];
+    dw m0 = dw_add(dw_mul(v[1], w[2]), dw_neg(dw_mul(v[2], w[1])));
+    dw m1 = dw_add(dw_mul(v[2], w[0]), dw_neg(dw_mul(v[0], w[2])));
+    dw m2 = dw_add(dw_mul(v[0], w[1]), dw_neg(dw_mul(v[1], w[0])));
+    dw det = dw_add(dw_add(dw_mul(u[0], m0), dw_mul(u[1], m1)), dw_mul(u[2], m2));
+    double x = det.h + det.l, bound = 0x1p-98 * perm;
+    if (x > bound)
+        return -1;
+    if (x < -bound)
+        return 1;
     return 2;
 }
 

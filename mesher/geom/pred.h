@@ -259,5 +259,10 @@ int pred__insphere_filter2(const double *a, const double *b, const double *c, co
 int pred__orient3d_filter(const double *a, const double *b, const double *c, const double *d);
 int pred__insphere_filter(const double *a, const double *b, const double *c, const double *d,
                           const double *e);
+/* The double-word filter between filter2 and the exact stages (bound and
+ * its derivation in geom/pred.c): the sign, or 2 when it cannot decide. */
+int pred__insphere_dw(const double *a, const double *b, const double *c, const double *d,
+                      const double *e);
+int pred__orient3d_dw(const double *a, const double *b, const double *c, const double *d);
 
 #endif /* PDR_PRED_H */
