@@ -1903,31 +1903,51 @@ static int run_and_reclassify(ref_mesher *r)
  * for by one of them (r->leftover; not by the tetrahedra the passes
  * make), takes the tetrahedra around the subsegment (edge_star_cavity,
  * refine_cdt.c). While points are added, at most REF_SHRINK_PASSES
- * times, and not after the passes have added more than REF_SHRINK_GROWTH
+ * times, not after the passes have added more than REF_SHRINK_GROWTH
  * of the vertices before them (pipe.off: faces no flip mends along a
- * thin tube wall keep asking for splits that resolve little). Left alone: those next to small angles (retried, CGAL's
+ * thin tube wall keep asking for splits that resolve little), and not
+ * after a pass that left no fewer tetrahedra to retry than it started
+ * with (CGAL's rotor_small.off: 967, 1,420, 1,948, 2,408 queued in four
+ * passes, each pass leaving more above the bound, the last ones seconds
+ * long). Left alone: those next to small angles (retried, CGAL's
  * handle.off left 13,803 above ratio 2 instead of 11,269), and those
  * left for the size bound or as slivers (retried, gridtorus.off -a 2e-4
  * on 2 PEs kept faces no flip mends). QUALITY.md has the measurements. */
+/* What shrink_passes does with tetrahedron t: 0 nothing, 1 clear its
+ * marks, 2 clear them and queue it. */
+static int shrink_retry(ref_mesher *r, uint32_t t)
+{
+    tm_mesh *m = &r->m;
+    if (!ref_is_interior(m, t) || !(m->flags[t] & REF_F_GIVEUP))
+        return 0;
+    double cc[3], q2;
+    int why = ref__tet_bad(r, t, cc, &q2);
+    if (!(m->flags[t] & REF_F_DEGENERATE) &&
+        (!why || !(r->b2 > 0 && q2 >= r->b2) || ref__at_small_angle(r, t)))
+        return 0;
+    return why ? 2 : 1;
+}
+
 static int shrink_passes(ref_mesher *r)
 {
     tm_mesh *m = &r->m;
     int rc = 0;
-    size_t nv0 = m->nv, added = 0;
+    size_t nv0 = m->nv, added = 0, queued_before = SIZE_MAX;
     for (int pass = 0; pass < REF_SHRINK_PASSES && !rc && added <= REF_SHRINK_GROWTH * nv0;
          pass++) {
         size_t queued = 0;
+        for (uint32_t t = 0; t < m->nslots; t++)
+            queued += shrink_retry(r, t) == 2;
+        if (!queued || queued >= queued_before)
+            break; /* done, or the last pass left no fewer: more only grow */
+        queued_before = queued;
         r->nleftover = 0;
         for (uint32_t t = 0; t < m->nslots && !rc; t++) {
-            if (!ref_is_interior(m, t) || !(m->flags[t] & REF_F_GIVEUP))
-                continue;
-            double cc[3], q2;
-            int why = ref__tet_bad(r, t, cc, &q2);
-            if (!(m->flags[t] & REF_F_DEGENERATE) &&
-                (!why || !(r->b2 > 0 && q2 >= r->b2) || ref__at_small_angle(r, t)))
+            int what = shrink_retry(r, t);
+            if (!what)
                 continue;
             m->flags[t] &= (uint16_t)~(REF_F_GIVEUP | REF_F_DEGENERATE);
-            if (!why)
+            if (what == 1)
                 continue;
             rc = queue_tet(r, t);
             if (!rc)
@@ -1935,9 +1955,8 @@ static int shrink_passes(ref_mesher *r)
                               sizeof *r->leftover);
             if (!rc)
                 leftover_key(r, t, r->leftover[r->nleftover++]);
-            queued++;
         }
-        if (rc || !queued)
+        if (rc)
             break;
         qsort(r->leftover, r->nleftover, sizeof *r->leftover, cmp_key);
         size_t before = r->st.seg_points + r->st.fac_points + r->st.tet_points;
