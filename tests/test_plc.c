@@ -1016,9 +1016,10 @@ START_TEST(segments_along_thin_facets_cut)
 {
     /* A bar 1 long and 0.05 x 0.05 across, its sides rectangles of two
      * triangles each: the four long segments lie on facets 0.05 wide, so
-     * every mesh below B = 2 cuts them into pieces shorter than 0.4 (3
-     * pieces, 2 points each); the short ones (facets 1 wide on one side)
-     * stay. No sharp segment (90 degrees) and no acute vertex. */
+     * every mesh below B = 2 cuts them into pieces shorter than 0.4;
+     * plc_split_long cuts them below 3 B W = 0.3 (4 pieces, 3 points
+     * each); the short ones (facets 1 wide on one side) stay. No sharp
+     * segment (90 degrees) and no acute vertex. */
     const char *bar = "OFF\n8 12 0\n0 0 0\n1 0 0\n1 0.05 0\n0 0.05 0\n"
                       "0 0 0.05\n1 0 0.05\n1 0.05 0.05\n0 0.05 0.05\n"
                       "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n"
@@ -1039,23 +1040,25 @@ START_TEST(segments_along_thin_facets_cut)
     ck_assert_int_eq(plc_split_long(&p, 2.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
     dump(&d);
     ck_assert_uint_eq(ss.segments, 4);
-    ck_assert_uint_eq(ss.points, 8);
-    ck_assert_uint_eq(p.nv, 16);
-    ck_assert_uint_eq(p.nseg, 20);
+    ck_assert_uint_eq(ss.points, 12);
+    ck_assert_uint_eq(p.nv, 20);
+    ck_assert_uint_eq(p.nseg, 24);
     ck_assert_ptr_nonnull(p.ftri);
     ck_assert_ptr_nonnull(p.v_minang);
     for (size_t f = 0; f < 6; f++)
         ck_assert(fabs(facet_area(&p, f) - area[f]) < 1e-12);
-    /* the new vertices lie on the long edges, at thirds */
-    for (uint32_t v = 8; v < 16; v++) {
+    /* the new vertices lie on the long edges, at quarters */
+    for (uint32_t v = 8; v < 20; v++) {
         double x = p.xyz[v][0];
-        ck_assert(fabs(x - 1.0 / 3) < 1e-12 || fabs(x - 2.0 / 3) < 1e-12);
+        ck_assert(fabs(x - 0.25) < 1e-12 || fabs(x - 0.5) < 1e-12 || fabs(x - 0.75) < 1e-12);
+        ck_assert(p.xyz[v][1] == 0 || p.xyz[v][1] == 0.05);
+        ck_assert(p.xyz[v][2] == 0 || p.xyz[v][2] == 0.05);
         ck_assert(p.v_minang[v] > 179.0);
     }
-    /* every piece now shorter than 4 B W: nothing more to cut */
+    /* every piece now shorter than 3 B W: nothing more to cut */
     ck_assert_int_eq(plc_split_long(&p, 2.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
     ck_assert_uint_eq(ss.segments, 0);
-    ck_assert_uint_eq(p.nv, 16);
+    ck_assert_uint_eq(p.nv, 20);
     /* a bound ten times as loose cuts nothing */
     plc_free(&p);
     rc = prepare_text(bar, FM_MERGE_ANGLE, &p, &st, &d);

@@ -325,9 +325,10 @@ int mp_initial_mesh(mp_ctx *c)
             return fail(c, rc);
         if (!c->o.quiet && ss.segments)
             printf("input preparation: %zu segments along thin facets cut into pieces "
-                   "shorter than %g times the facets' width (%zu points: every mesh with "
-                   "radius-edge below %g cuts them)\n",
-                   ss.segments, 4.0 * c->o.ref.ratio, ss.points, c->o.ref.ratio);
+                   "shorter than %g times the facets' width (%zu points; every mesh with "
+                   "radius-edge below %g cuts them below %g times)\n",
+                   ss.segments, PLC_SPLIT_FACTOR * c->o.ref.ratio, ss.points, c->o.ref.ratio,
+                   4.0 * c->o.ref.ratio);
     }
     rc = ref_init(&c->r, &c->p, &c->o.ref);
     if (rc)

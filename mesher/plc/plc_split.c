@@ -56,8 +56,8 @@ static size_t pieces_of(const plc *p, size_t s, double B, size_t max_pieces)
     double len = sqrt(v3_dist2(a, b));
     if (!(w > 0) || !(len > 0))
         return 1;
-    /* the fewest pieces shorter than 4 B w */
-    double n = floor(len / (4.0 * B * w)) + 1.0;
+    /* the fewest pieces shorter than PLC_SPLIT_FACTOR B w */
+    double n = floor(len / (PLC_SPLIT_FACTOR * B * w)) + 1.0;
     if (!(n >= 2.0))
         return 1;
     return n > (double)max_pieces ? max_pieces : (size_t)n;
