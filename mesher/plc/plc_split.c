@@ -101,38 +101,54 @@ static int append_cut(const plc *p, const struct cuts *c, uint32_t x, uint32_t y
     return 0;
 }
 
-/* Rebuilds the corners of every polygon with the new vertices of its cut
- * edges, and the explicit segments cut into pieces. */
-static int rebuild(plc *p, const struct cuts *c)
+/* The corners of every polygon with the new vertices of its cut edges,
+ * and the explicit segments cut into pieces, built aside (p unchanged):
+ * r->cor and r->poly (first, n per polygon), r->seg. */
+struct rebuilt {
+    uint32_t *cor;
+    size_t ncor, capc;
+    plc_polygon *poly;
+    plc_segment *seg;
+    size_t nseg, caps;
+};
+
+static void rebuilt_free(struct rebuilt *r)
 {
-    uint32_t *cor = NULL;
-    size_t ncor = 0, capc = 0;
+    pr_free(r->cor);
+    pr_free(r->poly);
+    pr_free(r->seg);
+    memset(r, 0, sizeof *r);
+}
+
+static int rebuild(const plc *p, const struct cuts *c, struct rebuilt *r)
+{
+    memset(r, 0, sizeof *r);
+    r->poly = pr_malloc((p->npoly ? p->npoly : 1) * sizeof *r->poly);
+    if (!r->poly)
+        return PDR_ENOMEM;
     int rc = 0;
     for (size_t q = 0; q < p->npoly && !rc; q++) {
-        plc_polygon *P = &p->polys[q];
-        size_t start = ncor;
+        const plc_polygon *P = &p->polys[q];
+        size_t start = r->ncor;
         /* a polygon of two corners is a segment (not closed) */
         uint32_t nedge = P->n >= 3 ? P->n : P->n - 1;
         for (uint32_t i = 0; i < P->n && !rc; i++) {
-            if (plc__grow((void **)&cor, &capc, ncor + 1, sizeof *cor)) {
+            if (plc__grow((void **)&r->cor, &r->capc, r->ncor + 1, sizeof *r->cor)) {
                 rc = PDR_ENOMEM;
                 break;
             }
             uint32_t x = p->corners[P->first + i];
-            cor[ncor++] = x;
+            r->cor[r->ncor++] = x;
             if (i < nedge)
-                rc = append_cut(p, c, x, p->corners[P->first + (i + 1) % P->n], &cor, &ncor,
-                                &capc);
+                rc = append_cut(p, c, x, p->corners[P->first + (i + 1) % P->n], &r->cor,
+                                &r->ncor, &r->capc);
         }
-        if (!rc && ncor - start > UINT32_MAX)
+        if (!rc && r->ncor - start > UINT32_MAX)
             rc = PDR_ELIMIT;
-        if (!rc) {
-            P->first = start;
-            P->n = (uint32_t)(ncor - start);
-        }
+        r->poly[q] = *P;
+        r->poly[q].first = start;
+        r->poly[q].n = (uint32_t)(r->ncor - start);
     }
-    plc_segment *sg = NULL;
-    size_t nsg = 0, caps = 0;
     for (size_t i = 0; i < p->nsegin && !rc; i++) {
         const plc_segment *S = &p->segin[i];
         uint32_t *chain = NULL;
@@ -147,34 +163,39 @@ static int rebuild(plc *p, const struct cuts *c)
             rc = PDR_ENOMEM;
         if (!rc)
             chain[nch++] = S->v[1];
-        if (!rc && plc__grow((void **)&sg, &caps, nsg + nch - 1, sizeof *sg))
+        if (!rc && plc__grow((void **)&r->seg, &r->caps, r->nseg + nch - 1, sizeof *r->seg))
             rc = PDR_ENOMEM;
         for (size_t k = 0; !rc && k + 1 < nch; k++) {
-            sg[nsg] = *S;
-            sg[nsg].v[0] = chain[k];
-            sg[nsg].v[1] = chain[k + 1];
-            nsg++;
+            r->seg[r->nseg] = *S;
+            r->seg[r->nseg].v[0] = chain[k];
+            r->seg[r->nseg].v[1] = chain[k + 1];
+            r->nseg++;
         }
         pr_free(chain);
     }
-    if (rc) {
-        pr_free(cor);
-        pr_free(sg);
-        return rc;
-    }
+    if (rc)
+        rebuilt_free(r);
+    return rc;
+}
+
+/* Puts r into p (taking its arrays). */
+static void commit(plc *p, struct rebuilt *r)
+{
     pr_free(p->corners);
-    p->corners = cor;
-    p->ncorner = ncor;
-    p->cap_corner = capc;
+    p->corners = r->cor;
+    p->ncorner = r->ncor;
+    p->cap_corner = r->capc;
+    memcpy(p->polys, r->poly, p->npoly * sizeof *p->polys);
+    pr_free(r->poly);
     if (p->nsegin) {
         pr_free(p->segin);
-        p->segin = sg;
-        p->nsegin = nsg;
-        p->cap_segin = caps;
+        p->segin = r->seg;
+        p->nsegin = r->nseg;
+        p->cap_segin = r->caps;
     } else {
-        pr_free(sg);
+        pr_free(r->seg);
     }
-    return 0;
+    memset(r, 0, sizeof *r);
 }
 
 int plc_small_angles(const plc *p)
@@ -232,12 +253,18 @@ int plc_split_long(plc *p, double B, size_t max_pieces, plc_split_stats *st, pdr
             for (int d = 0; d < 3; d++)
                 xyz[k][d] = a[d] + ((double)j / n) * (b[d] - a[d]);
     }
-    /* the polygons and explicit segments, while p->segs still says which
-     * edges are cut */
+    /* the polygons and explicit segments, built aside while p->segs
+     * still says which edges are cut; then the vertices (which drop the
+     * derived data), then the polygons that use them */
+    struct rebuilt rb;
+    memset(&rb, 0, sizeof rb);
     if (!rc && total)
-        rc = rebuild(p, &c);
+        rc = rebuild(p, &c, &rb);
     for (size_t i = 0; i < total && !rc; i++)
         rc = plc_add_vertex(p, xyz[i], 0, NULL);
+    if (!rc && total)
+        commit(p, &rb);
+    rebuilt_free(&rb);
     pr_free(xyz);
     pr_free(c.first);
     pr_free(c.cnt);

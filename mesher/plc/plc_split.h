@@ -42,8 +42,11 @@
  * facets cover the same points.
  *
  * Ownership: works in place on p, which must be validated with its
- * features (fm_prepare); on success p is validated again and has its
- * features, on failure it may be left without derived data.
+ * features (fm_prepare); the new polygons are built aside and put in only
+ * once every vertex is added. On success p is validated again and has
+ * its features; on failure its facets and segments are unchanged, but it
+ * may have lost its derived data and have some of the new vertices
+ * (unused).
  */
 #ifndef PDR_PLC_SPLIT_H
 #define PDR_PLC_SPLIT_H
