@@ -13,6 +13,7 @@
 #include "plc/dom.h"
 #include "plc/fm.h"
 #include "plc/plc.h"
+#include "plc/plc_split.h"
 #include "plc/plc_tri.h"
 #include "unit.h"
 
@@ -1011,6 +1012,86 @@ START_TEST(thin_corners_of_a_dart)
 }
 END_TEST
 
+START_TEST(segments_along_thin_facets_cut)
+{
+    /* A bar 1 long and 0.05 x 0.05 across, its sides rectangles of two
+     * triangles each: the four long segments lie on facets 0.05 wide, so
+     * every mesh below B = 2 cuts them into pieces shorter than 0.4;
+     * plc_split_long cuts them below 3 B W = 0.3 (4 pieces, 3 points
+     * each); the short ones (facets 1 wide on one side) stay. No sharp
+     * segment (90 degrees) and no acute vertex. */
+    const char *bar = "OFF\n8 12 0\n0 0 0\n1 0 0\n1 0.05 0\n0 0.05 0\n"
+                      "0 0 0.05\n1 0 0.05\n1 0.05 0.05\n0 0.05 0.05\n"
+                      "3 0 2 1\n3 0 3 2\n3 4 5 6\n3 4 6 7\n3 0 1 5\n3 0 5 4\n"
+                      "3 1 2 6\n3 1 6 5\n3 2 3 7\n3 2 7 6\n3 3 0 4\n3 3 4 7\n";
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    int rc = prepare_text(bar, FM_MERGE_ANGLE, &p, &st, &d);
+    dump(&d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_uint_eq(p.nfacet, 6);
+    ck_assert_uint_eq(p.nseg, 12);
+    ck_assert_int_eq(plc_small_angles(&p), 0);
+    double area[6];
+    for (size_t f = 0; f < 6; f++)
+        area[f] = facet_area(&p, f);
+    plc_split_stats ss;
+    ck_assert_int_eq(plc_split_long(&p, 2.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
+    dump(&d);
+    ck_assert_uint_eq(ss.segments, 4);
+    ck_assert_uint_eq(ss.points, 12);
+    ck_assert_uint_eq(p.nv, 20);
+    ck_assert_uint_eq(p.nseg, 24);
+    ck_assert_ptr_nonnull(p.ftri);
+    ck_assert_ptr_nonnull(p.v_minang);
+    for (size_t f = 0; f < 6; f++)
+        ck_assert(fabs(facet_area(&p, f) - area[f]) < 1e-12);
+    /* the new vertices lie on the long edges, at quarters */
+    for (uint32_t v = 8; v < 20; v++) {
+        double x = p.xyz[v][0];
+        ck_assert(fabs(x - 0.25) < 1e-12 || fabs(x - 0.5) < 1e-12 || fabs(x - 0.75) < 1e-12);
+        ck_assert(p.xyz[v][1] == 0 || p.xyz[v][1] == 0.05);
+        ck_assert(p.xyz[v][2] == 0 || p.xyz[v][2] == 0.05);
+        ck_assert(p.v_minang[v] > 179.0);
+    }
+    /* every piece now shorter than 3 B W: nothing more to cut */
+    ck_assert_int_eq(plc_split_long(&p, 2.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
+    ck_assert_uint_eq(ss.segments, 0);
+    ck_assert_uint_eq(p.nv, 20);
+    /* a bound ten times as loose cuts nothing */
+    plc_free(&p);
+    rc = prepare_text(bar, FM_MERGE_ANGLE, &p, &st, &d);
+    ck_assert_int_eq(rc, 0);
+    ck_assert_int_eq(plc_split_long(&p, 20.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
+    ck_assert_uint_eq(ss.segments, 0);
+    ck_assert_uint_eq(p.nv, 8);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
+START_TEST(segments_at_small_angles_not_cut)
+{
+    /* The dart of thin_corners_of_a_dart: its vertices are acute and
+     * its long sides are not cut, however thin the facets next to them. */
+    const char *dart = "OFF\n8 6 0\n0 0 0\n4 0.5 0\n0 1 0\n3.95 0.5 0\n"
+                       "0 0 1\n4 0.5 1\n0 1 1\n3.95 0.5 1\n"
+                       "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+    plc p;
+    fm_stats st;
+    pdr_diag d = {0};
+    ck_assert_int_eq(prepare_text(dart, FM_MERGE_ANGLE, &p, &st, &d), 0);
+    ck_assert_int_eq(plc_small_angles(&p), 1);
+    plc_split_stats ss;
+    ck_assert_int_eq(plc_split_long(&p, 2.0, PLC_SPLIT_MAX_PIECES, &ss, &d), 0);
+    ck_assert_uint_eq(ss.points, 0);
+    ck_assert_uint_eq(p.nv, 8);
+    plc_free(&p);
+    pdr_diag_free(&d);
+}
+END_TEST
+
 static Suite *plc_suite(void)
 {
     Suite *s = suite_create("plc");
@@ -1039,6 +1120,8 @@ static Suite *plc_suite(void)
     tcase_add_test(tc, near_planar_facets_within_facet_tol);
     tcase_add_test(tc, sharp_segments_and_acute_vertices);
     tcase_add_test(tc, thin_corners_of_a_dart);
+    tcase_add_test(tc, segments_along_thin_facets_cut);
+    tcase_add_test(tc, segments_at_small_angles_not_cut);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -92,6 +92,13 @@ static void usage(FILE *f)
             "                       by 0.1 degrees is off by 0.0017 w). Default %g; 0:\n"
             "                       exactly coplanar only; give pdr check the same value\n"
             "      --no-merge       keep every input triangle a facet\n"
+            "      --presplit WHEN  constrained mode: before meshing, cut each segment\n"
+            "                       whose facets lie within W of it into pieces shorter\n"
+            "                       than 3 B W (every mesh with radius-edge below B cuts\n"
+            "                       it below 4 B W: thin strips of tessellated cylinders;\n"
+            "                       not at sharp segments or acute vertices): 'auto'\n"
+            "                       (default: when the input has no sharp segment and no\n"
+            "                       acute vertex), 'always' or 'never'\n"
             "      --max-points N   stop with an error after inserting N points (default:\n"
             "                       %.0f + %.0f per input vertex, segment and facet + %.0f\n"
             "                       per tetrahedron of the largest volume -a, -L or the\n"
@@ -203,7 +210,7 @@ static int parse_double(const char *s, double *out)
 enum {
     O_DOMAIN = 256, O_MO, O_MO_ONLY, O_MO_SIZE, O_ORDER, O_RHO, O_NOREGVOL, O_CHECK, O_MINDIH,
     O_PARALLEL, O_PARTS, O_THREADS, O_SEED, O_LATENCY, O_BANDWIDTH, O_SCHED, O_CPU_BIND, O_STATS, O_SUBMESHES,
-    O_MERGE, O_NOMERGE, O_MAXPOINTS, O_WORKCLOCK, O_FACETTOL, O_RANK0_POINTS
+    O_MERGE, O_NOMERGE, O_PRESPLIT, O_MAXPOINTS, O_WORKCLOCK, O_FACETTOL, O_RANK0_POINTS
 };
 
 static const struct option long_opts[] = {{"quality", required_argument, NULL, 'q'},
@@ -236,6 +243,7 @@ static const struct option long_opts[] = {{"quality", required_argument, NULL, '
                                           {"submeshes", no_argument, NULL, O_SUBMESHES},
                                           {"merge-angle", required_argument, NULL, O_MERGE},
                                           {"no-merge", no_argument, NULL, O_NOMERGE},
+                                          {"presplit", required_argument, NULL, O_PRESPLIT},
                                           {"facet-tol", required_argument, NULL, O_FACETTOL},
                                           {"max-points", required_argument, NULL, O_MAXPOINTS},
                                           {"help", no_argument, NULL, 'h'},
@@ -474,6 +482,18 @@ static int parse_args(int argc, char **argv, mp_opts *o, mpar_opts *po)
             break;
         case O_NOMERGE:
             o->merge_angle = -1;
+            break;
+        case O_PRESPLIT:
+            if (!strcmp(optarg, "auto")) {
+                o->presplit = MP_PRESPLIT_AUTO;
+            } else if (!strcmp(optarg, "always")) {
+                o->presplit = MP_PRESPLIT_ALWAYS;
+            } else if (!strcmp(optarg, "never")) {
+                o->presplit = MP_PRESPLIT_NEVER;
+            } else {
+                pdr_cli_error("mesh", "--presplit: '%s' is none of auto, always, never", optarg);
+                rc = PDR_EXIT_USAGE;
+            }
             break;
         case O_FACETTOL:
             if (pdr_cli_facet_tol("mesh", optarg, &o->facet_tol))

@@ -81,7 +81,13 @@ typedef struct mp_opts {
     double facet_tol;    /* --facet-tol: distance tolerance of near-planar
                             facets (plc/fm.h), relative to the bounding-box
                             diagonal; 0: exactly coplanar merges only */
+    int presplit;        /* --presplit: MP_PRESPLIT_*, whether the
+                            constrained mode cuts the segments along thin
+                            facets first (plc/plc_split.h) */
 } mp_opts;
+
+/* mp_opts.presplit */
+enum { MP_PRESPLIT_AUTO = 0, MP_PRESPLIT_ALWAYS, MP_PRESPLIT_NEVER };
 
 /* The stages, as indices of mp_ctx.sec. */
 enum mp_stage {

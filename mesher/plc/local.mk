@@ -5,7 +5,8 @@ noinst_HEADERS += \
 	mesher/plc/fm.h \
 	mesher/plc/plc.h \
 	mesher/plc/plc_int.h \
-	mesher/plc/plc_tri.h
+	mesher/plc/plc_tri.h \
+	mesher/plc/plc_split.h
 libpdrmesh_la_SOURCES += \
 	mesher/plc/dom.c \
 	mesher/plc/fm.c \
@@ -16,4 +17,5 @@ libpdrmesh_la_SOURCES += \
 	mesher/plc/plc_ply.c \
 	mesher/plc/plc_obj.c \
 	mesher/plc/plc_medit.c \
-	mesher/plc/plc_tri.c
+	mesher/plc/plc_tri.c \
+	mesher/plc/plc_split.c
