@@ -309,6 +309,9 @@ START_TEST(random_points_agree_with_gmp)
                          ref_orient3d(p[0], p[1], p[2], p[3]));
         ck_assert_int_eq(pred__orient3d_exact(p[0], p[1], p[2], p[3], 3),
                          ref_orient3d(p[0], p[1], p[2], p[3]));
+        int si = pred__orient3d_int(p[0], p[1], p[2], p[3]);
+        if (si != 2)
+            ck_assert_int_eq(si, ref_orient3d(p[0], p[1], p[2], p[3]));
         ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]),
                          ref_insphere(p[0], p[1], p[2], p[3], p[4]));
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3),
@@ -465,6 +468,13 @@ START_TEST(near_coplanar_agree_with_gmp)
         int ref = ref_orient3d(p[0], p[1], p[2], p[3]);
         zero += ref == 0;
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
+        /* the integer stage takes these (coordinates within 61 bits of
+         * each other) unless the scale is wide */
+        int si = pred__orient3d_int(p[0], p[1], p[2], p[3]);
+        if (it % 4 != 0)
+            ck_assert_int_ne(si, 2);
+        if (si != 2)
+            ck_assert_int_eq(si, ref);
         int s2u = pred__orient3d_exact(p[0], p[1], p[2], p[3], 2);
         if (s2u != 2)
             ck_assert_int_eq(s2u, ref);
@@ -475,6 +485,9 @@ START_TEST(near_coplanar_agree_with_gmp)
         if (f != 2)
             ck_assert_int_eq(f, ref);
         f = pred__orient3d_filter2(p[0], p[1], p[2], p[3]);
+        if (f != 2)
+            ck_assert_int_eq(f, ref);
+        f = pred__orient3d_int(p[0], p[1], p[2], p[3]);
         if (f != 2)
             ck_assert_int_eq(f, ref);
         ck_assert_int_eq(pred_orient3d(p[0], p[1], p[2], p[3]), ref);
@@ -577,6 +590,9 @@ START_TEST(extreme_exponents_agree_with_gmp)
         int xw = pred__orient3d_dw(p[0], p[1], p[2], p[3]);
         if (xw != 2)
             ck_assert_int_eq(xw, ro);
+        xw = pred__orient3d_int(p[0], p[1], p[2], p[3]);
+        if (xw != 2)
+            ck_assert_int_eq(xw, ro);
         xw = pred__insphere_dw(p[0], p[1], p[2], p[3], p[4]);
         if (xw != 2)
             ck_assert_int_eq(xw, ri);
@@ -647,6 +663,9 @@ START_TEST(double_word_filter_agrees_with_gmp)
         int ro = ref_orient3d(p[0], p[1], p[2], p[3]);
         f = pred__orient3d_filter2(p[0], p[1], p[2], p[3]);
         w = pred__orient3d_dw(p[0], p[1], p[2], p[3]);
+        if (w != 2)
+            ck_assert_int_eq(w, ro);
+        w = pred__orient3d_int(p[0], p[1], p[2], p[3]);
         if (w != 2)
             ck_assert_int_eq(w, ro);
         if (f == 2 && ro != 0) {

@@ -642,6 +642,93 @@ int pred__orient3d_exact(const double *a, const double *b, const double *c, cons
     return neg_sign(exact_det_sign(4, 3, 0, 1, rows));
 }
 
+/* Exact orient3d in fixed-width integers, for the common exactly coplanar
+ * case (points of a tilted facet) that every filter declines. When the
+ * twelve coordinates, written as integers times 2^lo (lo the lowest set
+ * bit among them), are all below 2^61, the differences fit in 62 bits,
+ * the 2x2 minors (two products of 124 bits) in a signed 128-bit integer,
+ * and each of the three terms u * minor (at most 2^187) and their sum (at
+ * most 2^189) in 192-bit two's complement: every step is exact. Otherwise
+ * returns 2. */
+typedef struct i192 {
+    uint64_t w[3]; /* two's complement, little-endian */
+} i192;
+
+/* acc += u * m, exactly (|u| < 2^63, |m| < 2^126). */
+static void i192_add_mul(i192 *acc, int64_t u, __int128 m)
+{
+    int neg = (u < 0) != (m < 0);
+    uint64_t au = u < 0 ? (uint64_t)0 - (uint64_t)u : (uint64_t)u;
+    unsigned __int128 am = m < 0 ? (unsigned __int128)0 - (unsigned __int128)m
+                                 : (unsigned __int128)m;
+    unsigned __int128 p0 = (unsigned __int128)au * (uint64_t)am;
+    unsigned __int128 p1 = (unsigned __int128)au * (uint64_t)(am >> 64) + (p0 >> 64);
+    uint64_t t[3] = {(uint64_t)p0, (uint64_t)p1, (uint64_t)(p1 >> 64)};
+    if (neg) { /* two's complement of the magnitude */
+        unsigned __int128 c = 1;
+        for (int i = 0; i < 3; i++) {
+            c += (uint64_t)~t[i];
+            t[i] = (uint64_t)c;
+            c >>= 64;
+        }
+    }
+    unsigned __int128 c = 0;
+    for (int i = 0; i < 3; i++) {
+        c += (unsigned __int128)acc->w[i] + t[i];
+        acc->w[i] = (uint64_t)c;
+        c >>= 64;
+    }
+}
+
+int pred__orient3d_int(const double *a, const double *b, const double *c, const double *d)
+{
+    const double *pt[4] = {a, b, c, d};
+    dbits x[4][3];
+    int lo = INT32_MAX, hi = INT32_MIN;
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++) {
+            double v = pt[i][k];
+            if (!isfinite(v))
+                return 2;
+            x[i][k] = decompose(v);
+            uint64_t m = x[i][k].m;
+            if (!m)
+                continue;
+            int z = __builtin_ctzll(m); /* an odd mantissa: its exponent is its lowest bit */
+            x[i][k].m = m >>= z;
+            x[i][k].e += z;
+            int low = x[i][k].e, top = x[i][k].e + 64 - __builtin_clzll(m);
+            lo = low < lo ? low : lo;
+            hi = top > hi ? top : hi;
+        }
+    if (lo == INT32_MAX)
+        return 0; /* all zero */
+    if (hi - lo > 61)
+        return 2;
+    int64_t q[4][3];
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++) {
+            int64_t v = x[i][k].m ? (int64_t)(x[i][k].m << (x[i][k].e - lo)) : 0;
+            q[i][k] = x[i][k].neg ? -v : v;
+        }
+    int64_t u[3], v[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = q[0][k] - q[3][k];
+        v[k] = q[1][k] - q[3][k];
+        w[k] = q[2][k] - q[3][k];
+    }
+    __int128 m0 = (__int128)v[1] * w[2] - (__int128)v[2] * w[1];
+    __int128 m1 = (__int128)v[2] * w[0] - (__int128)v[0] * w[2];
+    __int128 m2 = (__int128)v[0] * w[1] - (__int128)v[1] * w[0];
+    i192 det = {{0, 0, 0}};
+    i192_add_mul(&det, u[0], m0);
+    i192_add_mul(&det, u[1], m1);
+    i192_add_mul(&det, u[2], m2);
+    if (!det.w[0] && !det.w[1] && !det.w[2])
+        return 0;
+    return (det.w[2] >> 63) ? 1 : -1; /* orient3d = -det[a-d; b-d; c-d] */
+}
+
 static int orient3d_exact(const double *a, const double *b, const double *c, const double *d)
 {
     /* Four points in a plane x = const, y = const or z = const (the faces
@@ -651,6 +738,8 @@ static int orient3d_exact(const double *a, const double *b, const double *c, con
         if (a[k] == b[k] && b[k] == c[k] && c[k] == d[k])
             return 0;
     int s = pred__orient3d_exact(a, b, c, d, 0);
+    if (s == 2)
+        s = pred__orient3d_int(a, b, c, d);
     if (s == 2)
         s = pred__orient3d_dw(a, b, c, d);
     if (s == 2)

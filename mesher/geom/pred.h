@@ -264,5 +264,8 @@ int pred__insphere_filter(const double *a, const double *b, const double *c, con
 int pred__insphere_dw(const double *a, const double *b, const double *c, const double *d,
                       const double *e);
 int pred__orient3d_dw(const double *a, const double *b, const double *c, const double *d);
+/* Exact orient3d in 64/128/192-bit integers when the coordinates span at
+ * most 61 bits (geom/pred.c); 2 when they do not. */
+int pred__orient3d_int(const double *a, const double *b, const double *c, const double *d);
 
 #endif /* PDR_PRED_H */
