@@ -735,6 +735,11 @@ int am__shm_big(const am_ctx_t *ctx, size_t n);
  * am__shm_resume once it was taken. */
 int am__shm_paused(const am_ctx_t *ctx, int pe);
 void am__shm_resume(am_ctx_t *ctx, int pe);
+/* Reader: a large frame from pe that came by ZeroMQ before its SHM_VIA
+ * was read waits here (takes msg; 0 or AM_ENOMEM); am__shm_unstash gives
+ * the oldest back in msg (initialized here), 1 if there was one. */
+int am__shm_stash(am_ctx_t *ctx, int pe, zmq_msg_t *msg);
+int am__shm_unstash(am_ctx_t *ctx, int pe, zmq_msg_t *msg);
 /* Writer: free bytes in pe's ring (reads the reader's tail). */
 size_t am__shm_room(am_ctx_t *ctx, int pe);
 /* Writer: copies up to len bytes into pe's ring; returns how many fit.

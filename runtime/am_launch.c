@@ -37,6 +37,7 @@
  */
 #include "config.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
 #include <signal.h>
@@ -1022,15 +1023,25 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
-/* Removes the ipc sockets and their directory. */
+/* Removes the ipc directory and what the PEs left in it: their sockets,
+ * and the wake sockets and ring files of the same-host rings (am_shm.c)
+ * of PEs that did not get to close them. The directory is the job's own
+ * (mkdtemp), so every entry in it is the job's. */
 static void remove_ipc_dir(const launch *L)
 {
     if (!L->ipc_dir[0])
         return;
-    for (int r = 0; r < L->np; r++) {
-        char path[128];
-        snprintf(path, sizeof path, "%s/%d.sock", L->ipc_dir, r);
-        unlink(path);
+    DIR *d = opendir(L->ipc_dir);
+    if (d) {
+        struct dirent *e;
+        while ((e = readdir(d))) {
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+                continue;
+            char path[sizeof L->ipc_dir + 300];
+            snprintf(path, sizeof path, "%s/%s", L->ipc_dir, e->d_name);
+            unlink(path);
+        }
+        closedir(d);
     }
     rmdir(L->ipc_dir);
 }

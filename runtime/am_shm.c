@@ -120,6 +120,8 @@ typedef struct shm_link {
     int out_on;       /* SHM_ON sent: frames go through out */
     int in_on;        /* SHM_ON taken: frames come through in */
     int paused;       /* SHM_VIA taken: the next frame comes by ZeroMQ */
+    am__fifo zq;      /* large frames that came by ZeroMQ before their
+                         SHM_VIA was read from the ring */
     int in_linked;    /* in's file still exists */
     int out_dirty;    /* out.pos not yet published */
     int in_dirty;     /* in.pos not yet published */
@@ -273,6 +275,7 @@ void am__shm_close(am_ctx_t *ctx)
         }
         if (l->part_on)
             zmq_msg_close(&l->part);
+        am__fifo_clear(&l->zq);
         unmap_end(&l->in);
         unmap_end(&l->out);
     }
@@ -426,6 +429,27 @@ int am__shm_big(const am_ctx_t *ctx, size_t n)
 int am__shm_paused(const am_ctx_t *ctx, int pe)
 {
     return ctx->shm && ctx->shm->link[pe].paused;
+}
+
+int am__shm_stash(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
+{
+    am__frame *f = am__frame_new();
+    if (!f)
+        return AM_ENOMEM;
+    zmq_msg_move(&f->msg, msg);
+    am__fifo_push(&ctx->shm->link[pe].zq, f);
+    return 0;
+}
+
+int am__shm_unstash(am_ctx_t *ctx, int pe, zmq_msg_t *msg)
+{
+    am__frame *f = am__fifo_pop(&ctx->shm->link[pe].zq);
+    if (!f)
+        return 0;
+    zmq_msg_init(msg);
+    zmq_msg_move(msg, &f->msg);
+    am__frame_free(f);
+    return 1;
 }
 
 void am__shm_resume(am_ctx_t *ctx, int pe)

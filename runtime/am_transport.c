@@ -1157,12 +1157,21 @@ static int take_frame(am_ctx_t *ctx, const void *id, size_t id_len,
             route_frame(ctx, fr);
             return 0;
         }
-        /* The large frame a SHM_VIA announced: taken as any other, and
-         * the ring is read on. */
-        if (why || !am__shm_paused(ctx, src)) {
+        /* A large frame a SHM_VIA announces: taken as any other if the
+         * ring waits for it (then the ring is read on); else it overtook
+         * its SHM_VIA, and waits for it. */
+        if (why) {
             am__reject(ctx, AM__REJ_SEQ, src, "a frame beside the ring");
             zmq_msg_close(&fr->msg);
             return 1;
+        }
+        if (!am__shm_paused(ctx, src)) {
+            if (am__shm_stash(ctx, src, &fr->msg)) {
+                zmq_msg_close(&fr->msg);
+                am__fail(ctx, AM_ENOMEM, "out of memory queueing a frame");
+                return 1;
+            }
+            return 0;
         }
         am__shm_resume(ctx, src);
     }
@@ -1268,8 +1277,13 @@ static int recv_rings(am_ctx_t *ctx, unsigned budget)
                 break;
             taken++;
             take_frame(ctx, id, sizeof id, NULL, 1, &fr);
-            if (am__shm_paused(ctx, pe))
-                break;
+            /* A SHM_VIA: its frame may have come already. */
+            if (am__shm_paused(ctx, pe)) {
+                memset(&fr, 0, sizeof fr);
+                if (!am__shm_unstash(ctx, pe, &fr.msg))
+                    break;
+                take_frame(ctx, id, sizeof id, NULL, 0, &fr);
+            }
         }
         /* The room goes back, and a writer waiting for it is woken. */
         am__shm_release(ctx, pe);
