@@ -174,7 +174,13 @@ static void usage(const launch *L, FILE *out)
             "is killed and counts as 128+its stop signal.\nSIGINT, SIGTERM, "
             "SIGHUP and SIGQUIT are passed on to the PEs. The PEs find their\n"
             "rank and peers in AM_* environment variables (see am_init in "
-            "am.h).\n",
+            "am.h).\n\n"
+            "Without a hostfile the PEs talk over ipc, and after start-up "
+            "through shared-memory\nrings they read and write themselves "
+            "(runtime/CONTROL.md, \"Same-host rings\"):\n"
+            "AM_SHM=0 sends every frame over ZeroMQ instead; AM_SHM_RING=BYTES "
+            "sets each ring's\nsize, AM_SHM_BIG=BYTES the frame size from "
+            "which frames go over ZeroMQ (0: none).\n",
             L->prog, EXIT_TIMEOUT);
 }
 

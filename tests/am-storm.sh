@@ -52,7 +52,7 @@ done
 # thousands of times; every message must still arrive once, in order,
 # intact.
 rm -rf "$work/st"
-AM_SHM_RING=4k AM_SHM_BIG=0 job 120 "$AMRUN" -n 3 --stats "$work/st" -- "$MP" storm 300 20000
+AM_SHM=1 AM_SHM_RING=4k AM_SHM_BIG=0 job 120 "$AMRUN" -n 3 --stats "$work/st" -- "$MP" storm 300 20000
 expect_ok "storm through 4 KiB rings"
 expect_line "^storm: 3 PEs, 2700 messages delivered exactly once.* 0 failed checks" "storm small rings"
 [ "$(shm_on_recv)" -eq 6 ] || fail "storm through 4 KiB rings: $(shm_on_recv) of 6 pairs use a ring"
@@ -61,7 +61,7 @@ expect_line "^storm: 3 PEs, 2700 messages delivered exactly once.* 0 failed chec
 # The same messages with AM_SHM_BIG=8k: the larger ones go by ZeroMQ,
 # announced in the ring (SHM_VIA), between frames that take the ring.
 rm -rf "$work/st"
-AM_SHM_RING=64k AM_SHM_BIG=8k job 120 "$AMRUN" -n 3 --stats "$work/st" -- "$MP" storm 300 20000
+AM_SHM=1 AM_SHM_RING=64k AM_SHM_BIG=8k job 120 "$AMRUN" -n 3 --stats "$work/st" -- "$MP" storm 300 20000
 expect_ok "storm with large frames by ZeroMQ"
 expect_line "^storm: 3 PEs, 2700 messages delivered exactly once.* 0 failed checks" "storm shm_via"
 via=$(grep -o '"shm_via": {"sent": [0-9]*' "$work"/st/stats-*.json | sed 's/.*: //' | awk '{s += $1} END {print s + 0}')
