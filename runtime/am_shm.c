@@ -53,6 +53,15 @@
  * - Files: the receiver unlinks a ring file as soon as its sender said
  *   SHM_ON (both have it mapped), and at close every file of its own; the
  *   launcher removes whatever a killed PE left in the directory.
+ * - Not on an oversubscribed host under a real-time policy (more PEs
+ *   than processors, SCHED_FIFO or SCHED_RR), unless AM_SHM=2: over
+ *   ZeroMQ every frame waits for an I/O thread, which queues behind the
+ *   PEs that wait for a processor, so a PE that waits is sure to run once
+ *   a running PE waits. Rings deliver between running PEs directly, and
+ *   with 4 PEs on 2 processors under SCHED_FIFO and 4 KiB rings two PEs
+ *   were seen to keep each other busy for good while the other two never
+ *   ran again (bench/parallel.md, run 21). Under SCHED_OTHER the kernel
+ *   shares the processors anyway.
  * - Memory: the rings of one PE's incoming traffic share a budget
  *   (SHM_BUDGET, divided over its peers, a power of two between
  *   SHM_RING_MIN and SHM_RING_MAX; AM_SHM_RING sets it), and only the
@@ -70,6 +79,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sched.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -293,10 +303,27 @@ void am__shm_close(am_ctx_t *ctx)
     ctx->shm = NULL;
 }
 
+/* Whether this PE shares its processors with more PEs than there are, all
+ * under a real-time policy (am-run's AM_CPU_SLOTS, else the job size). */
+static int oversubscribed_rt(const am_ctx_t *ctx)
+{
+    int pol = sched_getscheduler(0);
+    if (pol != SCHED_FIFO && pol != SCHED_RR)
+        return 0;
+    long slots = ctx->size;
+    const char *v = am__env(ctx, "AM_CPU_SLOTS");
+    if (v)
+        slots = strtol(v, NULL, 10);
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) != 0)
+        return 1;
+    return slots > CPU_COUNT(&set);
+}
+
 int am__shm_open(am_ctx_t *ctx)
 {
     if (!ctx->shm_enabled || strcmp(ctx->transport, "ipc") || !ctx->ipc_dir ||
-        ctx->size < 2)
+        ctx->size < 2 || (ctx->shm_enabled == 1 && oversubscribed_rt(ctx)))
         return 0;
     struct am__shm *s = pr_calloc(1, sizeof *s);
     if (!s)
