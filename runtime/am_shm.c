@@ -153,7 +153,6 @@ struct am__shm {
     int npaused;      /* links paused */
     int sleeping;     /* sleep flags are set (am__shm_sleep_begin) */
     int next;         /* peer to read first at the next receive */
-    uint64_t wakes_sent;
 };
 
 static void ring_path(const am_ctx_t *ctx, int to, int from, char *buf,
@@ -303,8 +302,11 @@ void am__shm_close(am_ctx_t *ctx)
     ctx->shm = NULL;
 }
 
-/* Whether this PE shares its processors with more PEs than there are, all
- * under a real-time policy (am-run's AM_CPU_SLOTS, else the job size). */
+/* Whether this host has more PEs (am-run's AM_CPU_SLOTS, else the job
+ * size) than processors this PE may run on, under a real-time policy.
+ * A PE bound to one processor (AM_CPU_BIND=core) counts as that: with
+ * rings it was seen to hang there under SCHED_FIFO (2 PEs, 2 cores),
+ * where over ZeroMQ it does not. */
 static int oversubscribed_rt(const am_ctx_t *ctx)
 {
     int pol = sched_getscheduler(0);
@@ -496,7 +498,6 @@ static void wake(struct am__shm *s, const shm_link *l)
      * failure detection reports. */
     (void)sendto(s->send_fd, "w", 1, MSG_DONTWAIT | MSG_NOSIGNAL,
                  (const struct sockaddr *)&l->wake, l->wake_len);
-    s->wakes_sent++;
 }
 
 size_t am__shm_room(am_ctx_t *ctx, int pe)
