@@ -242,7 +242,11 @@ AM_EXPORT const char *am_version(void);
  * (ucontext|fast), AM_BOOT_TIMEOUT, AM_HEARTBEAT (seconds), AM_HWM (ZeroMQ
  * high-water mark, default 0 = unlimited: the send windows bound memory),
  * AM_SEND_WINDOW and AM_SEND_QUEUE (bytes, suffix k, M or G for powers of
- * 1024; see am_send), AM_CURVE_KEYS (tcp: the job's CURVE keys, made by
+ * 1024; see am_send), AM_SHM (1, the default: with ipc, frames go through
+ * shared-memory rings once the job started, except with more PEs than
+ * processors under a real-time policy; 2: even then; 0: over ZeroMQ), AM_SHM_RING
+ * and AM_SHM_BIG (bytes per ring; frames from this size go over ZeroMQ;
+ * runtime/CONTROL.md, "Same-host rings"), AM_CURVE_KEYS (tcp: the job's CURVE keys, made by
  * am-run, as "fd:N" or the path of a file only its owner can read: only
  * the job's PEs can connect; AM_CURVE_SERVER_PUBLIC/SECRET, one key pair
  * shared by every PE, are still accepted; protocol notes:

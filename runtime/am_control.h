@@ -34,6 +34,8 @@ enum am__ctl_type {
     AM__CTL_RPC_REP = 12,   /* am_call reply */
     AM__CTL_ABORT = 13,     /* a PE saw a peer fail; it exits */
     AM__CTL_CREDIT = 14,    /* receiver -> sender: window room back */
+    AM__CTL_SHM_ON = 15,    /* after boot: later frames come by the ring */
+    AM__CTL_SHM_VIA = 16,   /* in a ring: the next frame comes by ZeroMQ */
     AM__CTL_COUNT           /* one past the highest type */
 };
 

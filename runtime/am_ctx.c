@@ -482,6 +482,29 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         return bad_option(ctx, "AM_COALESCE", v, "1 (on) or 0 (off)");
     ctx->coalesce = (int)coalesce;
 
+    /* Same-host rings (am_shm.c): on unless AM_SHM=0 (or the host is
+     * oversubscribed under a real-time policy; AM_SHM=2: even then);
+     * AM_SHM_RING sets
+     * the bytes of each ring (a power of two, at least 4096; rounded
+     * down), else a share of a per-PE budget. */
+    long shm = 1;
+    if ((v = am__env(ctx, "AM_SHM")) && parse_long(v, 0, 2, &shm))
+        return bad_option(ctx, "AM_SHM", v, "1 (on), 0 (off) or 2 (always)");
+    ctx->shm_enabled = (int)shm;
+    if ((v = am__env(ctx, "AM_SHM_RING"))) {
+        size_t b = 0;
+        if (am__bytes_parse(v, &b) || b < 4096 || b > ((size_t)1 << 30))
+            return bad_option(ctx, "AM_SHM_RING", v,
+                              "bytes, at least 4096 and at most 1G");
+        ctx->shm_ring = 4096;
+        while (ctx->shm_ring * 2 <= b)
+            ctx->shm_ring *= 2;
+    }
+    ctx->shm_big = (size_t)256 << 10;
+    if ((v = am__env(ctx, "AM_SHM_BIG")) && am__bytes_parse(v, &ctx->shm_big))
+        return bad_option(ctx, "AM_SHM_BIG", v,
+                          "bytes (frames this large go by ZeroMQ), 0 = none");
+
     long hwm = 0;
     if ((v = am__env(ctx, "AM_HWM")) && parse_long(v, 0, 1 << 30, &hwm))
         return bad_option(ctx, "AM_HWM", v, "a message count, 0 = unlimited");
@@ -600,6 +623,7 @@ static void open_report(am_ctx_t *ctx)
 static const am__ctl_entry *const ctl_modules[] = {
     am__boot_ctls, am__ctx_ctls,  am__transport_ctls,
     am__term_ctls, am__coll_ctls, am__rpc_ctls,  am__flow_ctls,
+    am__shm_ctls,
 };
 
 /* Fills the context's dispatch table from the modules' lists. A type
@@ -705,6 +729,8 @@ int am_init(int *argc, char ***argv, const am_opts_t *opts, am_ctx_t **out)
         if (!rc)
             rc = am__boot(ctx);
         if (!rc)
+            rc = am__shm_start(ctx);
+        if (!rc)
             rc = am__loop_watch(ctx);
     }
     if (rc) {
@@ -733,6 +759,19 @@ const am__ctl_entry am__ctx_ctls[] = {
     {0, NULL, 0, NULL},
 };
 
+/* Waits at most ms milliseconds for the socket (events: ZMQ_POLLIN or
+ * ZMQ_POLLOUT) or for a ring (frames in, or room for frames waiting). */
+static void wait_io(am_ctx_t *ctx, short events, long ms)
+{
+    if (am__shm_sleep_begin(ctx))
+        return;
+    zmq_pollitem_t it[2] = {{ctx->sock, 0, events, 0},
+                            {NULL, am__shm_fd(ctx), ZMQ_POLLIN, 0}};
+    zmq_poll(it, am__shm_fd(ctx) >= 0 ? 2 : 1, ms);
+    am__shm_sleep_end(ctx);
+    am__shm_drain(ctx);
+}
+
 /* Waits (bounded) until every peer said goodbye. A peer closes only after
  * it has our BYE too, so when this returns everything we sent has arrived
  * and closing the socket has nothing left to linger for. */
@@ -750,8 +789,7 @@ static void wait_byes(am_ctx_t *ctx, double seconds)
             missing += pe != ctx->rank && !ctx->peers[pe].said_bye;
         if (!missing || ctx->failed || am__now() > end)
             return;
-        zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLIN, 0};
-        zmq_poll(&it, 1, am__latency_pending(ctx) ? 1 : 10);
+        wait_io(ctx, ZMQ_POLLIN, am__latency_pending(ctx) ? 1 : 10);
     }
 }
 
@@ -762,10 +800,8 @@ static void drain_sendq(am_ctx_t *ctx, double seconds)
     while (ctx->sendq_total && !ctx->failed && am__now() < end) {
         if (am__flush_sendq(ctx))
             break;
-        if (ctx->sendq_total) {
-            zmq_pollitem_t it = {ctx->sock, 0, ZMQ_POLLOUT, 0};
-            zmq_poll(&it, 1, 10);
-        }
+        if (ctx->sendq_total)
+            wait_io(ctx, ZMQ_POLLOUT, 10);
     }
 }
 

@@ -22,6 +22,8 @@
  *   am_launch.c     am-run / pdr run launcher and rendezvous server
  *   am_keys.c       the job's CURVE keys: reading and writing key blocks
  *   am_zap.c        the ZAP handler admitting only the job's CURVE keys
+ *   am_shm.c        same-host rings between PEs, read and written by the
+ *                   PEs themselves (no ZeroMQ I/O thread in the path)
  *
  * Control frames reach the module that handles them through one dispatch
  * table (section "control dispatch" below), and every send, of any kind,
@@ -82,6 +84,9 @@ typedef struct am__frame {
     double due;     /* latency queue: delivery time (am__now clock) */
     int refused;    /* send queue: ZeroMQ refused it once (counted in
                        queued_sends) */
+    size_t off;     /* send queue, ring peers: bytes already in the ring */
+    int via_zmq;    /* send queue, ring peers: a large frame that goes by
+                       ZeroMQ (announced by the SHM_VIA before it) */
 } am__frame;
 
 typedef struct am__fifo {
@@ -423,6 +428,10 @@ struct am_ctx_s {
     char *stats_dir;
     char *transport;       /* "ipc" or "tcp" */
     char *ipc_dir;
+    int shm_enabled;       /* AM_SHM: same-host rings (am_shm.c) */
+    size_t shm_ring;       /* AM_SHM_RING: bytes per ring, 0 = automatic */
+    size_t shm_big;        /* AM_SHM_BIG: frames of this many bytes or
+                              more to a ring peer go by ZeroMQ (0: none) */
     char *bind_addr;
     char *root_ep;
     char *rendezvous;
@@ -458,6 +467,9 @@ struct am_ctx_s {
     int nsendq_peers;
     int coalesce;          /* AM_COALESCE: frames wait in the send queues
                               until the next flush and leave bundled */
+    struct am__shm *shm;   /* same-host rings, NULL if none (am_shm.c) */
+    double zmq_next;       /* am_poll: when to read ZeroMQ next while every
+                              peer's frames come through rings */
     size_t held_total;     /* frames in all heldq (flow control) */
     am__fifo loopback;     /* frames sent to this PE */
     am__fifo early;        /* non-boot frames received while booting */
@@ -580,8 +592,12 @@ int am__send_ctl_carrying(am_ctx_t *ctx, int pe, unsigned type, pr_buf *body,
                           unsigned user, size_t user_len);
 /* Starts a control body: leaves room for the header. */
 void am__ctl_begin(pr_buf *body);
-/* Receives up to budget frames; returns how many were taken (>= 0). */
+/* Receives up to budget frames (rings, then ZeroMQ); returns how many
+ * were taken (>= 0). */
 int am__recv_some(am_ctx_t *ctx, unsigned budget);
+/* The same for am_poll: ZeroMQ is read only every ZMQ_GAP while all the
+ * peers' frames come through rings. */
+int am__recv_poll(am_ctx_t *ctx, unsigned budget);
 /* 1 if ZeroMQ says a frame is waiting (re-reads ZMQ_EVENTS). */
 int am__socket_readable(am_ctx_t *ctx);
 /* Hands every peer's queued frames to ZeroMQ (bundled, with coalescing
@@ -696,6 +712,57 @@ int am__is_basic(const am_ctx_t *ctx, const pr_header *h);
 
 /* am_stats.c */
 void am__stats_free(am_ctx_t *ctx);
+
+/* am_shm.c: same-host rings (design and guarantees at the top of the
+ * file). All of them are no-ops or answer "no" when ctx->shm is NULL. */
+/* Creates this PE's wake socket and incoming rings (before it binds);
+ * on failure warns and goes without (returns 0), or AM_ENOMEM. */
+int am__shm_open(am_ctx_t *ctx);
+void am__shm_close(am_ctx_t *ctx);
+/* Adds the wake socket to libevent. */
+int am__shm_watch(am_ctx_t *ctx);
+/* After boot: maps the rings to the same-host peers and sends each
+ * SHM_ON; from then on every frame to such a peer goes to its ring. */
+int am__shm_start(am_ctx_t *ctx);
+int am__shm_out_on(const am_ctx_t *ctx, int pe); /* frames to pe by ring */
+int am__shm_in_on(const am_ctx_t *ctx, int pe);  /* frames from pe by ring */
+/* Every peer's frames come through a ring (and no large frame is
+ * awaited from ZeroMQ). */
+int am__shm_all_in(const am_ctx_t *ctx);
+/* Whether a frame of n bytes to a ring peer goes by ZeroMQ instead. */
+int am__shm_big(const am_ctx_t *ctx, size_t n);
+/* Reader: the ring of pe waits for a large frame from ZeroMQ (SHM_VIA);
+ * am__shm_resume once it was taken. */
+int am__shm_paused(const am_ctx_t *ctx, int pe);
+void am__shm_resume(am_ctx_t *ctx, int pe);
+/* Reader: a large frame from pe that came by ZeroMQ before its SHM_VIA
+ * was read waits here (takes msg; 0 or AM_ENOMEM); am__shm_unstash gives
+ * the oldest back in msg (initialized here), 1 if there was one. */
+int am__shm_stash(am_ctx_t *ctx, int pe, zmq_msg_t *msg);
+int am__shm_unstash(am_ctx_t *ctx, int pe, zmq_msg_t *msg);
+/* Writer: free bytes in pe's ring (reads the reader's tail). */
+size_t am__shm_room(am_ctx_t *ctx, int pe);
+/* Writer: copies up to len bytes into pe's ring; returns how many fit.
+ * Not visible to the reader before am__shm_publish. */
+size_t am__shm_put(am_ctx_t *ctx, int pe, const void *src, size_t len);
+void am__shm_publish(am_ctx_t *ctx, int pe);
+/* Reader: 1 and the next whole frame from pe in msg (initialized here),
+ * 0 if none is complete yet, -1 if ctx failed. Consumed room goes back
+ * to the writer at am__shm_release. */
+int am__shm_take(am_ctx_t *ctx, int pe, zmq_msg_t *msg);
+void am__shm_release(am_ctx_t *ctx, int pe);
+/* Reader: the peer to look at first this time (rotates). */
+int am__shm_first(const am_ctx_t *ctx);
+/* Before blocking: announces it to the writers and readers concerned;
+ * 1 (and nothing announced) if a ring already has frames or room that
+ * waiting frames need. am__shm_sleep_end after the block. */
+int am__shm_sleep_begin(am_ctx_t *ctx);
+void am__shm_sleep_end(am_ctx_t *ctx);
+/* The wake socket's fd (-1 if none), and reading its pending bytes. */
+int am__shm_fd(const am_ctx_t *ctx);
+void am__shm_drain(am_ctx_t *ctx);
+/* SHM_ON. */
+extern const am__ctl_entry am__shm_ctls[];
 
 /* am_ctx.c: sets this process's scheduling policy to AM_SCHED's value v
  * (other, batch, fifo, rr; fifo and rr at the lowest real-time priority).

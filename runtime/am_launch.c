@@ -37,6 +37,7 @@
  */
 #include "config.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <getopt.h>
 #include <signal.h>
@@ -173,7 +174,14 @@ static void usage(const launch *L, FILE *out)
             "is killed and counts as 128+its stop signal.\nSIGINT, SIGTERM, "
             "SIGHUP and SIGQUIT are passed on to the PEs. The PEs find their\n"
             "rank and peers in AM_* environment variables (see am_init in "
-            "am.h).\n",
+            "am.h).\n\n"
+            "Without a hostfile the PEs talk over ipc, and after start-up "
+            "through shared-memory\nrings they read and write themselves "
+            "(runtime/CONTROL.md, \"Same-host rings\"),\nbut not with more "
+            "PEs than processors under --sched fifo or rr unless AM_SHM=2.\n"
+            "AM_SHM=0 sends every frame over ZeroMQ instead; AM_SHM_RING=BYTES "
+            "sets each\nring's size, AM_SHM_BIG=BYTES the frame size from "
+            "which frames go over ZeroMQ\n(0: none).\n",
             L->prog, EXIT_TIMEOUT);
 }
 
@@ -1022,15 +1030,25 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
-/* Removes the ipc sockets and their directory. */
+/* Removes the ipc directory and what the PEs left in it: their sockets,
+ * and the wake sockets and ring files of the same-host rings (am_shm.c)
+ * of PEs that did not get to close them. The directory is the job's own
+ * (mkdtemp), so every entry in it is the job's. */
 static void remove_ipc_dir(const launch *L)
 {
     if (!L->ipc_dir[0])
         return;
-    for (int r = 0; r < L->np; r++) {
-        char path[128];
-        snprintf(path, sizeof path, "%s/%d.sock", L->ipc_dir, r);
-        unlink(path);
+    DIR *d = opendir(L->ipc_dir);
+    if (d) {
+        struct dirent *e;
+        while ((e = readdir(d))) {
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+                continue;
+            char path[sizeof L->ipc_dir + 300];
+            snprintf(path, sizeof path, "%s/%s", L->ipc_dir, e->d_name);
+            unlink(path);
+        }
+        closedir(d);
     }
     rmdir(L->ipc_dir);
 }

@@ -93,7 +93,7 @@ int am__loop_watch(am_ctx_t *ctx)
     ctx->mon_ev = event_new(ctx->base, mfd, EV_READ | EV_PERSIST, mon_cb, ctx);
     if (!ctx->mon_ev || event_add(ctx->mon_ev, NULL) != 0)
         return AM_ENOMEM;
-    return 0;
+    return am__shm_watch(ctx);
 }
 
 void am__loop_free(am_ctx_t *ctx)
@@ -173,7 +173,7 @@ int am_poll(am_ctx_t *ctx)
         am__flush_sendq(ctx);
     poll_local(ctx);
     if (ctx->sock)
-        am__recv_some(ctx, ctx->poll_budget);
+        am__recv_poll(ctx, ctx->poll_budget);
     /* NONBLOCK alone would loop for as long as some event is active, and
      * the ZMQ_FD stays readable until ZeroMQ processes its commands: ONCE
      * makes it a single pass over due timers. */
@@ -212,6 +212,10 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
      * ZMQ_EVENTS must be read again (a system call, so only then). */
     if (ctx->events_stale && am__socket_readable(ctx))
         return 0;
+    /* The rings: writers are told to wake this PE from now on, then the
+     * rings are looked at once more (am_shm.c, "no lost wake-up"). */
+    if (am__shm_sleep_begin(ctx))
+        return 0;
     double slice = ctx->suspects ? HOUSEKEEPING : IDLE_SLICE;
     if (max_seconds >= 0 && max_seconds < slice)
         slice = max_seconds;
@@ -224,6 +228,7 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
     event_base_loop(ctx->base, EVLOOP_ONCE);
     ctx->st.idle_s += am__now() - t0 - (ctx->st.handler_s - h0);
     evtimer_del(ctx->wake_ev);
+    am__shm_sleep_end(ctx);
     return ctx->failed;
 }
 

@@ -283,6 +283,9 @@ int am__transport_open(am_ctx_t *ctx)
         snprintf(ep, sizeof ep, "tcp://%s:0", bind);
     else
         snprintf(ep, sizeof ep, "ipc://%s/%d.sock", ctx->ipc_dir, ctx->rank);
+    /* The same-host rings exist before anyone can learn our endpoint. */
+    if ((rc = am__shm_open(ctx)))
+        return rc;
     if (zmq_bind(ctx->sock, ep) != 0) {
         am__warn(ctx, "cannot bind %s: %s", ep, zmq_strerror(errno));
         return AM_ETRANSPORT;
@@ -326,6 +329,7 @@ void am__transport_close(am_ctx_t *ctx)
     }
     /* After the socket: while it may still accept, ZAP must answer. */
     am__zap_stop(&ctx->zap);
+    am__shm_close(ctx);
     if (ctx->zctx) {
         zmq_ctx_term(ctx->zctx);
         ctx->zctx = NULL;
@@ -535,6 +539,45 @@ static void sendq_drop_head(am_ctx_t *ctx, int pe)
 
 static int flush_peer(am_ctx_t *ctx, int pe);
 
+/* A ring peer's large frame (am__shm_big) goes by ZeroMQ: without a copy,
+ * and streamed by the I/O threads while both PEs compute, where the ring
+ * would hold only its size at a time and move on at the receiver's polls.
+ * A SHM_VIA frame before it in the ring tells the receiver to take it
+ * from ZeroMQ before it reads on; both wait in the send queue, in order,
+ * and leave at once if nothing waits before them. h already holds the
+ * next sequence number (the SHM_VIA's): the frame gets the one after. */
+static int hand_over_big(am_ctx_t *ctx, int pe, pr_header *h, zmq_msg_t *msg)
+{
+    am__peer *p = &ctx->peers[pe];
+    am__frame *mk = am__frame_new(), *f = am__frame_new();
+    if (!mk || !f || (zmq_msg_close(&mk->msg),
+                      zmq_msg_init_size(&mk->msg, PR_HEADER_SIZE) != 0)) {
+        am__frame_free(mk);
+        am__frame_free(f);
+        return AM_ENOMEM;
+    }
+    pr_header mh = {PR_FLAG_CONTROL, AM__CTL_SHM_VIA, (uint32_t)ctx->rank, 0,
+                    p->send_seq++};
+    pr_header_encode(&mh, zmq_msg_data(&mk->msg));
+    mk->hdr = mh;
+    mk->src = pe;
+    h->seq = p->send_seq++;
+    pr_header_encode(h, zmq_msg_data(msg));
+    zmq_msg_move(&f->msg, msg);
+    f->hdr = *h;
+    f->src = pe;
+    f->via_zmq = 1;
+    sendq_push(ctx, pe, mk);
+    sendq_push(ctx, pe, f);
+    count_send(ctx, PR_FLAG_CONTROL, AM__CTL_SHM_VIA, 0, USER_NONE, 0);
+    if (p->sendq.n == 2) {
+        int rc = flush_peer(ctx, pe);
+        if (rc < 0)
+            return rc;
+    }
+    return 0;
+}
+
 /* Writes h (its seq filled in here) into the header room of msg and hands
  * msg to ZeroMQ, the peer's send queue (later: to wait for the next flush
  * point), or the loopback queue. Takes ownership of msg on success only;
@@ -556,7 +599,25 @@ static int hand_over_frame(am_ctx_t *ctx, int pe, pr_header *h,
     am__peer *p = &ctx->peers[pe];
     h->seq = p->send_seq;
     pr_header_encode(h, zmq_msg_data(msg));
-    if (p->sendq.n == 0 && !later) {
+    /* A ring peer: the frame goes into the ring now if it fits whole
+     * (there is nothing to bundle, and the sooner the receiver sees it
+     * the better), else it waits in the send queue, and what fits of it
+     * goes at once. */
+    int ring = am__shm_out_on(ctx, pe);
+    if (ring) {
+        size_t n = zmq_msg_size(msg);
+        if (am__shm_big(ctx, n))
+            return hand_over_big(ctx, pe, h, msg);
+        if (p->sendq.n == 0 && am__shm_room(ctx, pe) >= n) {
+            am__shm_put(ctx, pe, zmq_msg_data(msg), n);
+            am__shm_publish(ctx, pe);
+            p->send_seq++;
+            zmq_msg_close(msg);
+            return 0;
+        }
+        later = 0;
+    }
+    if (p->sendq.n == 0 && !later && !ring) {
         int rc = zsend(ctx, pe, msg);
         if (rc == 2) /* dropped while finalizing */
             zmq_msg_close(msg);
@@ -584,8 +645,9 @@ static int hand_over_frame(am_ctx_t *ctx, int pe, pr_header *h,
     }
     sendq_push(ctx, pe, f);
     /* A full bundle's worth goes now: waiting longer would not make the
-     * messages fewer. */
-    if (later && p->sendq_bytes >= AM__BUNDLE_MAX) {
+     * messages fewer. A ring peer's frame starts at once. */
+    if (ring ? p->sendq.n == 1
+             : later && p->sendq_bytes >= AM__BUNDLE_MAX) {
         int rc = flush_peer(ctx, pe);
         if (rc < 0)
             return rc;
@@ -691,11 +753,53 @@ static void count_refused(am_ctx_t *ctx, am__fifo *q, size_t k)
         }
 }
 
-/* Hands pe's queued frames to ZeroMQ, bundled, until it would block.
- * Returns 0, 3 if the peer has no route (zsend), or a fatal code. */
+/* Writes pe's queued frames into its ring until it is full; the frame
+ * at the head may be written in pieces (f->off), over several flushes. */
+static int flush_ring(am_ctx_t *ctx, int pe)
+{
+    am__peer *p = &ctx->peers[pe];
+    int wrote = 0;
+    while (p->sendq.head) {
+        am__frame *f = p->sendq.head;
+        if (f->via_zmq) {
+            /* Its SHM_VIA must be visible first. */
+            if (wrote)
+                am__shm_publish(ctx, pe);
+            wrote = 0;
+            int rc = zsend(ctx, pe, &f->msg);
+            if (rc < 0 || rc == 3)
+                return rc;
+            if (rc == 1) {
+                count_refused(ctx, &p->sendq, 1);
+                break;
+            }
+            sendq_drop_head(ctx, pe);
+            continue;
+        }
+        size_t n = zmq_msg_size(&f->msg);
+        size_t put = am__shm_put(ctx, pe, (const uint8_t *)zmq_msg_data(&f->msg)
+                                              + f->off, n - f->off);
+        f->off += put;
+        wrote |= put > 0;
+        if (f->off < n) {
+            count_refused(ctx, &p->sendq, 1);
+            break;
+        }
+        sendq_drop_head(ctx, pe);
+    }
+    if (wrote)
+        am__shm_publish(ctx, pe);
+    return 0;
+}
+
+/* Hands pe's queued frames to ZeroMQ, bundled, until it would block (or
+ * to its ring). Returns 0, 3 if the peer has no route (zsend), or a fatal
+ * code. */
 static int flush_peer(am_ctx_t *ctx, int pe)
 {
     am__peer *p = &ctx->peers[pe];
+    if (am__shm_out_on(ctx, pe))
+        return flush_ring(ctx, pe);
     while (p->sendq.head) {
         size_t bytes, k = bundle_span(ctx, &p->sendq, &bytes);
         zmq_msg_t bundle, *m = &p->sendq.head->msg;
@@ -1034,14 +1138,43 @@ static void route_frame(am_ctx_t *ctx, am__frame *f)
  * Returns 0 if the frame was routed, 1 if it was rejected (counted; the
  * rest of its bundle is dropped with it: after a bad frame the framing of
  * the rest is no longer trusted). Consumes fr->msg. */
-static int take_frame(am_ctx_t *ctx, zmq_msg_t *id, const char *uid,
-                      am__frame *fr)
+static int take_frame(am_ctx_t *ctx, const void *id, size_t id_len,
+                      const char *uid, int ring, am__frame *fr)
 {
     int src;
     const uint8_t *data = zmq_msg_data(&fr->msg);
     size_t len = zmq_msg_size(&fr->msg);
-    int why = am__frame_check(ctx, zmq_msg_data(id), zmq_msg_size(id), data,
-                              len, &src, &fr->hdr);
+    int why = am__frame_check(ctx, id, id_len, data, len, &src, &fr->hdr);
+    /* From a peer whose frames come through its ring, ZeroMQ carries only
+     * the liveness probe (unreachable()): a PING without a sequence
+     * number of its own. Anything else there would break the order. */
+    if (!ring && src >= 0 && (!why || why == AM__REJ_SEQ + 1) &&
+        am__shm_in_on(ctx, src)) {
+        int ping = (fr->hdr.flags & PR_FLAG_CONTROL) &&
+                   fr->hdr.handler == AM__CTL_PING;
+        if (ping) {
+            fr->src = src;
+            route_frame(ctx, fr);
+            return 0;
+        }
+        /* A large frame a SHM_VIA announces: taken as any other if the
+         * ring waits for it (then the ring is read on); else it overtook
+         * its SHM_VIA, and waits for it. */
+        if (why) {
+            am__reject(ctx, AM__REJ_SEQ, src, "a frame beside the ring");
+            zmq_msg_close(&fr->msg);
+            return 1;
+        }
+        if (!am__shm_paused(ctx, src)) {
+            if (am__shm_stash(ctx, src, &fr->msg)) {
+                zmq_msg_close(&fr->msg);
+                am__fail(ctx, AM_ENOMEM, "out of memory queueing a frame");
+                return 1;
+            }
+            return 0;
+        }
+        am__shm_resume(ctx, src);
+    }
     if (why) {
         if (why - 1 == AM__REJ_VERSION) {
             char detail[96];
@@ -1114,7 +1247,7 @@ static int take_bundle(am_ctx_t *ctx, zmq_msg_t *id, zmq_msg_t *msg)
         memcpy(zmq_msg_data(&fr.msg), data + off, n);
         off += n;
         taken++;
-        if (take_frame(ctx, id, uid, &fr))
+        if (take_frame(ctx, zmq_msg_data(id), zmq_msg_size(id), uid, 0, &fr))
             break;
     }
     if (taken > 1) {
@@ -1125,7 +1258,72 @@ static int take_bundle(am_ctx_t *ctx, zmq_msg_t *id, zmq_msg_t *msg)
     return taken;
 }
 
+/* Takes up to budget frames from the rings, each peer's in turn (the
+ * first one rotates, so that no peer is starved). */
+static int recv_rings(am_ctx_t *ctx, unsigned budget)
+{
+    int taken = 0;
+    int first = am__shm_first(ctx);
+    for (int i = 0; i < ctx->size && !ctx->failed; i++) {
+        int pe = (first + i) % ctx->size;
+        if (!am__shm_in_on(ctx, pe) || am__shm_paused(ctx, pe))
+            continue;
+        uint8_t id[5];
+        am__routing_id(pe, id);
+        while ((unsigned)taken < budget && !ctx->failed) {
+            am__frame fr;
+            memset(&fr, 0, sizeof fr);
+            if (am__shm_take(ctx, pe, &fr.msg) <= 0)
+                break;
+            taken++;
+            take_frame(ctx, id, sizeof id, NULL, 1, &fr);
+            /* A SHM_VIA: its frame may have come already. */
+            if (am__shm_paused(ctx, pe)) {
+                memset(&fr, 0, sizeof fr);
+                if (!am__shm_unstash(ctx, pe, &fr.msg))
+                    break;
+                take_frame(ctx, id, sizeof id, NULL, 0, &fr);
+            }
+        }
+        /* The room goes back, and a writer waiting for it is woken. */
+        am__shm_release(ctx, pe);
+    }
+    return taken;
+}
+
+static int recv_zmq(am_ctx_t *ctx, unsigned budget);
+
 int am__recv_some(am_ctx_t *ctx, unsigned budget)
+{
+    int taken = ctx->shm ? recv_rings(ctx, budget) : 0;
+    if ((unsigned)taken < budget)
+        taken += recv_zmq(ctx, budget - (unsigned)taken);
+    return taken;
+}
+
+/* While every peer's frames come through rings, ZeroMQ carries nothing
+ * but probes (and the rings' polls cost no system call, where asking
+ * ZeroMQ costs one): am_poll then reads it only this often; am_idle
+ * always looks before blocking (events_stale stays set). */
+#define ZMQ_GAP 0.5e-3
+
+int am__recv_poll(am_ctx_t *ctx, unsigned budget)
+{
+    int taken = ctx->shm ? recv_rings(ctx, budget) : 0;
+    if ((unsigned)taken >= budget)
+        return taken;
+    if (am__shm_all_in(ctx)) {
+        double now = am__now();
+        if (now < ctx->zmq_next) {
+            ctx->events_stale = 1;
+            return taken;
+        }
+        ctx->zmq_next = now + ZMQ_GAP;
+    }
+    return taken + recv_zmq(ctx, budget - (unsigned)taken);
+}
+
+static int recv_zmq(am_ctx_t *ctx, unsigned budget)
 {
     int taken = 0;
     while (!ctx->failed) {
@@ -1178,7 +1376,8 @@ int am__recv_some(am_ctx_t *ctx, unsigned budget)
             const char *uid =
                 ctx->zap ? zmq_msg_gets(&fr.msg, "User-Id") : NULL;
             taken++;
-            take_frame(ctx, &id, uid, &fr);
+            take_frame(ctx, zmq_msg_data(&id), zmq_msg_size(&id), uid, 0,
+                       &fr);
         }
         zmq_msg_close(&id);
     }
@@ -1397,19 +1596,23 @@ static int unreachable(am_ctx_t *ctx, int pe)
     uint8_t id[5];
     am__routing_id(pe, id);
     int gone = 0;
+    int ring = am__shm_out_on(ctx, pe);
     ctx->events_stale = 1;
-    if (ctx->peers[pe].sendq.n) {
+    if (ctx->peers[pe].sendq.n && !ring) {
         /* Frames wait for it: handing them over is the probe. */
         gone = flush_peer(ctx, pe) == 3;
     } else {
         if (zmq_send(ctx->sock, id, sizeof id, ZMQ_SNDMORE | ZMQ_DONTWAIT) < 0) {
             gone = errno == EHOSTUNREACH;
         } else {
-            /* Routable: send a real PING so sequence numbers stay right. */
+            /* Routable: send a real PING so sequence numbers stay right.
+             * To a ring peer it carries none: its frames' sequence is the
+             * ring's, and the receiver takes a PING beside it as a probe. */
             size_t len;
             uint8_t *data = pr_buf_take(&b, &len);
             pr_header h = {PR_FLAG_CONTROL, AM__CTL_PING, (uint32_t)ctx->rank, 0,
-                           ctx->peers[pe].send_seq++};
+                           ring ? ctx->peers[pe].send_seq
+                                : ctx->peers[pe].send_seq++};
             pr_header_encode(&h, data);
             zmq_send(ctx->sock, data, len, ZMQ_DONTWAIT);
             pr_free(data);

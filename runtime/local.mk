@@ -25,7 +25,8 @@ libam_la_SOURCES = \
 	runtime/am_control.c \
 	runtime/am_launch.c \
 	runtime/am_keys.c \
-	runtime/am_zap.c
+	runtime/am_zap.c \
+	runtime/am_shm.c
 if LIBAM_FAST_SWITCH
 libam_la_SOURCES += runtime/am_switch_x86_64.S
 endif

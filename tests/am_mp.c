@@ -1142,6 +1142,115 @@ static int run_flush(am_ctx_t *ctx)
     return 0;
 }
 
+/* ----------------------------------------------------------------- wake */
+
+/* A receiver blocked in am_idle must be woken by a message at once, not
+ * at the end of its idle slice (0.25 s): rank 0 sends n messages at
+ * random moments, each carrying its send time (CLOCK_MONOTONIC is the
+ * same clock in every process of the host); rank 1 waits for each with
+ * am_idle(30) and records how long it took to arrive. */
+static double wake_delay[256];
+static int wakes;
+
+static void wake_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg)
+{
+    (void)ctx;
+    (void)arg;
+    double sent;
+    if (m->len == sizeof sent && wakes < 256) {
+        memcpy(&sent, m->data, sizeof sent);
+        wake_delay[wakes] = now_s() - sent;
+    }
+    wakes++;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static int run_wake(am_ctx_t *ctx, int n)
+{
+    if (n > 256)
+        n = 256;
+    am_register(ctx, H_PING, "wake", wake_handler, NULL);
+    am_barrier(ctx);
+    if (am_rank(ctx) == 0) {
+        for (int i = 0; i < n; i++) {
+            /* 20-80 ms apart: rank 1 is asleep by then, at any phase of
+             * its idle slice. */
+            am_sleep(ctx, 0.02 + (double)(rnd() % 60) * 1e-3);
+            double t = now_s();
+            CHECK(am_send(ctx, 1, H_PING, &t, sizeof t) == 0, "send");
+            am_flush(ctx);
+        }
+    } else if (am_rank(ctx) == 1) {
+        double limit = now_s() + 60;
+        while (wakes < n && now_s() < limit) {
+            am_poll(ctx);
+            if (wakes < n)
+                am_idle(ctx, 30);
+        }
+        CHECK(wakes == n, "%d of %d messages arrived", wakes, n);
+        qsort(wake_delay, (size_t)wakes, sizeof *wake_delay, cmp_double);
+        double med = wake_delay[wakes / 2];
+        printf("wake: %d messages to a sleeping PE, delay median %.1f us, "
+               "max %.1f us\n",
+               wakes, med * 1e6, wake_delay[wakes - 1] * 1e6);
+        /* A lost wake-up waits for the idle slice: 0-250 ms, 125 by the
+         * median; a woken PE takes microseconds. */
+        CHECK(med < 0.03, "median delay %.1f ms: the sleeping PE was not woken",
+              med * 1e3);
+    }
+    am_barrier(ctx);
+    return 0;
+}
+
+/* -------------------------------------------------------------- killfull */
+
+static void spin_handler(am_ctx_t *ctx, const am_msg_t *m, void *arg);
+
+/* The peer dies while this PE's ring to it is full: the victim stops
+ * polling (it computes) while the others send kb KiB to it, until their
+ * frames wait in their send queues, then kills itself. The senders,
+ * blocked on the full ring and the window, must still exit with an error
+ * naming it. */
+static int run_killfull(am_ctx_t *ctx, int kb, int victim)
+{
+    am_register(ctx, H_SPIN, "spin", spin_handler, NULL);
+    am_barrier(ctx);
+    if (am_rank(ctx) == victim) {
+        double end = now_s() + 1.0;
+        while (now_s() < end)
+            ; /* no polling: nothing is read from the rings */
+        fprintf(stderr, "am_mp: PE %d: killing myself with SIGKILL\n", victim);
+        fflush(stderr);
+        raise(SIGKILL);
+    }
+    static uint8_t buf[1024];
+    am_stats_t st;
+    int said = 0;
+    for (int i = 0; i < kb; i++) {
+        int rc = am_send(ctx, victim, H_SPIN, buf, sizeof buf);
+        if (rc)
+            return 1; /* the error handler exits first */
+        am_stats_get(ctx, &st);
+        if (!said && st.queued_sends > 0) {
+            fprintf(stderr, "am_mp: PE %d: frames wait for room in the ring "
+                            "after %d KiB\n",
+                    am_rank(ctx), i + 1);
+            fflush(stderr);
+            said = 1;
+        }
+    }
+    double t0 = now_s();
+    int rc = am_run_until_done(ctx, NULL, NULL);
+    CHECK(0, "am_run_until_done returned %s after %.1f s instead of exiting",
+          am_strerror(rc), now_s() - t0);
+    return 1;
+}
+
 /* ----------------------------------------------------------------- coll */
 
 static void coll_thread(am_ctx_t *ctx, void *arg)
@@ -1587,6 +1696,10 @@ int main(int argc, char **argv)
         rc = run_affinity(ctx);
     else if (!strcmp(mode, "kill"))
         rc = run_kill(ctx, arg1);
+    else if (!strcmp(mode, "wake"))
+        rc = run_wake(ctx, arg1 > 0 ? arg1 : 20);
+    else if (!strcmp(mode, "killfull"))
+        rc = run_killfull(ctx, arg1 > 0 ? arg1 : 16384, arg2);
     else if (!strcmp(mode, "busy") && argc > 3)
         rc = run_busy(ctx, argv[2], arg2);
     else if (!strcmp(mode, "flood") || !strcmp(mode, "flood-pair"))
@@ -1601,6 +1714,7 @@ int main(int argc, char **argv)
         rc = run_zap(ctx, argv[2], arg2, argc > 4 ? atof(argv[4]) : 0);
     else {
         fprintf(stderr, "usage: am_mp idle|storm|term|rpc|counts|rtt|flush|coll|affinity|kill|"
+                        "wake|killfull|"
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }

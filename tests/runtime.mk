@@ -86,6 +86,7 @@ AM_MP_TESTS = \
 	tests/am-fault.sh \
 	tests/am-signals.sh \
 	tests/am-flood.sh \
-	tests/am-zap.sh
+	tests/am-zap.sh \
+	tests/am-shm.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)

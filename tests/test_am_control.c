@@ -317,7 +317,8 @@ START_TEST(dispatch_table_is_complete)
         [AM__CTL_TERMINATE] = "terminate", [AM__CTL_COLL_UP] = "coll_up",
         [AM__CTL_COLL_DOWN] = "coll_down", [AM__CTL_GATHER] = "gather",
         [AM__CTL_RPC_REQ] = "rpc_request", [AM__CTL_RPC_REP] = "rpc_reply",
-        [AM__CTL_ABORT] = "abort",         [AM__CTL_CREDIT] = "credit"};
+        [AM__CTL_ABORT] = "abort",         [AM__CTL_CREDIT] = "credit",
+        [AM__CTL_SHM_ON] = "shm_on",       [AM__CTL_SHM_VIA] = "shm_via"};
     am_ctx_t *ctx;
     ck_assert_int_eq(am_init(NULL, NULL, NULL, &ctx), 0);
     ck_assert_ptr_null(ctx->ctl[0]);

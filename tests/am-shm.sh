@@ -1,0 +1,64 @@
+#!/bin/sh
+# The same-host rings (runtime/am_shm.c): a PE blocked in am_idle is woken
+# by a frame written to its ring; a job where some pairs use rings and
+# others ZeroMQ; and a peer killed while the rings to it are full. (Order,
+# pieces, wrap-round and large frames by ZeroMQ: am-storm.sh.)
+. "$top_srcdir/tests/am-lib.sh"
+# These test the rings: they run with them even when the suite runs with
+# AM_SHM=0.
+AM_SHM=1
+export AM_SHM
+
+shm_on_recv() {
+    grep -o '"shm_on": {"sent": [0-9]*, "sent_bytes": [0-9]*, "recv": [0-9]*' "$work"/st/stats-*.json |
+        sed 's/.*"recv": //' | awk '{s += $1} END {print s + 0}'
+}
+
+# Wake-up: 20 messages to a PE asleep in am_idle(30), through the ring
+# and, for comparison, through ZeroMQ.
+for shm in 1 0; do
+    rm -rf "$work/st"
+    AM_SHM=$shm job 60 "$AMRUN" -n 2 --stats "$work/st" -- "$MP" wake 20
+    expect_ok "wake-up (AM_SHM=$shm)"
+    expect_line "^wake: 20 messages to a sleeping PE" "wake"
+    [ "$shm" -eq 0 ] || [ "$(shm_on_recv)" -eq 2 ] || fail "wake-up: the rings were not used"
+    grep "^wake:" "$work/out"
+done
+AM_SHM=1
+
+# Mixed: PE 1 has AM_SHM=0, so it makes no rings and uses none; the pairs
+# without it use rings. Every message arrives once, in order.
+rm -rf "$work/st"
+job 120 "$AMRUN" -n 4 --stats "$work/st" -- sh -c \
+    'if [ "$AM_RANK" = 1 ]; then AM_SHM=0; export AM_SHM; fi; exec "$@"' sh \
+    "$MP" storm 300 4000
+expect_ok "storm with PE 1 on ZeroMQ only"
+expect_line "^storm: 4 PEs, 4800 messages delivered exactly once.* 0 failed checks" "storm mixed"
+[ "$(shm_on_recv)" -eq 6 ] || fail "mixed job: $(shm_on_recv) of 6 pairs without PE 1 use a ring"
+
+# The victim stops reading, the rings to it (64 KiB) fill, then it dies:
+# every sender must exit with an error naming it, on its own and in
+# bounded time. On 2 PEs each way round: the victim connected to the
+# sender (rank 1 dies; rank 0 learns it by probing), and the sender
+# connected to the victim (rank 0 dies); on 3 PEs both kinds at once.
+killfull() {
+    np=$1
+    victim=$2
+    AM_SHM_RING=64k job 60 "$AMRUN" -n "$np" --grace 40 -- "$MP" killfull 16384 "$victim"
+    [ "$rc" -ne 0 ] || fail "job with a killed PE exited 0"
+    [ "$rc" -ne 124 ] || fail "senders on a full ring hung until the timeout"
+    [ "$(echo "$elapsed < 15" | bc)" -eq 1 ] || fail "the PEs took $elapsed s to notice"
+    for pe in $(seq 0 $((np - 1))); do
+        [ "$pe" -eq "$victim" ] && continue
+        expect_line "^am_mp: PE $pe: frames wait for room in the ring" "killfull"
+    done
+    expect_line "PE $victim (pid [0-9]*) was killed by signal 9" "killfull"
+    expect_line "^am: PE [0-9]*: PE $victim went away" "killfull"
+    others=$(grep -c "^am-run: PE [0-9]* (pid [0-9]*) exited with status 1$" "$work/out")
+    [ "$others" -eq $((np - 1)) ] || fail "$others of $((np - 1)) senders exited with status 1"
+    echo "shm: $np PEs, PE $victim killed behind full rings: the senders exited with an error after $elapsed s"
+}
+killfull 2 1
+killfull 2 0
+killfull 3 1
+echo "shm: ok"
