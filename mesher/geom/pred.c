@@ -763,17 +763,25 @@ int pred__orient3d_filter(const double *a, const double *b, const double *c, con
  * 3eps*P; total 8eps*P, used 9eps*P. Valid when P >= 2^-800 (underflow in a
  * partial product, at most 2^-1075 times column maxima below 2^330, is then
  * far below the margin) and the column maxima are at most 2^330. */
-int pred__orient3d_filter2(const double *a, const double *b, const double *c, const double *d)
+/* det[a-d; b-d; c-d] as filter2 evaluates it, with its permanent (*perm)
+ * and the largest |entry| (*hi), from the rounded differences. */
+static double orient3d_det_perm(const double *a, const double *b, const double *c,
+                                const double *d, double *perm, double *hi)
 {
     double ux = a[0] - d[0], uy = a[1] - d[1], uz = a[2] - d[2];
     double vx = b[0] - d[0], vy = b[1] - d[1], vz = b[2] - d[2];
     double wx = c[0] - d[0], wy = c[1] - d[1], wz = c[2] - d[2];
     double p1 = vy * wz, p2 = vz * wy, p3 = vz * wx, p4 = vx * wz, p5 = vx * wy, p6 = vy * wx;
-    double det = ux * (p1 - p2) + uy * (p3 - p4) + uz * (p5 - p6);
-    double perm = fabs(ux) * (fabs(p1) + fabs(p2)) + fabs(uy) * (fabs(p3) + fabs(p4)) +
-                  fabs(uz) * (fabs(p5) + fabs(p6));
-    double hi = dmax(dmax(dmax(fabs(ux), fabs(vx)), dmax(fabs(wx), fabs(uy))),
-                     dmax(dmax(fabs(vy), fabs(wy)), dmax(dmax(fabs(uz), fabs(vz)), fabs(wz))));
+    *perm = fabs(ux) * (fabs(p1) + fabs(p2)) + fabs(uy) * (fabs(p3) + fabs(p4)) +
+            fabs(uz) * (fabs(p5) + fabs(p6));
+    *hi = dmax(dmax(dmax(fabs(ux), fabs(vx)), dmax(fabs(wx), fabs(uy))),
+               dmax(dmax(fabs(vy), fabs(wy)), dmax(dmax(fabs(uz), fabs(vz)), fabs(wz))));
+    return ux * (p1 - p2) + uy * (p3 - p4) + uz * (p5 - p6);
+}
+
+int pred__orient3d_filter2(const double *a, const double *b, const double *c, const double *d)
+{
+    double perm, hi, det = orient3d_det_perm(a, b, c, d, &perm, &hi);
     if (perm >= 0x1p-800 && hi <= 0x1p+330) {
         double bound = 9.0 * EPS * perm;
         if (det > bound)
@@ -862,8 +870,10 @@ int pred__insphere_filter(const double *a, const double *b, const double *c, con
  * Valid when P >= 2^-700 and the largest lift is at most 2^190 (underflow
  * terms, at most about 2^-1075 * (2^95)^3 each, are then far below the
  * margin; no overflow). */
-int pred__insphere_filter2(const double *a, const double *b, const double *c, const double *d,
-                           const double *e)
+/* The insphere determinant as filter2 evaluates it, with its permanent
+ * (*perm) and the largest lift (*L), from the rounded differences. */
+static double insphere_det_perm(const double *a, const double *b, const double *c,
+                                const double *d, const double *e, double *perm, double *L)
 {
     double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
     double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
@@ -889,9 +899,15 @@ int pred__insphere_filter2(const double *a, const double *b, const double *c, co
     double pacd = (fabs(az) * pcd + fabs(cz) * pad) + fabs(dz) * pac;
     double pabd = (fabs(az) * pbd + fabs(bz) * pad) + fabs(dz) * pab;
     double pabc = (fabs(az) * pbc + fabs(bz) * pac) + fabs(cz) * pab;
-    double det = (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
-    double perm = (la * pbcd + lb * pacd) + (lc * pabd + ld * pabc);
-    double L = dmax(dmax(la, lb), dmax(lc, ld));
+    *perm = (la * pbcd + lb * pacd) + (lc * pabd + ld * pabc);
+    *L = dmax(dmax(la, lb), dmax(lc, ld));
+    return (la * dbcd - lb * dacd) + (lc * dabd - ld * dabc);
+}
+
+int pred__insphere_filter2(const double *a, const double *b, const double *c, const double *d,
+                           const double *e)
+{
+    double perm, L, det = insphere_det_perm(a, b, c, d, e, &perm, &L);
     if (perm >= 0x1p-700 && L <= 0x1p+190) {
         double bound = 17.0 * EPS * perm;
         if (det > bound)
@@ -900,27 +916,6 @@ int pred__insphere_filter2(const double *a, const double *b, const double *c, co
             return -1;
     }
     return 2;
-}
-
-/* The permanent of the insphere determinant (filter2's P) from the rounded
- * differences. */
-static double insphere_perm(const double *a, const double *b, const double *c, const double *d,
-                            const double *e)
-{
-    double ax = a[0] - e[0], ay = a[1] - e[1], az = a[2] - e[2];
-    double bx = b[0] - e[0], by = b[1] - e[1], bz = b[2] - e[2];
-    double cx = c[0] - e[0], cy = c[1] - e[1], cz = c[2] - e[2];
-    double dx = d[0] - e[0], dy = d[1] - e[1], dz = d[2] - e[2];
-    double la = (ax * ax + ay * ay) + az * az, lb = (bx * bx + by * by) + bz * bz;
-    double lc = (cx * cx + cy * cy) + cz * cz, ld = (dx * dx + dy * dy) + dz * dz;
-    double pab = fabs(ax * by) + fabs(bx * ay), pac = fabs(ax * cy) + fabs(cx * ay);
-    double pad = fabs(ax * dy) + fabs(dx * ay), pbc = fabs(bx * cy) + fabs(cx * by);
-    double pbd = fabs(bx * dy) + fabs(dx * by), pcd = fabs(cx * dy) + fabs(dx * cy);
-    double pbcd = (fabs(bz) * pcd + fabs(cz) * pbd) + fabs(dz) * pbc;
-    double pacd = (fabs(az) * pcd + fabs(cz) * pad) + fabs(dz) * pac;
-    double pabd = (fabs(az) * pbd + fabs(bz) * pad) + fabs(dz) * pab;
-    double pabc = (fabs(az) * pbc + fabs(bz) * pac) + fabs(cz) * pab;
-    return (la * pbcd + lb * pacd) + (lc * pabd + ld * pabc);
 }
 
 /* ============================================ double-word filter
@@ -1032,7 +1027,8 @@ int pred__insphere_dw(const double *a, const double *b, const double *c, const d
         }
     if (!(hi <= 0x1p+100))
         return 2; /* also NaN and infinities */
-    double perm = insphere_perm(a, b, c, d, e);
+    double perm, L;
+    (void)insphere_det_perm(a, b, c, d, e, &perm, &L);
     if (!(perm >= 0x1p-400))
         return 2;
     for (int i = 0; i < 4; i++)
@@ -1081,12 +1077,8 @@ int pred__orient3d_dw(const double *a, const double *b, const double *c, const d
         }
     if (!(hi <= 0x1p+100))
         return 2;
-    double ux = r[0][0].h, uy = r[0][1].h, uz = r[0][2].h;
-    double vx = r[1][0].h, vy = r[1][1].h, vz = r[1][2].h;
-    double wx = r[2][0].h, wy = r[2][1].h, wz = r[2][2].h;
-    double perm = fabs(ux) * (fabs(vy * wz) + fabs(vz * wy)) +
-                  fabs(uy) * (fabs(vz * wx) + fabs(vx * wz)) +
-                  fabs(uz) * (fabs(vx * wy) + fabs(vy * wx));
+    double perm, rhi;
+    (void)orient3d_det_perm(a, b, c, d, &perm, &rhi);
     if (!(perm >= 0x1p-400))
         return 2;
     const dw *u = r[0], *v = r[1], *w = r[2];
