@@ -555,6 +555,14 @@ AM_EXPORT int am_stats_write_json(am_ctx_t *ctx, const char *path);
  * Try 'am-run --help'. */
 AM_EXPORT int am_launch_main(int argc, char **argv, const char *prog);
 
+/* Creates the directory path and any missing directory above it, as
+ * 'mkdir -p' does (mode 0777 less the umask), for a --stats directory;
+ * one that exists already is fine, also when another process makes it
+ * at the same time. Returns 0 when path names a directory afterwards,
+ * else -1 with errno set (ENOTDIR when a component is a file,
+ * ENAMETOOLONG past PATH_MAX bytes). */
+AM_EXPORT int am_mkdir_p(const char *path);
+
 #ifdef __cplusplus
 }
 #endif

@@ -187,7 +187,7 @@ static void usage(const launch *L, FILE *out)
 
 /* ------------------------------------------------------------ directories */
 
-/* mkdir of a prefix of the --stats path: 0 when it is a directory
+/* mkdir of a prefix of a path for am_mkdir_p: 0 when it is a directory
  * afterwards (made now, or before, perhaps by another process). */
 static int make_dir(const char *dir)
 {
@@ -204,9 +204,7 @@ static int make_dir(const char *dir)
     return -1;
 }
 
-/* Creates path and the directories above it that are missing, as
- * 'mkdir -p' does: 0, or -1 with errno set. */
-static int make_dirs(const char *path)
+int am_mkdir_p(const char *path)
 {
     size_t n = strlen(path);
     if (!n || n >= PATH_MAX) {
@@ -1334,7 +1332,7 @@ int am_launch_main(int argc, char **argv, const char *prog)
     for (int r = 0; r < L.np; r++)
         L.status[r] = -1;
     if (stats) {
-        if (make_dirs(stats)) {
+        if (am_mkdir_p(stats)) {
             lerr(&L, "cannot create --stats directory %s: %s", stats,
                  strerror(errno));
             goto out;

@@ -1,15 +1,12 @@
 /* base/pdr_util.c -- clocks and resource usage. */
 #include "config.h"
 
-#include <errno.h>
-#include <limits.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -88,48 +85,6 @@ char *pdr_path_ext(const char *base, size_t n, const char *ext)
 char *pdr_path_join(const char *base, const char *ext)
 {
     return pdr_path_ext(base, strlen(base), ext);
-}
-
-/* mkdir of a prefix of the path: 0 when it is a directory afterwards. */
-static int mkdir_one(const char *dir)
-{
-    if (!mkdir(dir, 0777))
-        return 0;
-    int e = errno;
-    struct stat sb;
-    if (!stat(dir, &sb)) {
-        if (S_ISDIR(sb.st_mode))
-            return 0;
-        e = ENOTDIR;
-    }
-    errno = e;
-    return -1;
-}
-
-int pdr_mkdir_p(const char *path)
-{
-    size_t n = strlen(path);
-    if (!n) {
-        errno = ENOENT;
-        return -1;
-    }
-    if (n >= PATH_MAX) {
-        errno = ENAMETOOLONG;
-        return -1;
-    }
-    char buf[PATH_MAX];
-    memcpy(buf, path, n + 1);
-    /* Each prefix that ends before a '/' (not the root's), then the whole. */
-    for (size_t i = 1; i < n; i++) {
-        if (buf[i] != '/' || buf[i - 1] == '/')
-            continue;
-        buf[i] = '\0';
-        int rc = mkdir_one(buf);
-        buf[i] = '/';
-        if (rc)
-            return -1;
-    }
-    return mkdir_one(buf);
 }
 
 void pdr_progress_start(pdr_progress *p, double t0, int quiet)

@@ -43,12 +43,6 @@ size_t pdr_path_stem(const char *path);
 char *pdr_path_ext(const char *base, size_t n, const char *ext);
 /* base followed by ext (pdr_path_ext of all of base). */
 char *pdr_path_join(const char *base, const char *ext);
-/* Creates the directory path and any missing directory above it (as
- * 'mkdir -p' does, mode 0777 less the umask); one that exists already is
- * fine, also when another process makes it at the same time. Returns 0
- * when path names a directory afterwards, else -1 with errno set (ENOTDIR
- * when a component is a file, ENAMETOOLONG past PATH_MAX bytes). */
-int pdr_mkdir_p(const char *path);
 
 /* A progress line on stderr for long runs: nothing during the first two
  * seconds; then, on a terminal, one line rewritten in place at most every

@@ -251,7 +251,7 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
     char path[4096];
     if (snprintf(path, sizeof path, "%s/table1-%d.json", dir, rank) >= (int)sizeof path)
         return PDR_EINVAL;
-    if (pdr_mkdir_p(dir))
+    if (am_mkdir_p(dir))
         return PDR_EIO;
     outfile of;
     if (outfile_open(&of, path, NULL))
