@@ -656,6 +656,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * started and ended, submeshes gathered (the merge's own time is
      * measured around it). */
     double t_prep[3] = {0, 0, 0}, t_start = 0, t_end = 0, t_gathered = 0;
+    /* Rank 0's sample of par_table1.peak_nonfile with Mo and the parts'
+     * messages held (its resident set peaks there). */
+    size_t mem_prepared = 0;
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
     if (!rc)
         rc = am_register(am, H_MERGE, "mesh-merge", on_merge, &min);
@@ -671,6 +674,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         memset(&mo_st, 0, sizeof mo_st);
         int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep, &pre, &mo_st)
                       : PDR_ENOMEM;
+        mem_prepared = pdr_rss_nonfile();
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -726,7 +730,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         goto done;
     }
     have_sub = 1;
-    /* The submesh and the message it came in, both held here. */
+    /* The submesh and the message it came in, both held here: a sample
+     * of par_table1.peak_nonfile. */
     size_t mem_loaded = pdr_rss_nonfile();
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
@@ -794,6 +799,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         rc = par_run_refine(am, &s, &ro_run, &row);
     if (row.peak_nonfile < mem_loaded)
         row.peak_nonfile = mem_loaded;
+    if (row.peak_nonfile < mem_prepared)
+        row.peak_nonfile = mem_prepared;
     if (rc && s.r.recovery_stuck) {
         char why[512];
         mp_recovery_stuck_text(&s.r, 9, why, sizeof why);

@@ -50,7 +50,6 @@ typedef struct par_run {
     uint64_t seen_in;       /* cc.st.tets_in already counted as work */
     uint64_t clock_points;  /* pr->points when last_point_at was taken */
     double last_point_at;   /* pdr_now() when a point was last seen */
-    uint64_t mem_points;    /* points at which memory is sampled next */
     /* the interface band (par_band.h; 2 PEs) */
     int band_margin;         /* 0: off */
     par_band_cut cut;
@@ -543,17 +542,6 @@ static void refine_thread(am_ctx_t *am, void *arg)
     pr->free_items = it;
 }
 
-/* Samples the resident memory without file pages (par_table1.peak_nonfile)
- * and sets when to sample next (PAR_RUN_MEM_POINTS). */
-static void sample_mem(par_run *pr)
-{
-    uint64_t b = pdr_rss_nonfile();
-    if (b > pr->row->peak_nonfile)
-        pr->row->peak_nonfile = b;
-    uint64_t step = pr->points / 2;
-    pr->mem_points = pr->points + (step > PAR_RUN_MEM_POINTS ? step : PAR_RUN_MEM_POINTS);
-}
-
 /* The loop's "start new work" step: one thread per item, up to the cap. */
 static int start_work(am_ctx_t *am, void *arg)
 {
@@ -585,8 +573,6 @@ static int start_work(am_ctx_t *am, void *arg)
             pr->o.progress(pr->o.progress_arg, pr->s, pr->row);
         }
     }
-    if (pr->points >= pr->mem_points)
-        sample_mem(pr);
     if (pr->nthreads >= pr->o.max_threads)
         return 0;
     int kind;
@@ -646,7 +632,6 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
         pr->o.chain_s = PAR_RUN_CHAIN_S;
     pr->rng = (o->seed ^ 0x9E3779B97F4A7C15ULL) * (s->rank + 1) | 1;
     pr->row = row;
-    sample_mem(pr);
     int rc = par_cav_ctx_init(&pr->cc, am, s, PAR_RUN_HANDLER_BASE);
     if (rc) {
         pr_free(pr);
@@ -742,7 +727,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_end = interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
-    sample_mem(pr);
+    row->peak_nonfile = pdr_rss_nonfile(); /* the second sample (par_run.h) */
     row->work = pr->work;
     row->points = pr->points;
     row->bands_in = pr->cc.st.bands_in;

@@ -105,13 +105,7 @@
  * the other PE. */
 #define PAR_RUN_MAX_IMPORT 1024
 #define PAR_RUN_STALL_WINDOW 262144.0
-/* The refinement samples the PE's resident memory without file pages
- * (par_table1.peak_nonfile) when it starts, when it ends, and in between
- * once the points it inserted grew by this many or by half, whichever is
- * more: a PE's memory grows with its mesh, and a sample is a pass over
- * /proc/self/smaps (about half a millisecond in a PE), so a PE that
- * inserts 10^5 points takes about ten samples. */
-#define PAR_RUN_MEM_POINTS 4096
+
 #define PAR_RUN_STALL_RATIO 1024.0
 /* The bound's other leg, on the clock: a PE that keeps attempting items
  * and inserts no point for this many seconds stops the same way
@@ -175,9 +169,17 @@ typedef struct par_table1 {
                                 (getrusage's ru_maxrss, at the end of the
                                 refinement) */
     uint64_t peak_nonfile;   /* the largest resident memory without file
-                                pages (pdr_rss_nonfile) seen at the PE's
-                                samples from its submesh's arrival to the end
-                                of the refinement (PAR_RUN_MEM_POINTS), bytes */
+                                pages (pdr_rss_nonfile) of the PE's samples,
+                                bytes: at the end of the refinement (set
+                                here), where the resident set of a PE other
+                                than rank 0 peaks (cube-in-cube 10^6 on 16
+                                PEs: VmRSS equals VmHWM there on each), and
+                                pdr mesh's once the submesh was built (the
+                                message it came in still held) and, on rank
+                                0, once Mo was cut into the parts' messages.
+                                Not in between: a sample is a pass over
+                                /proc/self/smaps, whose cost grows with the
+                                resident pages (5 ms at 60 MB) */
     uint64_t missing_segs, missing_facs; /* pieces still missing at the end
                                 (0 unless the mesh fails to conform) */
     uint64_t deferred;       /* bad tetrahedra put back unstarted, held by
