@@ -32,8 +32,9 @@ size_t pdr_peak_rss(void);
  * mappings only the pages written to (relocations, .data, .bss). Left out:
  * the program's and the libraries' code and read-only data, which every
  * process running the same binary shares, and the kernel's [vdso] and
- * [vvar]. 0 where the file cannot be read. Costs a pass over the
- * mappings (tens to hundreds of microseconds). */
+ * [vvar]. 0 where the file cannot be read. Costs a pass of the kernel
+ * over the page tables: about 0.15 ms in a small process, 5 ms in one
+ * of 60 MB. */
 size_t pdr_rss_nonfile(void);
 
 /* Makes the array *p of *cap elements of 'size' bytes hold at least 'need'
