@@ -105,7 +105,6 @@
  * the other PE. */
 #define PAR_RUN_MAX_IMPORT 1024
 #define PAR_RUN_STALL_WINDOW 262144.0
-
 #define PAR_RUN_STALL_RATIO 1024.0
 /* The bound's other leg, on the clock: a PE that keeps attempting items
  * and inserts no point for this many seconds stops the same way
