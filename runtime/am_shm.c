@@ -89,8 +89,11 @@
 #include "pr_alloc.h"
 #include "am_int.h"
 
-/* The incoming rings of one PE share this many bytes ... */
-#define SHM_BUDGET ((size_t)4 << 20)
+/* The incoming rings of one PE share this many bytes ... (a PE also
+ * writes into its peers' rings, whose pages count in its resident set
+ * too: up to twice this. 2 MiB: 1 MiB rings up to 3 PEs, 128 KiB at 16,
+ * 1.1 MB less per PE there than with 4 MiB; bench/parallel.md, run 23) */
+#define SHM_BUDGET ((size_t)2 << 20)
 /* ... each ring getting a power of two in these bounds. */
 #define SHM_RING_MIN ((size_t)64 << 10)
 #define SHM_RING_MAX ((size_t)1 << 20)

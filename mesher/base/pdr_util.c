@@ -46,6 +46,63 @@ size_t pdr_peak_rss(void)
     return (size_t)ru.ru_maxrss * 1024; /* Linux reports KiB */
 }
 
+/* The value in KiB of "Key:   N kB" at line, or -1 if line is not key's. */
+static long long smaps_kib(const char *line, const char *key)
+{
+    size_t k = strlen(key);
+    if (strncmp(line, key, k) != 0 || line[k] != ':')
+        return -1;
+    char *end;
+    long long v = strtoll(line + k + 1, &end, 10);
+    return end != line + k + 1 && v >= 0 ? v : -1;
+}
+
+size_t pdr_rss_nonfile(void)
+{
+    FILE *f = fopen("/proc/self/smaps", "re");
+    if (!f)
+        return 0;
+    char line[512];
+    unsigned long long kib = 0;
+    /* The mapping whose fields follow: 0 anonymous or shared (its Rss
+     * counts), 1 private file mapping (its Anonymous counts: the pages
+     * written to), 2 the kernel's ([vdso], [vvar]: neither). */
+    int kind = 2, seen = 0;
+    while (fgets(line, sizeof line, f)) {
+        size_t n = strlen(line);
+        int whole = n > 0 && line[n - 1] == '\n';
+        if (line[0] >= 'A' && line[0] <= 'Z') { /* "Field:   N kB" */
+            long long v = kind == 0 ? smaps_kib(line, "Rss")
+                          : kind == 1 ? smaps_kib(line, "Anonymous")
+                                      : -1;
+            if (v > 0)
+                kib += (unsigned long long)v;
+        } else { /* "lo-hi perms offset dev inode [name]" */
+            char *p = strchr(line, ' ');
+            char *perms = p ? p + 1 : NULL;
+            char *q = perms && strlen(perms) > 5 ? perms + 5 : NULL; /* offset */
+            q = q ? strchr(q, ' ') : NULL;                          /* dev */
+            q = q ? strchr(q + 1, ' ') : NULL;                      /* inode */
+            kind = 2;
+            if (q) {
+                char *end;
+                unsigned long long inode = strtoull(q + 1, &end, 10);
+                while (*end == ' ')
+                    end++;
+                kind = !strncmp(end, "[v", 2) ? 2 : perms[3] == 's' || inode == 0 ? 0 : 1;
+                seen = 1;
+            }
+        }
+        /* a line longer than the buffer (a long path): skip its rest */
+        while (!whole && fgets(line, sizeof line, f)) {
+            n = strlen(line);
+            whole = n > 0 && line[n - 1] == '\n';
+        }
+    }
+    fclose(f);
+    return seen ? (size_t)kib * 1024 : 0;
+}
+
 int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size)
 {
     size_t c = *cap ? *cap : 64;

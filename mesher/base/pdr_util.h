@@ -24,6 +24,18 @@ void pdr_line(FILE *f, const char *fmt, ...)
     ;
 /* Peak resident set size of this process in bytes, or 0 if unknown. */
 size_t pdr_peak_rss(void);
+/* The resident set size of this process now without the unmodified
+ * pages of its private file mappings, in bytes, from /proc/self/smaps
+ * (Linux): it counts the whole resident part of anonymous mappings (the
+ * heap, malloc's arenas, stacks) and of shared mappings (libam's rings,
+ * counted whole in every process that touched them), and of private file
+ * mappings only the pages written to (relocations, .data, .bss). Left out:
+ * the program's and the libraries' code and read-only data, which every
+ * process running the same binary shares, and the kernel's [vdso] and
+ * [vvar]. 0 where the file cannot be read. Costs a pass of the kernel
+ * over the page tables: about 0.15 ms in a small process, 5 ms in one
+ * of 60 MB. */
+size_t pdr_rss_nonfile(void);
 
 /* Makes the array *p of *cap elements of 'size' bytes hold at least 'need'
  * elements, doubling its capacity (from 64) so that n appends cost O(n).

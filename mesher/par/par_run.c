@@ -727,6 +727,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_end = interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
+    row->peak_nonfile = pdr_rss_nonfile(); /* the second sample (par_run.h) */
     row->work = pr->work;
     row->points = pr->points;
     row->bands_in = pr->cc.st.bands_in;

@@ -164,7 +164,21 @@ typedef struct par_table1 {
     uint64_t tets_end;       /* live interior tetrahedra held at the end */
     uint64_t slots_end;      /* tetrahedron slots of the submesh at the end
                                 (exterior, ghosts and free ones included) */
-    uint64_t peak_rss;       /* the PE's peak resident memory, bytes */
+    uint64_t peak_rss;       /* the PE's peak resident memory, bytes
+                                (getrusage's ru_maxrss, at the end of the
+                                refinement) */
+    uint64_t peak_nonfile;   /* the largest resident memory without file
+                                pages (pdr_rss_nonfile) of the PE's samples,
+                                bytes: at the end of the refinement (set
+                                here), where the resident set of a PE other
+                                than rank 0 peaks (cube-in-cube 10^6 on 16
+                                PEs: VmRSS equals VmHWM there on each), and
+                                pdr mesh's once the submesh was built (the
+                                message it came in still held) and, on rank
+                                0, once Mo was cut into the parts' messages.
+                                Not in between: a sample is a pass over
+                                /proc/self/smaps, whose cost grows with the
+                                resident pages (5 ms at 60 MB) */
     uint64_t missing_segs, missing_facs; /* pieces still missing at the end
                                 (0 unless the mesh fails to conform) */
     uint64_t deferred;       /* bad tetrahedra put back unstarted, held by
