@@ -52,6 +52,10 @@
 # TetGen's tetrahedra, pdr check --plc IN --max-ratio 2 finds nothing but
 # what the summary reports, and at most the given count left above ratio
 # 2 (room for small changes elsewhere; far below the counts before).
+# pinion_small's bound went from 40 to 60 when near-planar facets became
+# 1e-5 by default (plc/fm.h): it leaves 41 there (23 at 1e-6; its
+# renumberings 19-104 against 25-88), the one part of this test that
+# the larger tolerance makes worse.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 . "$top_srcdir/tests/cad-lib.sh"
@@ -66,7 +70,7 @@ while read -r name secs tetgen bound maxleft; do
     cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft"
 done <<EOF
 pinion 30 15407 23110 40
-pinion_small 30 15307 22960 40
+pinion_small 30 15307 22960 60
 joint 30 7742 11613 24
 pipe 30 6137 9205 2
 rotor_small 30 40776 61164 5800

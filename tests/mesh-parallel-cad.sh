@@ -7,7 +7,7 @@
 #    flip mends ask for had no bound there (stuck_past_bound in
 #    refine/refine_run.c): points piled up along segments with tens of
 #    thousands of tetrahedra between them, each step slower;
-#  - pinion.off (default --facet-tol 1e-6: near-planar facets), also on
+#  - pinion.off (default --facet-tol: near-planar facets), also on
 #    3 PEs with latency 100us-1ms: it stopped on the progress bound after
 #    some 30 s (main before the merge of branch cadqual, d98f215): its Mo,
 #    24,146 tetrahedra on 1,849 vertices, had cavities of thousands of
