@@ -350,6 +350,12 @@ START_TEST(near_cospherical_agree_with_gmp)
         if (s2u != 2)
             ck_assert_int_eq(s2u, ref);
         ck_assert_int_eq(pred__insphere_exact(p[0], p[1], p[2], p[3], p[4], 3), ref);
+        /* the integer stage takes these unless the scale is wide */
+        int si = pred__insphere_int(p[0], p[1], p[2], p[3], p[4]);
+        if (it % 4 != 0)
+            ck_assert_int_ne(si, 2);
+        if (si != 2)
+            ck_assert_int_eq(si, ref);
         exact_zero += ref == 0;
         /* The SoS rule, checked against an actual rational perturbation. */
         if (ref == 0 && ref_orient3d(p[0], p[1], p[2], p[3]) != 0) {
@@ -430,6 +436,7 @@ START_TEST(large_integer_points_agree_with_gmp)
             if (s2 != 2)
                 ck_assert_int_eq(s2, ref);
         }
+        ck_assert_int_eq(pred__insphere_int(p[0], p[1], p[2], p[3], p[4]), ref);
         int s2;
         /* coplanar: the first three and their integer combination */
         double r[3];
@@ -596,6 +603,9 @@ START_TEST(extreme_exponents_agree_with_gmp)
         xw = pred__insphere_dw(p[0], p[1], p[2], p[3], p[4]);
         if (xw != 2)
             ck_assert_int_eq(xw, ri);
+        xw = pred__insphere_int(p[0], p[1], p[2], p[3], p[4]);
+        if (xw != 2)
+            ck_assert_int_eq(xw, ri);
         for (int st = 0; st <= 3; st++) {
             int x = pred__orient3d_exact(p[0], p[1], p[2], p[3], st);
             if (x != 2)
@@ -683,6 +693,71 @@ START_TEST(double_word_filter_agrees_with_gmp)
 }
 END_TEST
 
+/* The integer insphere at the edge of its range: coordinates whose
+ * integer forms reach 2^61 - 2^8 next to a coordinate 1 (the largest
+ * differences, lifts and minors its word sizes allow), and exactly
+ * cospherical integer points near 2^52, against GMP; one more bit of span
+ * and it must decline. */
+START_TEST(integer_insphere_at_its_bounds)
+{
+    const double big = ldexp((double)((UINT64_C(1) << 53) - 1), 8); /* 2^61 - 2^8 */
+    int zero = 0;
+    for (int it = 0; it < 4000; it++) {
+        double p[5][3];
+        if (it % 2 == 0) {
+            const double pick[6] = {big, -big, ldexp(1.0, 60), -ldexp(1.0, 60), 0, 1};
+            for (int i = 0; i < 5; i++)
+                for (int k = 0; k < 3; k++)
+                    p[i][k] = rndint(4) ? pick[rndint(6)]
+                                        : ldexp((double)(rnd() >> 11), 8) * (rndint(2) ? 1 : -1);
+            p[rndint(5)][rndint(3)] = 1; /* lowest bit 0: the span is 61 bits */
+        } else {
+            /* exactly cospherical integer points near 2^52: the sphere of
+             * radius a^2+b^2+c^2+d^2 through the points of Pythagorean
+             * quadruples of the sign changes and permutations of
+             * (a, b, c, d), each below 2^25, offset by integers below 2^51 */
+            int64_t q0[4], off[3];
+            for (int k = 0; k < 4; k++)
+                q0[k] = (int64_t)(rnd() >> 39) + 1;
+            for (int k = 0; k < 3; k++)
+                off[k] = (int64_t)(rnd() >> 13) - (INT64_C(1) << 50);
+            for (int i = 0; i < 5; i++) {
+                int64_t w[4];
+                memcpy(w, q0, sizeof w);
+                for (int k = 3; k > 0; k--) {
+                    int j = rndint(k + 1);
+                    int64_t t = w[k];
+                    w[k] = w[j];
+                    w[j] = t;
+                }
+                for (int k = 0; k < 4; k++)
+                    if (rndint(2))
+                        w[k] = -w[k];
+                p[i][0] = (double)(w[0] * w[0] + w[1] * w[1] - w[2] * w[2] - w[3] * w[3] + off[0]);
+                p[i][1] = (double)(2 * (w[0] * w[3] + w[1] * w[2]) + off[1]);
+                p[i][2] = (double)(2 * (w[1] * w[3] - w[0] * w[2]) + off[2]);
+            }
+            if (it % 4 == 3)
+                p[rndint(5)][rndint(3)] += 1;
+        }
+        int ref = ref_insphere(p[0], p[1], p[2], p[3], p[4]);
+        zero += ref == 0;
+        int si = pred__insphere_int(p[0], p[1], p[2], p[3], p[4]);
+        ck_assert_int_ne(si, 2);
+        ck_assert_int_eq(si, ref);
+        ck_assert_int_eq(pred_insphere(p[0], p[1], p[2], p[3], p[4]), ref);
+        int so = pred__orient3d_int(p[0], p[1], p[2], p[3]);
+        ck_assert_int_ne(so, 2);
+        ck_assert_int_eq(so, ref_orient3d(p[0], p[1], p[2], p[3]));
+        /* one bit more: beyond the stage */
+        p[0][0] = 1;
+        p[1 + rndint(4)][rndint(3)] = ldexp(1.0, 61) * (rndint(2) ? 1 : -1);
+        ck_assert_int_eq(pred__insphere_int(p[0], p[1], p[2], p[3], p[4]), 2);
+    }
+    ck_assert_int_gt(zero, 300); /* the cospherical ones really are */
+}
+END_TEST
+
 START_TEST(coplanar_incircle_agrees_with_every_sphere)
 {
     /* Points of the circle x+y+z = 0, x^2+y^2+z^2 = r2: coplanar and
@@ -753,6 +828,7 @@ static Suite *pred_suite(void)
     tcase_add_test(tc, extreme_exponents_agree_with_gmp);
     tcase_add_test(tc, coplanar_incircle_agrees_with_every_sphere);
     tcase_add_test(tc, double_word_filter_agrees_with_gmp);
+    tcase_add_test(tc, integer_insphere_at_its_bounds);
     suite_add_tcase(s, tc);
     return s;
 }

@@ -680,12 +680,15 @@ static void i192_add_mul(i192 *acc, int64_t u, __int128 m)
     }
 }
 
-int pred__orient3d_int(const double *a, const double *b, const double *c, const double *d)
+/* Writes the coordinates of np points as integers q times 2^lo, lo the
+ * lowest set bit among them: 1 when every |q| < 2^61 (so differences fit
+ * in 62 bits), 0 when all are zero, 2 when they span more than 61 bits or
+ * one is not finite. */
+static int int_coords(const double *const *pt, int np, int64_t (*q)[3])
 {
-    const double *pt[4] = {a, b, c, d};
-    dbits x[4][3];
+    dbits x[5][3];
     int lo = INT32_MAX, hi = INT32_MIN;
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < np; i++)
         for (int k = 0; k < 3; k++) {
             double v = pt[i][k];
             if (!isfinite(v))
@@ -702,21 +705,28 @@ int pred__orient3d_int(const double *a, const double *b, const double *c, const 
             hi = top > hi ? top : hi;
         }
     if (lo == INT32_MAX)
-        return 0; /* all zero */
+        return 0;
     if (hi - lo > 61)
         return 2;
-    int64_t q[4][3];
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < np; i++)
         for (int k = 0; k < 3; k++) {
             int64_t v = x[i][k].m ? (int64_t)(x[i][k].m << (x[i][k].e - lo)) : 0;
             q[i][k] = x[i][k].neg ? -v : v;
         }
-    int64_t u[3], v[3], w[3];
-    for (int k = 0; k < 3; k++) {
-        u[k] = q[0][k] - q[3][k];
-        v[k] = q[1][k] - q[3][k];
-        w[k] = q[2][k] - q[3][k];
-    }
+    return 1;
+}
+
+static int i192_sign(const i192 *x)
+{
+    if (!x->w[0] && !x->w[1] && !x->w[2])
+        return 0;
+    return (x->w[2] >> 63) ? -1 : 1;
+}
+
+/* det[u; v; w] of three integer vectors (|entries| < 2^62), exactly:
+ * the 2x2 minors below 2^125, each term below 2^187. */
+static i192 i192_det3(const int64_t *u, const int64_t *v, const int64_t *w)
+{
     __int128 m0 = (__int128)v[1] * w[2] - (__int128)v[2] * w[1];
     __int128 m1 = (__int128)v[2] * w[0] - (__int128)v[0] * w[2];
     __int128 m2 = (__int128)v[0] * w[1] - (__int128)v[1] * w[0];
@@ -724,9 +734,115 @@ int pred__orient3d_int(const double *a, const double *b, const double *c, const 
     i192_add_mul(&det, u[0], m0);
     i192_add_mul(&det, u[1], m1);
     i192_add_mul(&det, u[2], m2);
-    if (!det.w[0] && !det.w[1] && !det.w[2])
+    return det;
+}
+
+int pred__orient3d_int(const double *a, const double *b, const double *c, const double *d)
+{
+    const double *pt[4] = {a, b, c, d};
+    int64_t q[4][3];
+    int st = int_coords(pt, 4, q);
+    if (st != 1)
+        return st; /* 0: all zero */
+    int64_t u[3], v[3], w[3];
+    for (int k = 0; k < 3; k++) {
+        u[k] = q[0][k] - q[3][k];
+        v[k] = q[1][k] - q[3][k];
+        w[k] = q[2][k] - q[3][k];
+    }
+    i192 det = i192_det3(u, v, w);
+    return -i192_sign(&det); /* orient3d = -det[a-d; b-d; c-d] */
+}
+
+/* Exact insphere in fixed-width integers, for the exactly cospherical
+ * points of tessellated cylinders and spheres that every filter declines
+ * (before, the multi-word stage at about 15,000 instructions a test).
+ * With the coordinates as integers below 2^61 (int_coords), the
+ * differences r_i = p_i - e are below 2^62, their lifts |r_i|^2 below
+ * 2^126 (a signed 128-bit integer), the 3x3 minors det[r_j; r_k; r_l]
+ * below 2^189 (192 bits, as orient3d's), and the determinant, the
+ * alternating sum of four lift * minor products each below 2^315, below
+ * 2^317: 320-bit two's complement holds every step exactly. The sum is the
+ * one the filters evaluate (expansion along the lift column). */
+typedef struct i320 {
+    uint64_t w[5]; /* two's complement, little-endian */
+} i320;
+
+/* acc += x * l, exactly (x a 192-bit value below 2^189, 0 <= l < 2^126,
+ * neg: subtract instead). */
+static void i320_add_mul(i320 *acc, const i192 *x, unsigned __int128 l, int neg)
+{
+    uint64_t mx[3];
+    if (x->w[2] >> 63) { /* magnitude of a negative x */
+        neg = !neg;
+        unsigned __int128 c = 1;
+        for (int i = 0; i < 3; i++) {
+            c += (uint64_t)~x->w[i];
+            mx[i] = (uint64_t)c;
+            c >>= 64;
+        }
+    } else {
+        memcpy(mx, x->w, sizeof mx);
+    }
+    const uint64_t ml[2] = {(uint64_t)l, (uint64_t)(l >> 64)};
+    uint64_t t[5] = {0, 0, 0, 0, 0};
+    for (int i = 0; i < 3; i++) {
+        unsigned __int128 c = 0;
+        for (int j = 0; j < 2; j++) {
+            c += (unsigned __int128)mx[i] * ml[j] + t[i + j];
+            t[i + j] = (uint64_t)c;
+            c >>= 64;
+        }
+        t[i + 2] = (uint64_t)c;
+    }
+    if (neg) {
+        unsigned __int128 c = 1;
+        for (int i = 0; i < 5; i++) {
+            c += (uint64_t)~t[i];
+            t[i] = (uint64_t)c;
+            c >>= 64;
+        }
+    }
+    unsigned __int128 c = 0;
+    for (int i = 0; i < 5; i++) {
+        c += (unsigned __int128)acc->w[i] + t[i];
+        acc->w[i] = (uint64_t)c;
+        c >>= 64;
+    }
+}
+
+int pred__insphere_int(const double *a, const double *b, const double *c, const double *d,
+                       const double *e)
+{
+    const double *pt[5] = {a, b, c, d, e};
+    int64_t q[5][3];
+    int st = int_coords(pt, 5, q);
+    if (st != 1)
+        return st; /* 0: all zero */
+    int64_t r[4][3];
+    unsigned __int128 lift[4];
+    for (int i = 0; i < 4; i++) {
+        lift[i] = 0;
+        for (int k = 0; k < 3; k++) {
+            r[i][k] = q[i][k] - q[4][k];
+            lift[i] += (unsigned __int128)((__int128)r[i][k] * r[i][k]);
+        }
+    }
+    /* det = l_a D(bcd) - l_b D(acd) + l_c D(abd) - l_d D(abc), D the
+     * determinant of the rows' (x, y, z) as insphere_xf forms it */
+    static const int others[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    i320 det = {{0, 0, 0, 0, 0}};
+    for (int i = 0; i < 4; i++) {
+        const int *o = others[i];
+        i192 m = i192_det3(r[o[0]], r[o[1]], r[o[2]]);
+        i320_add_mul(&det, &m, lift[i], i & 1);
+    }
+    int zero = 1;
+    for (int i = 0; i < 5; i++)
+        zero &= det.w[i] == 0;
+    if (zero)
         return 0;
-    return (det.w[2] >> 63) ? 1 : -1; /* orient3d = -det[a-d; b-d; c-d] */
+    return (det.w[4] >> 63) ? -1 : 1;
 }
 
 static int orient3d_exact(const double *a, const double *b, const double *c, const double *d)
@@ -847,6 +963,8 @@ static int insphere_exact(const double *a, const double *b, const double *c, con
     int s = pred__insphere_exact(a, b, c, d, e, 0);
     if (s == 2)
         s = pred__insphere_dw(a, b, c, d, e);
+    if (s == 2)
+        s = pred__insphere_int(a, b, c, d, e);
     if (s == 2)
         s = pred__insphere_exact(a, b, c, d, e, 1);
     if (s == 2)

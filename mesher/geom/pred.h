@@ -267,5 +267,9 @@ int pred__orient3d_dw(const double *a, const double *b, const double *c, const d
 /* Exact orient3d in 64/128/192-bit integers when the coordinates span at
  * most 61 bits (geom/pred.c); 2 when they do not. */
 int pred__orient3d_int(const double *a, const double *b, const double *c, const double *d);
+/* Exact insphere in 64/128/192/320-bit integers under the same condition
+ * (geom/pred.c); 2 when it does not apply. */
+int pred__insphere_int(const double *a, const double *b, const double *c, const double *d,
+                       const double *e);
 
 #endif /* PDR_PRED_H */
