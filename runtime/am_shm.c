@@ -672,6 +672,20 @@ void am__shm_sleep_end(am_ctx_t *ctx)
     }
 }
 
+/* 1 if am__shm_take would get on with l's ring, head being its writer's
+ * published count: a new frame needs its whole header there (take starts
+ * on a frame only then), the rest of a frame being reassembled needs a
+ * byte. The writer may have stopped after part of a header (a full ring),
+ * and such bytes are not work: counting them kept a reader from blocking
+ * while the writer, which alone can finish the header, waited for a
+ * processor the spinning reader held (the oversubscribed SCHED_FIFO hang
+ * of bench/parallel.md, run 21). */
+static int in_ready(const shm_link *l, uint64_t head)
+{
+    uint64_t avail = head - l->in.pos;
+    return l->part_on ? avail > 0 : avail >= PR_HEADER_SIZE;
+}
+
 int am__shm_sleep_begin(am_ctx_t *ctx)
 {
     struct am__shm *s = ctx->shm;
@@ -691,8 +705,8 @@ int am__shm_sleep_begin(am_ctx_t *ctx)
         shm_link *l = &s->link[pe];
         int ready = 0;
         if (l->in_on && !l->paused)
-            ready = atomic_load_explicit(&l->in.h->head,
-                                         memory_order_relaxed) != l->in.pos;
+            ready = in_ready(l, atomic_load_explicit(&l->in.h->head,
+                                                     memory_order_relaxed));
         if (!ready && out_waiting(ctx, pe))
             ready = atomic_load_explicit(&l->out.h->tail,
                                          memory_order_relaxed) != l->out.seen;
