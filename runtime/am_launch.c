@@ -177,8 +177,7 @@ static void usage(const launch *L, FILE *out)
             "am.h).\n\n"
             "Without a hostfile the PEs talk over ipc, and after start-up "
             "through shared-memory\nrings they read and write themselves "
-            "(runtime/CONTROL.md, \"Same-host rings\"),\nbut not with more "
-            "PEs than processors under --sched fifo or rr unless AM_SHM=2.\n"
+            "(runtime/CONTROL.md, \"Same-host rings\").\n"
             "AM_SHM=0 sends every frame over ZeroMQ instead; AM_SHM_RING=BYTES "
             "sets each\nring's size, AM_SHM_BIG=BYTES the frame size from "
             "which frames go over ZeroMQ\n(0: none).\n",
