@@ -755,7 +755,17 @@ static void read_reports(launch *L, waitstate *W)
         return;
     for (;;) {
         ssize_t n = read(L->report_rd, buf + have, sizeof L->rep_buf - 1 - have);
-        if (n <= 0)
+        if (n == 0) {
+            /* Every PE closed its end (am_finalize): no line can come, and
+             * an open read end would stay readable, so that wait_job's
+             * poll returned at once and the launcher spun until the last
+             * PE exited; under SCHED_FIFO on the PEs' processor that spin
+             * kept them from ever finishing their exit. */
+            close(L->report_rd);
+            L->report_rd = -1;
+            break;
+        }
+        if (n < 0)
             break;
         have += (size_t)n;
         char *line = buf, *nl;

@@ -88,6 +88,6 @@ AM_MP_TESTS = \
 	tests/am-flood.sh \
 	tests/am-zap.sh \
 	tests/am-shm.sh \
-	tests/am-shm-rt.sh
+	tests/am-fifo.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)
