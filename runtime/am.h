@@ -243,8 +243,8 @@ AM_EXPORT const char *am_version(void);
  * high-water mark, default 0 = unlimited: the send windows bound memory),
  * AM_SEND_WINDOW and AM_SEND_QUEUE (bytes, suffix k, M or G for powers of
  * 1024; see am_send), AM_SHM (1, the default: with ipc, frames go through
- * shared-memory rings once the job started, except with more PEs than
- * processors under a real-time policy; 2: even then; 0: over ZeroMQ), AM_SHM_RING
+ * shared-memory rings once the job started, under any scheduling policy;
+ * 0: over ZeroMQ; 2 is taken as 1), AM_SHM_RING
  * and AM_SHM_BIG (bytes per ring; frames from this size go over ZeroMQ;
  * runtime/CONTROL.md, "Same-host rings"), AM_CURVE_KEYS (tcp: the job's CURVE keys, made by
  * am-run, as "fd:N" or the path of a file only its owner can read: only

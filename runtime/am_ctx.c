@@ -482,14 +482,13 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         return bad_option(ctx, "AM_COALESCE", v, "1 (on) or 0 (off)");
     ctx->coalesce = (int)coalesce;
 
-    /* Same-host rings (am_shm.c): on unless AM_SHM=0 (or the host is
-     * oversubscribed under a real-time policy; AM_SHM=2: even then);
-     * AM_SHM_RING sets
+    /* Same-host rings (am_shm.c): on unless AM_SHM=0 (2, which forced
+     * them where they used to be off, is taken as 1); AM_SHM_RING sets
      * the bytes of each ring (a power of two, at least 4096; rounded
      * down), else a share of a per-PE budget. */
     long shm = 1;
     if ((v = am__env(ctx, "AM_SHM")) && parse_long(v, 0, 2, &shm))
-        return bad_option(ctx, "AM_SHM", v, "1 (on), 0 (off) or 2 (always)");
+        return bad_option(ctx, "AM_SHM", v, "1 (on) or 0 (off)");
     ctx->shm_enabled = (int)shm;
     if ((v = am__env(ctx, "AM_SHM_RING"))) {
         size_t b = 0;

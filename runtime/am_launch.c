@@ -177,8 +177,7 @@ static void usage(const launch *L, FILE *out)
             "am.h).\n\n"
             "Without a hostfile the PEs talk over ipc, and after start-up "
             "through shared-memory\nrings they read and write themselves "
-            "(runtime/CONTROL.md, \"Same-host rings\"),\nbut not with more "
-            "PEs than processors under --sched fifo or rr unless AM_SHM=2.\n"
+            "(runtime/CONTROL.md, \"Same-host rings\").\n"
             "AM_SHM=0 sends every frame over ZeroMQ instead; AM_SHM_RING=BYTES "
             "sets each\nring's size, AM_SHM_BIG=BYTES the frame size from "
             "which frames go over ZeroMQ\n(0: none).\n",
@@ -756,7 +755,17 @@ static void read_reports(launch *L, waitstate *W)
         return;
     for (;;) {
         ssize_t n = read(L->report_rd, buf + have, sizeof L->rep_buf - 1 - have);
-        if (n <= 0)
+        if (n == 0) {
+            /* Every PE closed its end (am_finalize): no line can come, and
+             * an open read end would stay readable, so that wait_job's
+             * poll returned at once and the launcher spun until the last
+             * PE exited; under SCHED_FIFO on the PEs' processor that spin
+             * kept them from ever finishing their exit. */
+            close(L->report_rd);
+            L->report_rd = -1;
+            break;
+        }
+        if (n < 0)
             break;
         have += (size_t)n;
         char *line = buf, *nl;

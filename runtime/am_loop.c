@@ -210,8 +210,13 @@ int am_idle(am_ctx_t *ctx, double max_seconds)
     /* The edge rule: a send since the socket was last seen empty may have
      * consumed the ZMQ_FD edge of frames that are already waiting; then
      * ZMQ_EVENTS must be read again (a system call, so only then). */
-    if (ctx->events_stale && am__socket_readable(ctx))
+    if (ctx->events_stale && am__socket_readable(ctx)) {
+        /* The next poll reads it, even inside the rings' ZeroMQ gap
+         * (am__recv_poll): else the loop would come back here, find it
+         * again and not block, until the gap ended. */
+        ctx->zmq_next = 0;
         return 0;
+    }
     /* The rings: writers are told to wake this PE from now on, then the
      * rings are looked at once more (am_shm.c, "no lost wake-up"). */
     if (am__shm_sleep_begin(ctx))

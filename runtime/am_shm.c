@@ -53,15 +53,24 @@
  * - Files: the receiver unlinks a ring file as soon as its sender said
  *   SHM_ON (both have it mapped), and at close every file of its own; the
  *   launcher removes whatever a killed PE left in the directory.
- * - Not on an oversubscribed host under a real-time policy (more PEs
- *   than processors, SCHED_FIFO or SCHED_RR), unless AM_SHM=2: over
- *   ZeroMQ every frame waits for an I/O thread, which queues behind the
- *   PEs that wait for a processor, so a PE that waits is sure to run once
- *   a running PE waits. Rings deliver between running PEs directly, and
- *   with 4 PEs on 2 processors under SCHED_FIFO and 4 KiB rings two PEs
- *   were seen to keep each other busy for good while the other two never
- *   ran again (bench/parallel.md, run 21). Under SCHED_OTHER the kernel
- *   shares the processors anyway.
+ * - Every wait ends in a block: a PE that has nothing it can take from a
+ *   ring nor write into one blocks (am_idle, the blocking calls), and
+ *   "something to take" is what am__shm_take can get on with (in_ready):
+ *   a whole frame header, or a byte of a frame being reassembled. That
+ *   matters under a real-time policy (SCHED_FIFO, SCHED_RR), where a PE
+ *   keeps its processor until it blocks: a writer that meets a full ring
+ *   writes what fits, which may end inside a frame's header, and waits
+ *   for room; the reader takes every whole frame, frees the room (which
+ *   makes the writer runnable) and then saw head != tail and went round
+ *   its loop again instead of blocking, for good, since only the writer,
+ *   queued behind it, could finish that header. With more PEs than
+ *   processors (4 PEs on 2, 4 KiB rings: 7 runs of 9 hung) two such
+ *   readers held both processors and the other PEs never ran again
+ *   (bench/parallel.md, runs 21 and 24). So the rings are on there too,
+ *   and with PEs bound to a processor each (AM_CPU_BIND=core), where a
+ *   PE's ZeroMQ I/O thread shares its processor under the same policy and
+ *   rings halve the 2-PE refinement (run 24). Under SCHED_OTHER the kernel
+ *   shares the processors anyway, so the spin there only cost time.
  * - Memory: the rings of one PE's incoming traffic share a budget
  *   (SHM_BUDGET, divided over its peers, a power of two between
  *   SHM_RING_MIN and SHM_RING_MAX; AM_SHM_RING sets it), and only the
@@ -79,7 +88,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sched.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -305,30 +313,10 @@ void am__shm_close(am_ctx_t *ctx)
     ctx->shm = NULL;
 }
 
-/* Whether this host has more PEs (am-run's AM_CPU_SLOTS, else the job
- * size) than processors this PE may run on, under a real-time policy.
- * A PE bound to one processor (AM_CPU_BIND=core) counts as that: with
- * rings it was seen to hang there under SCHED_FIFO (2 PEs, 2 cores),
- * where over ZeroMQ it does not. */
-static int oversubscribed_rt(const am_ctx_t *ctx)
-{
-    int pol = sched_getscheduler(0);
-    if (pol != SCHED_FIFO && pol != SCHED_RR)
-        return 0;
-    long slots = ctx->size;
-    const char *v = am__env(ctx, "AM_CPU_SLOTS");
-    if (v)
-        slots = strtol(v, NULL, 10);
-    cpu_set_t set;
-    if (sched_getaffinity(0, sizeof set, &set) != 0)
-        return 1;
-    return slots > CPU_COUNT(&set);
-}
-
 int am__shm_open(am_ctx_t *ctx)
 {
     if (!ctx->shm_enabled || strcmp(ctx->transport, "ipc") || !ctx->ipc_dir ||
-        ctx->size < 2 || (ctx->shm_enabled == 1 && oversubscribed_rt(ctx)))
+        ctx->size < 2)
         return 0;
     struct am__shm *s = pr_calloc(1, sizeof *s);
     if (!s)
@@ -675,6 +663,20 @@ void am__shm_sleep_end(am_ctx_t *ctx)
     }
 }
 
+/* 1 if am__shm_take would get on with l's ring, head being its writer's
+ * published count: a new frame needs its whole header there (take starts
+ * on a frame only then), the rest of a frame being reassembled needs a
+ * byte. The writer may have stopped after part of a header (a full ring),
+ * and such bytes are not work: counting them kept a reader from blocking
+ * while the writer, which alone can finish the header, waited for a
+ * processor the spinning reader held (the oversubscribed SCHED_FIFO hang
+ * of bench/parallel.md, run 21). */
+static int in_ready(const shm_link *l, uint64_t head)
+{
+    uint64_t avail = head - l->in.pos;
+    return l->part_on ? avail > 0 : avail >= PR_HEADER_SIZE;
+}
+
 int am__shm_sleep_begin(am_ctx_t *ctx)
 {
     struct am__shm *s = ctx->shm;
@@ -694,8 +696,8 @@ int am__shm_sleep_begin(am_ctx_t *ctx)
         shm_link *l = &s->link[pe];
         int ready = 0;
         if (l->in_on && !l->paused)
-            ready = atomic_load_explicit(&l->in.h->head,
-                                         memory_order_relaxed) != l->in.pos;
+            ready = in_ready(l, atomic_load_explicit(&l->in.h->head,
+                                                     memory_order_relaxed));
         if (!ready && out_waiting(ctx, pe))
             ready = atomic_load_explicit(&l->out.h->tail,
                                          memory_order_relaxed) != l->out.seen;

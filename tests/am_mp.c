@@ -63,6 +63,9 @@
  *   am_mp fake-peer EP V   (no libam) says hello to rank 0 at endpoint EP as
  *                          PE 1 speaking wire protocol version V
  *
+ * AM_MP_LINGER_MS=N: after am_finalize the PE sleeps N ms before it exits
+ * (a PE with work left after am_finalize, as pdr mesh's PEs have).
+ *
  * Exit status 0 if every check held, 1 otherwise; every wait is bounded.
  * Extra arguments of the form tag=... are ignored (the scripts use them to
  * find leftover processes).
@@ -1723,6 +1726,13 @@ int main(int argc, char **argv)
         fprintf(stderr, "am_mp: PE %d: am_finalize: %s\n", g_rank,
                 am_strerror(frc));
         failures++;
+    }
+    const char *linger = getenv("AM_MP_LINGER_MS");
+    if (linger && atol(linger) > 0) {
+        long ms = atol(linger) > 10000 ? 10000 : atol(linger);
+        struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+        while (nanosleep(&ts, &ts) != 0 && errno == EINTR)
+            ;
     }
     if (rc == 2)
         return 2;

@@ -87,6 +87,7 @@ AM_MP_TESTS = \
 	tests/am-signals.sh \
 	tests/am-flood.sh \
 	tests/am-zap.sh \
-	tests/am-shm.sh
+	tests/am-shm.sh \
+	tests/am-fifo.sh
 TESTS += $(AM_MP_TESTS)
 dist_check_SCRIPTS += $(AM_MP_TESTS)
