@@ -654,6 +654,28 @@ typedef struct i192 {
     uint64_t w[3]; /* two's complement, little-endian */
 } i192;
 
+/* w = -w in n-word two's complement. */
+static void words_neg(uint64_t *w, int n)
+{
+    unsigned __int128 c = 1;
+    for (int i = 0; i < n; i++) {
+        c += (uint64_t)~w[i];
+        w[i] = (uint64_t)c;
+        c >>= 64;
+    }
+}
+
+/* acc += t, n words, modulo 2^(64 n). */
+static void words_add(uint64_t *acc, const uint64_t *t, int n)
+{
+    unsigned __int128 c = 0;
+    for (int i = 0; i < n; i++) {
+        c += (unsigned __int128)acc[i] + t[i];
+        acc[i] = (uint64_t)c;
+        c >>= 64;
+    }
+}
+
 /* acc += u * m, exactly (|u| < 2^63, |m| < 2^126). */
 static void i192_add_mul(i192 *acc, int64_t u, __int128 m)
 {
@@ -664,20 +686,9 @@ static void i192_add_mul(i192 *acc, int64_t u, __int128 m)
     unsigned __int128 p0 = (unsigned __int128)au * (uint64_t)am;
     unsigned __int128 p1 = (unsigned __int128)au * (uint64_t)(am >> 64) + (p0 >> 64);
     uint64_t t[3] = {(uint64_t)p0, (uint64_t)p1, (uint64_t)(p1 >> 64)};
-    if (neg) { /* two's complement of the magnitude */
-        unsigned __int128 c = 1;
-        for (int i = 0; i < 3; i++) {
-            c += (uint64_t)~t[i];
-            t[i] = (uint64_t)c;
-            c >>= 64;
-        }
-    }
-    unsigned __int128 c = 0;
-    for (int i = 0; i < 3; i++) {
-        c += (unsigned __int128)acc->w[i] + t[i];
-        acc->w[i] = (uint64_t)c;
-        c >>= 64;
-    }
+    if (neg) /* two's complement of the magnitude */
+        words_neg(t, 3);
+    words_add(acc->w, t, 3);
 }
 
 /* Writes the coordinates of np points as integers q times 2^lo, lo the
@@ -773,16 +784,10 @@ typedef struct i320 {
 static void i320_add_mul(i320 *acc, const i192 *x, unsigned __int128 l, int neg)
 {
     uint64_t mx[3];
-    if (x->w[2] >> 63) { /* magnitude of a negative x */
+    memcpy(mx, x->w, sizeof mx);
+    if (mx[2] >> 63) { /* the magnitude of a negative x */
         neg = !neg;
-        unsigned __int128 c = 1;
-        for (int i = 0; i < 3; i++) {
-            c += (uint64_t)~x->w[i];
-            mx[i] = (uint64_t)c;
-            c >>= 64;
-        }
-    } else {
-        memcpy(mx, x->w, sizeof mx);
+        words_neg(mx, 3);
     }
     const uint64_t ml[2] = {(uint64_t)l, (uint64_t)(l >> 64)};
     uint64_t t[5] = {0, 0, 0, 0, 0};
@@ -795,20 +800,9 @@ static void i320_add_mul(i320 *acc, const i192 *x, unsigned __int128 l, int neg)
         }
         t[i + 2] = (uint64_t)c;
     }
-    if (neg) {
-        unsigned __int128 c = 1;
-        for (int i = 0; i < 5; i++) {
-            c += (uint64_t)~t[i];
-            t[i] = (uint64_t)c;
-            c >>= 64;
-        }
-    }
-    unsigned __int128 c = 0;
-    for (int i = 0; i < 5; i++) {
-        c += (unsigned __int128)acc->w[i] + t[i];
-        acc->w[i] = (uint64_t)c;
-        c >>= 64;
-    }
+    if (neg)
+        words_neg(t, 5);
+    words_add(acc->w, t, 5);
 }
 
 int pred__insphere_int(const double *a, const double *b, const double *c, const double *d,
