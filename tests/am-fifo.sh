@@ -28,14 +28,6 @@ AM_SHM=1
 TMPDIR=$work
 export AM_SHM TMPDIR
 
-stat_sum() {
-    sed -n "s/.*\"$1\": \([0-9]*\).*/\1/p" "$work"/st/stats-*.json | awk '{s += $1} END {print s + 0}'
-}
-shm_on_recv() {
-    grep -o '"shm_on": {"sent": [0-9]*, "sent_bytes": [0-9]*, "recv": [0-9]*' "$work"/st/stats-*.json |
-        sed 's/.*"recv": //' | awk '{s += $1} END {print s + 0}'
-}
-
 # A run takes a fraction of a second; the bound is for the hang.
 for i in 1 2 3; do
     rm -rf "$work/st"

@@ -49,3 +49,14 @@ expect_ok() {
 expect_line() {
     grep -q -e "$1" "$work/out" || fail "no line matching '$1' in the output of $2"
 }
+
+# Sums a runtime counter over the statistics files in $work/st.
+stat_sum() {
+    sed -n "s/.*\"$1\": \([0-9]*\).*/\1/p" "$work"/st/stats-*.json | awk '{s += $1} END {print s + 0}'
+}
+
+# The SHM_ON frames received (one per ordered pair that uses a ring).
+shm_on_recv() {
+    grep -o '"shm_on": {"sent": [0-9]*, "sent_bytes": [0-9]*, "recv": [0-9]*' "$work"/st/stats-*.json |
+        sed 's/.*"recv": //' | awk '{s += $1} END {print s + 0}'
+}

@@ -9,11 +9,6 @@
 AM_SHM=1
 export AM_SHM
 
-shm_on_recv() {
-    grep -o '"shm_on": {"sent": [0-9]*, "sent_bytes": [0-9]*, "recv": [0-9]*' "$work"/st/stats-*.json |
-        sed 's/.*"recv": //' | awk '{s += $1} END {print s + 0}'
-}
-
 # Wake-up: 20 messages to a PE asleep in am_idle(30), through the ring
 # and, for comparison, through ZeroMQ.
 for shm in 1 0; do

@@ -78,3 +78,11 @@ cad_bounded() {
     echo "$cad_name: $nt tetrahedra (TetGen $cad_tetgen), $nd faces not locally Delaunay," \
         "$left left above ratio 2$cad_note"
 }
+
+# cad_bounded_rows: cad_bounded for each line "NAME SECS TETGEN BOUND
+# MAXLEFT" of standard input.
+cad_bounded_rows() {
+    while read -r name secs tetgen bound maxleft; do
+        cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft"
+    done
+}

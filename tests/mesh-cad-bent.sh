@@ -34,9 +34,7 @@ cad_extract "$tmp" couplingdown rotor_small rotor spool dragknob
 data=$tmp/data/meshes
 
 # name  seconds  TetGen's tetrahedra  bound (1.5 times)  most left above ratio 2
-while read -r name secs tetgen bound maxleft; do
-    cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft"
-done <<EOF
+cad_bounded_rows <<EOF
 couplingdown 60 41496 62244 3300
 rotor_small 60 40776 61164 3300
 rotor 60 25952 38928 1600

@@ -66,9 +66,7 @@ cad_extract "$tmp" pinion pinion_small joint pipe rotor_small
 data=$tmp/data/meshes
 
 # name  seconds  TetGen's tetrahedra  bound (1.5 times)  most left above ratio 2
-while read -r name secs tetgen bound maxleft; do
-    cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft"
-done <<EOF
+cad_bounded_rows <<EOF
 pinion 30 15407 23110 40
 pinion_small 30 15307 22960 60
 joint 30 7742 11613 24

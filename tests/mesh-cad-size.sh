@@ -35,9 +35,7 @@ cad_extract "$tmp" torus_quad 3torus tripod hole dragknob handle
 data=$tmp/data/meshes
 
 # name  seconds  TetGen's tetrahedra  bound  most left above ratio 2
-while read -r name secs tetgen bound maxleft; do
-    cad_bounded "$name" "$secs" "$tetgen" "$bound" "$maxleft"
-done <<EOF
+cad_bounded_rows <<EOF
 torus_quad 20 83 124 0
 3torus 20 240 360 89
 tripod 20 178 267 0
