@@ -587,6 +587,15 @@ static int resolve_options(am_ctx_t *ctx, const am_opts_t *o)
         if (rc)
             return rc;
     }
+    /* More PEs on this host (AM_CPU_SLOTS, else the job's size) than
+     * processors it may run on, read before AM_CPU_BIND narrows them to
+     * one (am_shm.c sizes its rings by it). */
+    long slots = ctx->size;
+    const char *nv = am__env(ctx, "AM_CPU_SLOTS");
+    if (nv && parse_long(nv, 1, AM__PE_MAX, &slots))
+        slots = ctx->size; /* reported by set_cpu_bind where it matters */
+    cpu_set_t cpus;
+    ctx->oversubscribed = sched_getaffinity(0, sizeof cpus, &cpus) == 0 && slots > CPU_COUNT(&cpus);
     const char *bind = am__env(ctx, "AM_CPU_BIND");
     if (bind) {
         int rc = set_cpu_bind(ctx, bind, sched);

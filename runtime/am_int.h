@@ -430,6 +430,7 @@ struct am_ctx_s {
     char *ipc_dir;
     int shm_enabled;       /* AM_SHM: same-host rings (am_shm.c) */
     size_t shm_ring;       /* AM_SHM_RING: bytes per ring, 0 = automatic */
+    int oversubscribed;    /* more PEs on this host than its processors */
     size_t shm_big;        /* AM_SHM_BIG: frames of this many bytes or
                               more to a ring peer go by ZeroMQ (0: none) */
     char *bind_addr;

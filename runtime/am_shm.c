@@ -85,7 +85,6 @@
 
 #include <errno.h>
 #include <fcntl.h>
-#include <sched.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -192,25 +191,11 @@ static int wake_addr(const am_ctx_t *ctx, int pe, struct sockaddr_un *a,
     return 0;
 }
 
-/* Whether this host has more PEs (am-run's AM_CPU_SLOTS, else the job
- * size) than processors this PE may run on. */
-static int oversubscribed(const am_ctx_t *ctx)
-{
-    long slots = ctx->size;
-    const char *v = am__env(ctx, "AM_CPU_SLOTS");
-    if (v)
-        slots = strtol(v, NULL, 10);
-    cpu_set_t set;
-    if (sched_getaffinity(0, sizeof set, &set) != 0)
-        return 0;
-    return slots > CPU_COUNT(&set);
-}
-
 static size_t ring_cap(const am_ctx_t *ctx)
 {
     if (ctx->shm_ring)
         return ctx->shm_ring;
-    if (oversubscribed(ctx))
+    if (ctx->oversubscribed)
         return SHM_RING_OVERSUB;
     size_t share = SHM_BUDGET / (size_t)(ctx->size > 1 ? ctx->size - 1 : 1);
     size_t cap = SHM_RING_MIN;
