@@ -529,17 +529,25 @@ size_t am__shm_put(am_ctx_t *ctx, int pe, const void *src, size_t len)
     return len;
 }
 
+/* Publishes a ring counter (head by the writer, tail by the reader) and
+ * claims the other side's sleep flag: 1 when it was about to block and
+ * must be woken. The seq_cst fence pairs with the sleeper's (header, "No
+ * lost wake-up"). */
+static int publish_counter(_Atomic uint64_t *counter, uint64_t value, _Atomic uint32_t *sleep)
+{
+    atomic_store_explicit(counter, value, memory_order_release);
+    atomic_thread_fence(memory_order_seq_cst);
+    return atomic_load_explicit(sleep, memory_order_relaxed) &&
+           atomic_exchange_explicit(sleep, 0, memory_order_relaxed);
+}
+
 void am__shm_publish(am_ctx_t *ctx, int pe)
 {
     shm_link *l = &ctx->shm->link[pe];
     if (!l->out_dirty)
         return;
     l->out_dirty = 0;
-    ring_hdr *h = l->out.h;
-    atomic_store_explicit(&h->head, l->out.pos, memory_order_release);
-    atomic_thread_fence(memory_order_seq_cst);
-    if (atomic_load_explicit(&h->rd_sleep, memory_order_relaxed) &&
-        atomic_exchange_explicit(&h->rd_sleep, 0, memory_order_relaxed))
+    if (publish_counter(&l->out.h->head, l->out.pos, &l->out.h->rd_sleep))
         wake(ctx->shm, l);
 }
 
@@ -627,11 +635,7 @@ void am__shm_release(am_ctx_t *ctx, int pe)
     if (!l->in_dirty)
         return;
     l->in_dirty = 0;
-    ring_hdr *h = l->in.h;
-    atomic_store_explicit(&h->tail, l->in.pos, memory_order_release);
-    atomic_thread_fence(memory_order_seq_cst);
-    if (atomic_load_explicit(&h->wr_sleep, memory_order_relaxed) &&
-        atomic_exchange_explicit(&h->wr_sleep, 0, memory_order_relaxed)) {
+    if (publish_counter(&l->in.h->tail, l->in.pos, &l->in.h->wr_sleep)) {
         /* The writer's wake socket: the same name scheme, its rank. */
         if (!l->wake_len)
             wake_addr(ctx, pe, &l->wake, &l->wake_len);
