@@ -1126,17 +1126,25 @@ static inline dw dw_mul(dw x, dw y)
     return dw_fast_two_sum(c.h, c.l + t);
 }
 
+/* r[i] = pt[i] - q exactly, as double words, for np points; returns the
+ * largest |high part|. */
+static double dw_diffs(const double *const *pt, int np, const double *q, dw (*r)[3])
+{
+    double hi = 0;
+    for (int i = 0; i < np; i++)
+        for (int k = 0; k < 3; k++) {
+            r[i][k] = dw_two_sum(pt[i][k], -q[k]);
+            hi = dmax(hi, fabs(r[i][k].h));
+        }
+    return hi;
+}
+
 int pred__insphere_dw(const double *a, const double *b, const double *c, const double *d,
                       const double *e)
 {
     const double *pt[4] = {a, b, c, d};
     dw r[4][3], l[4];
-    double hi = 0;
-    for (int i = 0; i < 4; i++)
-        for (int k = 0; k < 3; k++) {
-            r[i][k] = dw_two_sum(pt[i][k], -e[k]);
-            hi = dmax(hi, fabs(r[i][k].h));
-        }
+    double hi = dw_diffs(pt, 4, e, r);
     if (!(hi <= 0x1p+100))
         return 2; /* also NaN and infinities */
     double perm, L;
@@ -1181,12 +1189,7 @@ int pred__orient3d_dw(const double *a, const double *b, const double *c, const d
 {
     const double *pt[3] = {a, b, c};
     dw r[3][3];
-    double hi = 0;
-    for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++) {
-            r[i][k] = dw_two_sum(pt[i][k], -d[k]);
-            hi = dmax(hi, fabs(r[i][k].h));
-        }
+    double hi = dw_diffs(pt, 3, d, r);
     if (!(hi <= 0x1p+100))
         return 2;
     double perm, rhi;
