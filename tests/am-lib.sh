@@ -60,3 +60,17 @@ shm_on_recv() {
     grep -o '"shm_on": {"sent": [0-9]*, "sent_bytes": [0-9]*, "recv": [0-9]*' "$work"/st/stats-*.json |
         sed 's/.*"recv": //' | awk '{s += $1} END {print s + 0}'
 }
+
+# expect_killed NP VICTIM WHAT: the job just run (job) lost PE VICTIM to
+# SIGKILL and the others noticed: it exited non-zero before its timeout
+# and within 15 s, am-run named the victim, a survivor blamed it, and the
+# NP - 1 others exited with status 1.
+expect_killed() {
+    [ "$rc" -ne 0 ] || fail "$3: job with a killed PE exited 0"
+    [ "$rc" -ne 124 ] || fail "$3: job with a killed PE hung until the timeout"
+    [ "$(echo "$elapsed < 15" | bc)" -eq 1 ] || fail "$3: the PEs took $elapsed s to notice"
+    expect_line "PE $2 (pid [0-9]*) was killed by signal 9" "$3"
+    expect_line "^am: PE [0-9]*: PE $2 went away" "$3"
+    others=$(grep -c "^am-run: PE [0-9]* (pid [0-9]*) exited with status 1$" "$work/out")
+    [ "$others" -eq $(($1 - 1)) ] || fail "$3: $others of $(($1 - 1)) surviving PEs exited with status 1"
+}
