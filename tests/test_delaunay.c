@@ -196,7 +196,7 @@ START_TEST(build_with_markers_and_locks)
             continue;
         ck_assert_uint_eq(m.lock[t], 0);
         for (int i = 0; i < 4; i++)
-            ck_assert_int_eq(m.marker[4 * (size_t)t + (size_t)i], 0);
+            ck_assert_int_eq(tm_marker(&m, t, i), 0);
     }
     tm_free(&m);
 }

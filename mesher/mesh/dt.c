@@ -786,7 +786,7 @@ static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
             nf = subseg_bits(ft, j);
             if (ft & TM_F_FACEMARK(j)) {
                 nf |= TM_F_FACEMARK(3);
-                q[3] = m->marker ? (uint32_t)m->marker[4 * (size_t)t + (size_t)j] : 0;
+                q[3] = (uint32_t)tm_marker(m, t, j);
             }
         }
         b->spare = nf;
@@ -820,8 +820,8 @@ static int commit_reusing_cavity(tm_mesh *m, uint32_t v, dt_cavity *c)
             tets[tm_ltet(b->outer)].n[tm_lface(b->outer)] = tm_mklink(n, 3);
         unsigned ghost = (q[0] == TM_VINF) | (q[1] == TM_VINF) | (q[2] == TM_VINF);
         fl[n] = b->spare;
-        if ((b->spare & TM_F_FACEMARK(3)) && m->marker)
-            m->marker[4 * (size_t)n + 3] = (int32_t)q[3];
+        if ((b->spare & TM_F_FACEMARK(3)) && tm_has_markers(m))
+            tm_set_marker(m, n, 3, (int32_t)q[3]); /* room: dt_cavity_commit */
         nghost += ghost;
         c->newtets[i] = n;
     }
@@ -850,6 +850,8 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
         return PDR_EINVAL;
     size_t nb = c->nbnd;
     int rc = tm_room(m, nb);
+    if (!rc)
+        rc = tm_marker_room(m, nb);
     if (!rc)
         rc = pdr_grow((void **)&c->newtets, &c->cap_new, nb, sizeof *c->newtets);
     if (rc)
@@ -892,8 +894,8 @@ int dt_cavity_commit(tm_mesh *m, uint32_t v, dt_cavity *c)
             nf |= subseg_bits(ft, j);
             if (ft & TM_F_FACEMARK(j)) {
                 nf |= TM_F_FACEMARK(3);
-                if (m->marker)
-                    m->marker[4 * (size_t)n + 3] = m->marker[4 * (size_t)t + (size_t)j];
+                if (tm_has_markers(m)) /* room: above */
+                    tm_set_marker(m, n, 3, tm_marker(m, t, j));
             }
         }
         fl[n] = nf;

@@ -108,7 +108,7 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
             face_key(T, f, o->key);
             o->outer = l;
             o->marked = (m->flags[t] & TM_F_FACEMARK(f)) != 0;
-            o->marker = m->marker ? m->marker[4 * (size_t)t + (size_t)f] : 0;
+            o->marker = tm_marker(m, t, f);
         }
         for (int e = 0; e < 6; e++) {
             if (!(m->flags[t] & TM_F_SUBSEG(e)))
@@ -133,6 +133,8 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
      * constraints) goes to every new one before the slots are reused. */
     uint32_t src = old[0];
     int rc = tm_room(m, (size_t)nn);
+    if (!rc)
+        rc = tm_marker_room(m, (size_t)nn);
     if (rc)
         return rc;
     for (int i = 0; i < no; i++)
@@ -177,8 +179,8 @@ static int replace(tm_mesh *m, const uint32_t *old, int no, uint32_t nv[][4], in
                     h->relink(h->arg, of[q].outer, n, f);
                 if (of[q].marked) {
                     m->flags[n] |= TM_F_FACEMARK(f);
-                    if (m->marker)
-                        m->marker[4 * (size_t)n + (size_t)f] = of[q].marker;
+                    if (tm_has_markers(m))
+                        tm_set_marker(m, n, f, of[q].marker); /* room above */
                 }
                 done = 1;
             }
@@ -285,13 +287,13 @@ static int straight(const tm_mesh *m, uint32_t p, uint32_t v, uint32_t a)
 static int try22(tm_mesh *m, uint32_t t, uint32_t u, uint32_t p, uint32_t a, uint32_t e1,
                  uint32_t e2, uint32_t z, const flip_hooks *h, uint32_t *made, int *rc)
 {
-    if (!h || !h->facet || !m->marker)
+    if (!h || !h->facet || !tm_has_markers(m))
         return 0;
     const tm_tet *T = &m->tets[t], *U = &m->tets[u];
     int st = slot(T, z), su = slot(U, z);
     if (st < 0 || su < 0 || !(m->flags[t] & TM_F_FACEMARK(st)) ||
         !(m->flags[u] & TM_F_FACEMARK(su)) ||
-        m->marker[4 * (size_t)t + (size_t)st] != m->marker[4 * (size_t)u + (size_t)su])
+        tm_marker(m, t, st) != tm_marker(m, u, su))
         return 0;
     int s1 = slot(T, e1), s2 = slot(T, e2);
     if (m->flags[t] & TM_F_SUBSEG(tm_edge_of[s1][s2]))
@@ -423,7 +425,7 @@ int flip_restore(tm_mesh *m, const uint32_t *seed, size_t nseed, const flip_hook
 
 int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[2])
 {
-    if (!h || !h->facet || !m->marker || tm_is_dead(m, t) || tm_is_ghost(m, t))
+    if (!h || !h->facet || !tm_has_markers(m) || tm_is_dead(m, t) || tm_is_ghost(m, t))
         return 0;
     const tm_tet *T = &m->tets[t];
     const uint32_t *v = T->v;
@@ -439,7 +441,7 @@ int flip_remove_flat(tm_mesh *m, uint32_t t, const flip_hooks *h, uint32_t made[
             um[nu++] = f;
         }
     }
-    if (m->marker[4 * (size_t)t + (size_t)mk[0]] != m->marker[4 * (size_t)t + (size_t)mk[1]])
+    if (tm_marker(m, t, mk[0]) != tm_marker(m, t, mk[1]))
         return 0;
     /* The marked faces (e1 e2 p) and (e1 e2 a) share the diagonal e1 e2;
      * face f is opposite vertex v[f]. */

@@ -47,7 +47,6 @@ static int set_tcap(tm_mesh *m, size_t cap)
 {
     if (resize((void **)&m->tets, cap, sizeof(tm_tet)) ||
         resize((void **)&m->flags, cap, sizeof(uint16_t)) ||
-        (m->marker && resize((void **)&m->marker, cap, 4 * sizeof(int32_t))) ||
         (m->lock && resize((void **)&m->lock, cap, sizeof(uint32_t))))
         return PDR_ENOMEM;
     if (m->lock) {
@@ -62,6 +61,14 @@ static int set_tcap(tm_mesh *m, size_t cap)
             return PDR_ENOMEM;
         if (words > had)
             memset(m->locked + had, 0, (words - had) * sizeof(uint64_t));
+    }
+    if (m->mk_has) {
+        /* the marker map's summary bits: the new words zeroed */
+        size_t had = ((size_t)m->tcap + 63) / 64, words = (cap + 63) / 64 + 1;
+        if (resize((void **)&m->mk_has, words, sizeof(uint64_t)))
+            return PDR_ENOMEM;
+        if (words > had)
+            memset(m->mk_has + had, 0, (words - had) * sizeof(uint64_t));
     }
     m->tcap = (uint32_t)cap;
     return 0;
@@ -96,19 +103,149 @@ void tm_free(tm_mesh *m)
     pr_free(m->gid);
     pr_free(m->tets);
     pr_free(m->flags);
-    pr_free(m->marker);
+    pr_free(m->mk_has);
+    pr_free(m->mk_key);
+    pr_free(m->mk_val);
     pr_free(m->lock);
     pr_free(m->locked);
     memset(m, 0, sizeof *m);
     m->free_head = TM_NONE;
 }
 
+/* ------------------------------------------------ the face marker map */
+
+#define MK_MIN_CAP 64u
+
+static inline size_t marks_home(uint32_t t, uint32_t cap)
+{
+    /* Fibonacci hashing: the top bits of the product, as many as cap
+     * has; neighbouring slots land far apart. */
+    unsigned bits = (unsigned)__builtin_ctz(cap);
+    return (size_t)(((uint64_t)t * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - bits));
+}
+
+/* The index of t's key, or of the empty key where it would go. */
+static size_t marks_probe(const tm_mesh *m, uint32_t t)
+{
+    size_t mask = m->mk_cap - 1, i = marks_home(t, m->mk_cap);
+    while (m->mk_key[i] != t && m->mk_key[i] != TM_NONE)
+        i = (i + 1) & mask;
+    return i;
+}
+
+/* Moves the map into arrays of cap keys (a power of two, more than twice
+ * the keys held). The old arrays stay if the new ones cannot be had. */
+static int marks_rehash(tm_mesh *m, uint32_t cap)
+{
+    uint32_t *key = pr_malloc((size_t)cap * sizeof *key);
+    int32_t *val = pr_malloc((size_t)cap * 4 * sizeof *val);
+    if (!key || !val) {
+        pr_free(key);
+        pr_free(val);
+        return PDR_ENOMEM;
+    }
+    memset(key, 0xff, (size_t)cap * sizeof *key); /* TM_NONE */
+    tm_mesh nm = *m;
+    nm.mk_key = key;
+    nm.mk_val = val;
+    nm.mk_cap = cap;
+    for (uint32_t j = 0; j < m->mk_cap; j++) {
+        uint32_t t = m->mk_key[j];
+        if (t == TM_NONE)
+            continue;
+        size_t i = marks_probe(&nm, t);
+        key[i] = t;
+        memcpy(val + 4 * i, m->mk_val + 4 * (size_t)j, 4 * sizeof *val);
+    }
+    pr_free(m->mk_key);
+    pr_free(m->mk_val);
+    m->mk_key = key;
+    m->mk_val = val;
+    m->mk_cap = cap;
+    return 0;
+}
+
+/* Room in the map for `more` keys beyond those held, at most half full. */
+static int marks_room(tm_mesh *m, size_t more)
+{
+    size_t need = 2 * ((size_t)m->mk_n + more), cap = m->mk_cap;
+    if (need <= cap)
+        return 0;
+    while (cap < need) {
+        if (cap > UINT32_MAX / 2)
+            return PDR_ELIMIT;
+        cap *= 2;
+    }
+    return marks_rehash(m, (uint32_t)cap);
+}
+
+int tm_marker_room(tm_mesh *m, size_t count)
+{
+    return m->mk_has ? marks_room(m, count) : 0;
+}
+
+const int32_t *tm__marks(const tm_mesh *m, uint32_t t)
+{
+    return m->mk_val + 4 * marks_probe(m, t);
+}
+
+void tm__clear_marks(tm_mesh *m, uint32_t t)
+{
+    size_t mask = m->mk_cap - 1, i = marks_probe(m, t);
+    m->mk_has[t >> 6] &= ~((uint64_t)1 << (t & 63u));
+    m->mk_n--;
+    /* backward-shift deletion: move up every later key of the run that
+     * may live at i (its home is not cyclically in (i, j]) */
+    for (size_t j = i;;) {
+        m->mk_key[i] = TM_NONE;
+        for (;;) {
+            j = (j + 1) & mask;
+            if (m->mk_key[j] == TM_NONE)
+                return;
+            size_t h = marks_home(m->mk_key[j], m->mk_cap);
+            if (i <= j ? (i < h && h <= j) : (i < h || h <= j))
+                continue;
+            break;
+        }
+        m->mk_key[i] = m->mk_key[j];
+        memcpy(m->mk_val + 4 * i, m->mk_val + 4 * j, 4 * sizeof *m->mk_val);
+        i = j;
+    }
+}
+
+int tm_set_marker(tm_mesh *m, uint32_t t, int i, int32_t marker)
+{
+    if (tm__has_marks(m, t)) {
+        int32_t *v = m->mk_val + 4 * marks_probe(m, t);
+        v[i] = marker;
+        if (!(v[0] | v[1] | v[2] | v[3]))
+            tm__clear_marks(m, t);
+        return 0;
+    }
+    if (!marker)
+        return 0;
+    int rc = marks_room(m, 1);
+    if (rc)
+        return rc;
+    size_t k = marks_probe(m, t);
+    int32_t *v = m->mk_val + 4 * k;
+    m->mk_key[k] = t;
+    v[0] = v[1] = v[2] = v[3] = 0;
+    v[i] = marker;
+    m->mk_has[t >> 6] |= (uint64_t)1 << (t & 63u);
+    m->mk_n++;
+    return 0;
+}
+
 int tm_enable(tm_mesh *m, unsigned features)
 {
-    if ((features & TM_FEAT_MARKERS) && !m->marker) {
-        m->marker = pr_calloc(m->tcap ? m->tcap : 1, 4 * sizeof(int32_t));
-        if (!m->marker)
+    if ((features & TM_FEAT_MARKERS) && !m->mk_has) {
+        uint64_t *has = pr_calloc(((size_t)m->tcap + 63) / 64 + 1, sizeof(uint64_t));
+        if (!has || marks_rehash(m, MK_MIN_CAP)) {
+            pr_free(has);
             return PDR_ENOMEM;
+        }
+        m->mk_has = has;
     }
     if ((features & TM_FEAT_LOCKS) && !m->lock) {
         m->lock = pr_calloc(m->tcap ? m->tcap : 1, sizeof(uint32_t));
@@ -203,7 +340,7 @@ void tm_delete_tet(tm_mesh *m, uint32_t t)
     tm_free_tet(m, t);
 }
 
-void tm_mark_face(tm_mesh *m, uint32_t t, int i, int32_t marker)
+int tm_mark_face(tm_mesh *m, uint32_t t, int i, int32_t marker)
 {
     uint32_t ts[2] = {t, TM_NONE};
     int fs[2] = {i, 0};
@@ -213,12 +350,15 @@ void tm_mark_face(tm_mesh *m, uint32_t t, int i, int32_t marker)
         fs[1] = tm_lface(l);
     }
     for (int k = 0; k < 2 && ts[k] != TM_NONE; k++) {
-        m->marker[4 * (size_t)ts[k] + (size_t)fs[k]] = marker;
+        int rc = tm_set_marker(m, ts[k], fs[k], marker);
+        if (rc)
+            return rc;
         if (marker)
             m->flags[ts[k]] |= TM_F_FACEMARK(fs[k]);
         else
             m->flags[ts[k]] &= (uint16_t)~TM_F_FACEMARK(fs[k]);
     }
+    return 0;
 }
 
 void tm_rebuild_hints(tm_mesh *m)
@@ -437,13 +577,13 @@ void tm_remove_ghosts(tm_mesh *m)
 /* The whole bytes of a slot: everything but its lock summary bit. */
 static size_t slot_bytes(const tm_mesh *m)
 {
-    return sizeof(tm_tet) + sizeof(uint16_t) + (m->marker ? 4 * sizeof(int32_t) : 0) +
-           (m->lock ? sizeof(uint32_t) : 0);
+    return sizeof(tm_tet) + sizeof(uint16_t) + (m->lock ? sizeof(uint32_t) : 0);
 }
 
 double tm_bytes_per_tet(const tm_mesh *m)
 {
-    return (double)slot_bytes(m) + (m->locked ? 1.0 / 8.0 : 0.0);
+    return (double)slot_bytes(m) + (m->locked ? 1.0 / 8.0 : 0.0) +
+           (m->mk_has ? 1.0 / 8.0 : 0.0);
 }
 
 size_t tm_bytes_per_vertex(const tm_mesh *m)
@@ -453,6 +593,9 @@ size_t tm_bytes_per_vertex(const tm_mesh *m)
 
 size_t tm_bytes_used(const tm_mesh *m)
 {
-    size_t bits = m->locked ? ((size_t)m->nslots + 63) / 64 * sizeof(uint64_t) : 0;
-    return (size_t)m->nslots * slot_bytes(m) + bits + (size_t)m->nv * tm_bytes_per_vertex(m);
+    size_t words = ((size_t)m->nslots + 63) / 64 * sizeof(uint64_t);
+    size_t bits = (m->locked ? words : 0) + (m->mk_has ? words : 0);
+    size_t map = (size_t)m->mk_cap * (sizeof(uint32_t) + 4 * sizeof(int32_t));
+    return (size_t)m->nslots * slot_bytes(m) + bits + map +
+           (size_t)m->nv * tm_bytes_per_vertex(m);
 }

@@ -71,11 +71,23 @@
  * by their vertices (tm_is_ghost), not by a flag.
  *
  * Optional arrays, allocated by tm_enable() only when a layer needs them,
- * so plain Delaunay stays lean: marker[4t+i] (int32 face marker, e.g. the
- * facet id of a subfacet, set on both tetrahedra sharing the face), gid[v]
+ * so plain Delaunay stays lean: face markers (int32 per face, e.g. the
+ * facet id of a subfacet, set on both tetrahedra sharing the face; read
+ * with tm_marker, written with tm_set_marker), gid[v]
  * (uint64 global vertex id), lock[t] (owner of a tetrahedron's lock, 0 =
  * free) with its summary bit in locked[] (bit t set iff lock[t] != 0; see
  * tm_set_lock).
+ *
+ * Face markers are sparse: nearly every face of a quality mesh has none,
+ * so instead of 16 bytes per slot the mesh keeps a map from a slot to its
+ * four markers, holding only the slots with a nonzero one (open
+ * addressing, linear probing, backward-shift deletion, at most half
+ * full), and one bit per slot in mk_has saying whether the map holds
+ * the slot: a slot without it reads four zeros without a probe. The map
+ * behaves exactly as the array it replaces: a marker is whatever was last
+ * written (0 if never, or since the slot was taken), whatever the
+ * TM_F_FACEMARK bits say. At 10^6 tetrahedra with a few percent of them
+ * on the boundary that is about 1-2 bytes per slot instead of 16.
  */
 #ifndef PDR_TETMESH_H
 #define PDR_TETMESH_H
@@ -135,7 +147,12 @@ typedef struct tm_mesh {
     /* tetrahedra */
     tm_tet *tets;
     uint16_t *flags;
-    int32_t *marker; /* optional (TM_FEAT_MARKERS), 4 per tet */
+    /* optional (TM_FEAT_MARKERS): the sparse face markers (above) */
+    uint64_t *mk_has; /* bit t set iff the map holds slot t */
+    uint32_t *mk_key; /* mk_cap keys: a slot, or TM_NONE (empty) */
+    int32_t *mk_val;  /* 4 per key */
+    uint32_t mk_cap;  /* power of two (0 before tm_enable) */
+    uint32_t mk_n;    /* slots held */
     uint32_t *lock;  /* optional (TM_FEAT_LOCKS) */
     uint64_t *locked; /* with lock: bit t of word t/64 set iff lock[t] != 0 */
     uint32_t nslots; /* slots in use (live + free) */
@@ -235,6 +252,36 @@ static inline int tm_held_by_other(const tm_mesh *m, uint32_t t, uint32_t own)
 /* tm_set_lock(m, t, 0) out of line, for tm__take_slot: the sequential
  * mesher (no lock array) keeps its insertion code as small as before. */
 void tm__unlock_slot(tm_mesh *m, uint32_t t);
+/* Face markers (TM_FEAT_MARKERS; see the header comment). */
+static inline int tm_has_markers(const tm_mesh *m)
+{
+    return m->mk_has != NULL;
+}
+/* 1 if the marker map holds slot t (some face of t has a nonzero marker). */
+static inline int tm__has_marks(const tm_mesh *m, uint32_t t)
+{
+    return (int)((m->mk_has[t >> 6] >> (t & 63u)) & 1u);
+}
+/* The four markers of t, which the map holds (tm__has_marks). */
+const int32_t *tm__marks(const tm_mesh *m, uint32_t t);
+/* Forgets t's markers (all four 0). */
+void tm__clear_marks(tm_mesh *m, uint32_t t);
+/* The marker of face i of t: 0 if none, and 0 without TM_FEAT_MARKERS. */
+static inline int32_t tm_marker(const tm_mesh *m, uint32_t t, int i)
+{
+    if (!m->mk_has || !tm__has_marks(m, t))
+        return 0;
+    return tm__marks(m, t)[i];
+}
+/* Sets the marker of face i of t alone (not the neighbour's face, not the
+ * flags; needs TM_FEAT_MARKERS). Returns 0 or PDR_ENOMEM; it cannot fail
+ * while at most `count` slots not held before got markers since
+ * tm_marker_room(m, count) returned 0. */
+int tm_set_marker(tm_mesh *m, uint32_t t, int i, int32_t marker);
+/* Makes room in the marker map for `count` more slots (0 without
+ * TM_FEAT_MARKERS). Returns 0 or PDR_ENOMEM. */
+int tm_marker_room(tm_mesh *m, size_t count);
+
 /* Takes a slot from the free list or the end (the caller ensured room)
  * and clears its flags, markers and lock, without counting it live: for
  * callers that count new tetrahedra in bulk (dt_build). */
@@ -249,10 +296,8 @@ static inline uint32_t tm__take_slot(tm_mesh *m)
         t = m->nslots++;
     }
     m->flags[t] = 0;
-    if (m->marker) {
-        int32_t *mk = m->marker + 4 * (size_t)t;
-        mk[0] = mk[1] = mk[2] = mk[3] = 0;
-    }
+    if (m->mk_has && tm__has_marks(m, t))
+        tm__clear_marks(m, t);
     /* A slot freed while locked keeps its lock until it is taken again;
      * every other slot's lock is 0 already (the arrays grow with free
      * locks, tm.c): only the summary bit, which stays in cache, is read,
@@ -292,11 +337,12 @@ static inline void tm_free_tet(tm_mesh *m, uint32_t t)
 void tm_delete_tet(tm_mesh *m, uint32_t t);
 
 /* Sets a face marker on face i of t and on the same face of its
- * neighbour (needs TM_FEAT_MARKERS). marker 0 clears it. */
-void tm_mark_face(tm_mesh *m, uint32_t t, int i, int32_t marker);
+ * neighbour, with their TM_F_FACEMARK bits (needs TM_FEAT_MARKERS).
+ * marker 0 clears it. Returns 0 or PDR_ENOMEM (tm_set_marker). */
+int tm_mark_face(tm_mesh *m, uint32_t t, int i, int32_t marker);
 static inline int32_t tm_face_marker(const tm_mesh *m, uint32_t t, int i)
 {
-    return (m->flags[t] & TM_F_FACEMARK(i)) ? m->marker[4 * (size_t)t + (size_t)i] : 0;
+    return (m->flags[t] & TM_F_FACEMARK(i)) ? tm_marker(m, t, i) : 0;
 }
 
 /* 1 if triangle y is triangle x seen from its other side: x reversed, in
@@ -327,11 +373,13 @@ void tm_rebuild_hints(tm_mesh *m);
 void tm_remove_ghosts(tm_mesh *m);
 
 /* Bytes held by the mesh arrays for the slots and vertices in use (the
- * lock summary bits in whole 64-bit words). */
+ * lock summary bits in whole 64-bit words), with the marker map's whole
+ * capacity. */
 size_t tm_bytes_used(const tm_mesh *m);
 /* Bytes per tetrahedron slot and per vertex, with the enabled features;
- * a slot's is fractional with locks (its summary bit, an eighth of a
- * byte). */
+ * a slot's is fractional with locks and markers (a summary bit each, an
+ * eighth of a byte), and leaves out the marker map (tm_bytes_used counts
+ * it). */
 double tm_bytes_per_tet(const tm_mesh *m);
 size_t tm_bytes_per_vertex(const tm_mesh *m);
 

@@ -714,6 +714,8 @@ static int import(par_cav *c)
     if (!rc)
         rc = tm_room(m, c->ngt);
     if (!rc)
+        rc = tm_marker_room(m, c->ngt);
+    if (!rc)
         rc = pdr_grow((void **)&c->own.held.a, &c->own.held.cap, c->own.held.n + c->ngt,
                       sizeof *c->own.held.a);
     if (rc)
@@ -725,7 +727,7 @@ static int import(par_cav *c)
         for (int k = 0; k < 4; k++) {
             T->v[k] = g->v[k] == UINT32_MAX ? TM_VINF : loc[g->v[k]];
             T->n[k] = TM_LINK_UNSET;
-            m->marker[4 * (size_t)t + (size_t)k] = g->marker[k];
+            tm_set_marker(m, t, k, g->marker[k]); /* room above */
         }
         /* A tetrahedron left for the merge stays so (marked, in no queue):
          * tried again here, its cavity would come back and forth between

@@ -407,8 +407,9 @@ static int pair_down(tet_task *a, const tm_mesh *m, uint32_t t, int i, uint32_t 
     face_of(m, u, j, y);
     int opposed = tm_faces_opposed(x, y);
     a->tally.misoriented += (size_t)!opposed;
-    /* the merged marker is the sent one + 1, 0 for none */
-    a->tally.marker_mismatch += tm_face_marker(m, u, j) != (mk == PR_MARKER_NONE ? 0 : mk + 1);
+    /* the merged marker is the sent one + 1, 0 for none: u's as sent
+     * (add_tets stores the markers after the tasks) */
+    a->tally.marker_mismatch += a->g->w[a->k].sm->tet.marker[c] != mk;
     a->tally.suspect |= U->v[j] == T->v[i];
     /* t's flags are not stored yet: its interior test from what was sent */
     int tin = !tm_is_ghost(m, t) && !(fl & REF_F_EXTERIOR), uin = ref_is_interior(m, u);
@@ -480,8 +481,9 @@ static int tet_task_run(void *arg)
                 if (rc)
                     return rc;
             }
+            /* the marker itself: add_tets, after the tasks (the marker
+             * map is one for all of them) */
             int32_t mk = sm->tet.marker[x];
-            m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
             if (mk != PR_MARKER_NONE)
                 fl |= TM_F_FACEMARK(i);
         }
@@ -540,6 +542,15 @@ static int add_tets(merge *g, ref_mesher *r)
     /* The first failure in message order, as one pass would stop at. */
     for (uint32_t k = 0; k < g->n && !rc; k++)
         rc = ft[k].rc;
+    /* The face markers, the sent ones + 1 (0 for none), in one pass: the
+     * tasks above share the mesh's one marker map (tm.h). */
+    for (uint32_t k = 0; k < g->n && !rc; k++) {
+        const pr_submesh *sm = g->w[k].sm;
+        for (size_t x = 0; x < 4 * (size_t)sm->tet.n && !rc; x++)
+            if (sm->tet.marker[x] != PR_MARKER_NONE)
+                rc = tm_set_marker(m, g->base[k] + (uint32_t)(x >> 2), (int)(x & 3),
+                                   sm->tet.marker[x] + 1);
+    }
     size_t nlf = 0, nh = 0;
     for (uint32_t k = 0; k < g->n && !rc; k++) {
         nlf += a[k].nlf;
@@ -659,7 +670,7 @@ static void check_pair(const tm_mesh *m, uint32_t t, int i, uint32_t u, int j,
     face_of(m, u, j, y);
     if (!face_opposed(x, y))
         rep->misoriented++;
-    if (m->marker[4 * (size_t)t + (size_t)i] != m->marker[4 * (size_t)u + (size_t)j])
+    if (tm_marker(m, t, i) != tm_marker(m, u, j))
         rep->marker_mismatch++;
 }
 

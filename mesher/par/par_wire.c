@@ -321,7 +321,7 @@ static int enc_tets(enc *e, const par_wire_src *src)
         const tm_tet *T = &m->tets[t];
         for (int i = 0; i < 4; i++) {
             tt->v[4 * k + (size_t)i] = e->idx[T->v[i]];
-            int32_t mk = m->marker ? tm_face_marker(m, t, i) : 0;
+            int32_t mk = tm_has_markers(m) ? tm_face_marker(m, t, i) : 0;
             if (mk < 0 || (size_t)mk > p->nfacet)
                 return PDR_EINVAL;
             tt->marker[4 * k + (size_t)i] = mk ? mk - 1 : PR_MARKER_NONE;
@@ -697,7 +697,7 @@ static int enc_pairs(const enc *e, const par_wire_src *src, const par_wire *w,
             /* mesh vertices for the message's numbers: one-to-one */
             int opposed = tm_faces_opposed(f, y);
             a->misoriented += (size_t)!opposed;
-            if (m->marker)
+            if (tm_has_markers(m))
                 a->marker_mismatch += tm_face_marker(m, t, i) != tm_face_marker(m, su, j);
             a->suspect |= U->v[j] == T->v[i];
             int tin = ref_is_interior(m, t), uin = ref_is_interior(m, su);
@@ -1050,7 +1050,9 @@ static int build_tets(const par_wire *w, const uint32_t *loc, par_sub *s)
             m->tets[t].v[i] = loc[sm->tet.v[j]];
             m->tets[t].n[i] = TM_LINK_UNSET;
             int32_t mk = sm->tet.marker[j];
-            m->marker[4 * (size_t)t + (size_t)i] = mk + 1;
+            rc = tm_set_marker(m, t, i, mk + 1);
+            if (rc)
+                return rc;
             if (mk != PR_MARKER_NONE)
                 fl |= TM_F_FACEMARK(i);
         }

@@ -387,11 +387,14 @@ typedef struct ref_hooks {
     void *arg;
 } ref_hooks;
 
-/* Queue of refinement work: 32-bit ids, each with a float (rmin). Only
- * the refine*.c files use it; it is here because ref_mesher holds three. */
+/* Queue of refinement work: 32-bit ids, each with a float (rmin) in the
+ * queues of subsegments and subfacets; the tetrahedra's queues keep no
+ * rmin (NULL: they would be all 0). Only the refine*.c files use it; it
+ * is here because ref_mesher holds four. */
 typedef struct ref_queue {
     uint32_t *id;
-    float *rmin;   /* smallest acceptable insertion radius of the split */
+    float *rmin;   /* smallest acceptable insertion radius of the split,
+                      or NULL in a queue of tetrahedra */
     size_t head, n, cap; /* entries head..n-1 are pending */
 } ref_queue;
 

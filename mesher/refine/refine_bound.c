@@ -678,8 +678,9 @@ static int attach_subfac(ref_mesher *r, uint32_t id)
     s->flags &= (uint16_t)~BD_F_MISSING;
     const tm_tet *T = &r->m.tets[t];
     int k = 6 - ref__slot_in(T, s->v[0]) - ref__slot_in(T, s->v[1]) - ref__slot_in(T, s->v[2]);
-    tm_mark_face(&r->m, t, k, (int32_t)s->facet + 1);
-    int rc = check_subfac(r, id, t, k);
+    int rc = tm_mark_face(&r->m, t, k, (int32_t)s->facet + 1);
+    if (!rc)
+        rc = check_subfac(r, id, t, k);
     return rc < 0 ? rc : 1;
 }
 
@@ -728,7 +729,7 @@ static int repair_and_queue(ref_mesher *r, uint32_t *ids, size_t n)
                     const tm_tet *Q = &m->tets[t1];
                     int q = 6 - ref__slot_in(Q, U.v[0]) - ref__slot_in(Q, U.v[1]) -
                             ref__slot_in(Q, U.v[2]);
-                    tm_mark_face(m, t1, q, 0);
+                    tm_mark_face(m, t1, q, 0); /* clearing: cannot fail */
                 }
                 bd_kill_subfac(bd, t);
                 bd_kill_subfac(bd, u);
@@ -821,7 +822,7 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
                 const tm_tet *T = &m->tets[t];
                 int k = 6 - ref__slot_in(T, s->v[0]) - ref__slot_in(T, s->v[1]) -
                         ref__slot_in(T, s->v[2]);
-                tm_mark_face(m, t, k, 0);
+                tm_mark_face(m, t, k, 0); /* clearing: cannot fail */
             }
         }
     for (size_t i = 0; i < r->nlist; i++)
@@ -856,8 +857,9 @@ int ref__update_boundary(ref_mesher *r, uint32_t v, uint32_t split_id)
         uint32_t t;
         int k;
         if (find_new_face(r, e[0], e[1], &t, &k)) {
-            tm_mark_face(m, t, k, (int32_t)e[2] + 1);
-            rc = check_subfac(r, id, t, k);
+            rc = tm_mark_face(m, t, k, (int32_t)e[2] + 1);
+            if (!rc)
+                rc = check_subfac(r, id, t, k);
         } else {
             bd->facs[id].flags |= BD_F_MISSING;
             rc = pdr_grow((void **)&r->miss, &r->cap_miss, r->nmiss + 1, sizeof *r->miss);

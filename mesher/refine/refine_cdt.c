@@ -597,7 +597,9 @@ static int flip_facet(void *arg, uint32_t e1, uint32_t e2, uint32_t p, uint32_t 
             if (sz < 0)
                 continue;
             int q = 6 - ref__slot_in(T, p) - ref__slot_in(T, a) - sz;
-            tm_mark_face(m, tets[k], q, (int32_t)f + 1);
+            rc = tm_mark_face(m, tets[k], q, (int32_t)f + 1);
+            if (rc)
+                return rc;
         }
     }
     m->flags[tets[2]] |= REF_F_EXTERIOR;
@@ -850,13 +852,15 @@ int ref_cdt_restore(ref_mesher *r)
 /* ------------------------------------------------------------- carving */
 
 /* Copies the marker and subsegment bits of face i of t to ghost g (its
- * face 3 is the same face). */
-static void ghost_marks(tm_mesh *m, uint32_t g, uint32_t t, int i)
+ * face 3 is the same face). Returns 0 or PDR_ENOMEM. */
+static int ghost_marks(tm_mesh *m, uint32_t g, uint32_t t, int i)
 {
     uint16_t ft = m->flags[t];
     if (ft & TM_F_FACEMARK(i)) {
         m->flags[g] |= TM_F_FACEMARK(3);
-        m->marker[4 * (size_t)g + 3] = m->marker[4 * (size_t)t + (size_t)i];
+        int rc = tm_set_marker(m, g, 3, tm_marker(m, t, i));
+        if (rc)
+            return rc;
     }
     const tm_tet *T = &m->tets[t], *G = &m->tets[g];
     for (int e = 0; e < 6; e++) {
@@ -867,6 +871,7 @@ static void ghost_marks(tm_mesh *m, uint32_t g, uint32_t t, int i)
         if (sa >= 0 && sb >= 0)
             m->flags[g] |= TM_F_SUBSEG(tm_edge_of[sa][sb]);
     }
+    return 0;
 }
 
 int ref_carve(ref_mesher *r)
@@ -890,7 +895,9 @@ int ref_carve(ref_mesher *r)
         if (tm_is_dead(m, g) || !tm_is_ghost(m, g))
             continue;
         tm_link l = m->tets[g].n[3];
-        ghost_marks(m, g, tm_ltet(l), tm_lface(l));
+        rc = ghost_marks(m, g, tm_ltet(l), tm_lface(l));
+        if (rc)
+            return rc;
         m->flags[g] |= REF_F_EXTERIOR;
         if (r->region)
             r->region[g] = 0;

@@ -233,7 +233,7 @@ size_t ref_consistency(const ref_mesher *r, FILE *log, int what)
                      c = T->v[tm_face_vtx[k][2]];
             uint32_t id = bd_find_subfac(bd, a, b, c);
             if (id == BD_NONE || (bd->facs[id].flags & BD_F_MISSING) ||
-                (int32_t)bd->facs[id].facet + 1 != m->marker[4 * (size_t)t + (size_t)k]) {
+                (int32_t)bd->facs[id].facet + 1 != tm_marker(m, t, k)) {
                 if (log)
                     fprintf(log, "marked face %u %u %u of tet %u is no live subfacet\n", a, b, c,
                             t);
@@ -725,7 +725,7 @@ static int export_mesh(const ref_mesher *r, ref_output *out, int with_tets)
                 const uint32_t *q = id != BD_NONE ? bd->facs[id].v : tv;
                 for (int j = 0; j < 3; j++)
                     out->tri[nf][j] = out->vmap[q[j]];
-                int32_t f = m->marker[4 * (size_t)t + (size_t)fi] - 1;
+                int32_t f = tm_marker(m, t, fi) - 1;
                 out->tri_marker[nf] = r->p->facets[f].marker;
                 out->tri_facet[nf] = f;
                 nf++;

@@ -245,7 +245,7 @@ int ref_gather_marks(const tm_mesh *m, const dt_cavity *c, ref_marks *out)
                 mk->v[q] = T->v[tm_face_vtx[k][q]];
                 memcpy(mk->x[q], X(m, mk->v[q]), sizeof mk->x[q]);
             }
-            mk->facet = m->marker[4 * (size_t)t + (size_t)k] - 1;
+            mk->facet = tm_marker(m, t, k) - 1;
             mk->deleted = (uint8_t)del;
         }
         for (int e = 0; e < 6 && (f & TM_F_SUBSEGS); e++) {

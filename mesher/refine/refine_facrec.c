@@ -927,6 +927,8 @@ static int commit(facrec *s)
     ref_mesher *r = s->r;
     tm_mesh *m = &r->m;
     int rc = tm_room(m, s->nfill[0] + s->nfill[1]);
+    if (!rc)
+        rc = tm_marker_room(m, s->nfill[0] + s->nfill[1]);
     for (int k = 0; k < 2 && !rc; k++)
         if (pdr_grow((void **)&s->map[k], &s->capmap[k], s->sub[k].nslots, sizeof *s->map[k]))
             rc = PDR_ENOMEM;
@@ -964,9 +966,8 @@ static int commit(facrec *s)
                     m->tets[tm_ltet(F->outer)].n[tm_lface(F->outer)] = tm_mklink(t, f);
                 if (m->flags[F->tet] & TM_F_FACEMARK(F->face)) {
                     m->flags[t] |= TM_F_FACEMARK(f);
-                    if (m->marker)
-                        m->marker[4 * (size_t)t + (size_t)f] =
-                            m->marker[4 * (size_t)F->tet + F->face];
+                    if (tm_has_markers(m)) /* room: above */
+                        tm_set_marker(m, t, f, tm_marker(m, F->tet, F->face));
                 }
             }
         }
@@ -1275,7 +1276,9 @@ static int mark_subfac(ref_mesher *r, uint32_t i)
         return 1;
     const tm_tet *T = &r->m.tets[t];
     int k = 6 - ref__slot_in(T, F->v[0]) - ref__slot_in(T, F->v[1]) - ref__slot_in(T, F->v[2]);
-    tm_mark_face(&r->m, t, k, (int32_t)F->facet + 1);
+    int rc = tm_mark_face(&r->m, t, k, (int32_t)F->facet + 1);
+    if (rc)
+        return rc;
     F->flags &= (uint16_t)~(BD_F_MISSING | BD_F_QUEUED);
     return 0;
 }
@@ -1289,23 +1292,24 @@ int ref__recover_region(ref_mesher *r, uint32_t id)
     if (rc == 0) {
         /* The region's subfacets are faces now, and the subfacets inside
          * the cavity are faces again: their marks. */
-        for (size_t i = 0; i < s.nreg; i++)
-            mark_subfac(r, s.reg[i]);
-        for (size_t i = 0; i < s.nkeepf; i += 3) {
+        for (size_t i = 0; i < s.nreg && rc >= 0; i++)
+            rc = mark_subfac(r, s.reg[i]);
+        for (size_t i = 0; i < s.nkeepf && rc >= 0; i += 3) {
             uint32_t f = bd_find_subfac(&r->bd, s.keepf[i], s.keepf[i + 1], s.keepf[i + 2]);
             if (f != BD_NONE)
-                mark_subfac(r, f);
+                rc = mark_subfac(r, f);
         }
+        rc = rc < 0 ? rc : 0; /* 1: no such face, as before */
         r->st.facrec_faces += s.nreg;
     } else if (rc == 2) {
         /* Retriangulated in its facet: the new subfacets are faces. */
         for (size_t i = 0; i < s.ntris; i++) {
             const uint32_t *t = s.tris + 3 * i;
             uint32_t f = bd_find_subfac(&r->bd, t[0], t[1], t[2]);
-            if (f != BD_NONE)
-                mark_subfac(r, f);
+            if (f != BD_NONE && mark_subfac(r, f) < 0)
+                rc = PDR_ENOMEM;
         }
-        rc = 0;
+        rc = rc == PDR_ENOMEM ? rc : 0;
     }
     fr_close(&s);
     return rc;

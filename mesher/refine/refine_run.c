@@ -36,30 +36,52 @@ static inline double dmax(double a, double b)
 
 /* ---------------------------------------------------------------- queues */
 
+/* Room for one more entry; keyed: the queue keeps rmin (not a queue of
+ * tetrahedra, see ref_queue). */
+static int q_room(ref_queue *q, int keyed)
+{
+    if (q->n < q->cap)
+        return 0;
+    if (q->head > 0 && q->head >= q->cap / 2) {
+        memmove(q->id, q->id + q->head, (q->n - q->head) * sizeof *q->id);
+        if (keyed)
+            memmove(q->rmin, q->rmin + q->head, (q->n - q->head) * sizeof *q->rmin);
+        q->n -= q->head;
+        q->head = 0;
+        return 0;
+    }
+    size_t c = q->cap ? q->cap * 2 : 1024;
+    uint32_t *ids = pr_realloc(q->id, c * sizeof *ids);
+    if (!ids)
+        return PDR_ENOMEM;
+    q->id = ids;
+    if (keyed) {
+        float *rp = pr_realloc(q->rmin, c * sizeof *rp);
+        if (!rp)
+            return PDR_ENOMEM;
+        q->rmin = rp;
+    }
+    q->cap = c;
+    return 0;
+}
+
+/* A subsegment's or subfacet's entry, with its rmin. */
 static int q_push(ref_queue *q, uint32_t id, float rmin)
 {
-    if (q->n == q->cap) {
-        if (q->head > 0 && q->head >= q->cap / 2) {
-            memmove(q->id, q->id + q->head, (q->n - q->head) * sizeof *q->id);
-            memmove(q->rmin, q->rmin + q->head, (q->n - q->head) * sizeof *q->rmin);
-            q->n -= q->head;
-            q->head = 0;
-        } else {
-            size_t c = q->cap ? q->cap * 2 : 1024;
-            uint32_t *ids = pr_realloc(q->id, c * sizeof *ids);
-            if (!ids)
-                return PDR_ENOMEM;
-            q->id = ids;
-            float *rp = pr_realloc(q->rmin, c * sizeof *rp);
-            if (!rp)
-                return PDR_ENOMEM;
-            q->rmin = rp;
-            q->cap = c;
-        }
-    }
+    if (q_room(q, 1))
+        return PDR_ENOMEM;
     q->id[q->n] = id;
     q->rmin[q->n] = rmin;
     q->n++;
+    return 0;
+}
+
+/* A tetrahedron's entry (no rmin). */
+static int q_push_tet(ref_queue *q, uint32_t t)
+{
+    if (q_room(q, 0))
+        return PDR_ENOMEM;
+    q->id[q->n++] = t;
     return 0;
 }
 
@@ -109,7 +131,7 @@ static int queue_tet(ref_mesher *r, uint32_t t)
     if (r->m.flags[t] & TM_F_QUEUED)
         return 0;
     r->m.flags[t] |= TM_F_QUEUED;
-    return q_push(&r->tetq, t, 0.0f);
+    return q_push_tet(&r->tetq, t);
 }
 
 /* A bad tetrahedron whose split lies on another PE (parallel hooks):
@@ -271,7 +293,7 @@ static int queue_new_tets(ref_mesher *r)
         if (r->o.order == REF_ORDER_LOCAL_FIRST && !r->step_remote &&
             !(m->flags[n] & TM_F_QUEUED)) {
             m->flags[n] |= TM_F_QUEUED;
-            rc = q_push(&r->tetq_local, n, 0.0f);
+            rc = q_push_tet(&r->tetq_local, n);
         } else {
             rc = queue_tet(r, n);
         }
@@ -1722,7 +1744,7 @@ static int pop_tet(ref_mesher *r, uint32_t *t)
         int busy = defer_left && (r->hooks && r->hooks->busy
                                       ? r->hooks->busy(r->hooks->arg, x)
                                       : tet_busy(m, x, UINT32_MAX, r->busy_depth));
-        if (busy && q_push(&r->tetq, x, 0.0f) == 0) {
+        if (busy && q_push_tet(&r->tetq, x) == 0) {
             r->st.deferred++;
             if (!--defer_left)
                 return 0;
