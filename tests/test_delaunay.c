@@ -202,6 +202,78 @@ START_TEST(build_with_markers_and_locks)
 }
 END_TEST
 
+/* The face markers live in a map holding only the slots with a nonzero
+ * marker (tm.h): random writes (zeros among them, which drop a slot once
+ * its four markers are 0), slots freed and taken again (their markers
+ * cleared) and the map's growth must read back exactly as a dense array
+ * would. */
+START_TEST(marker_map_reads_as_a_dense_array)
+{
+    enum { N = 3000 };
+    tm_mesh m;
+    ck_assert_int_eq(tm_init(&m, TM_FEAT_MARKERS), 0);
+    ck_assert_int_eq(tm_room(&m, N), 0);
+    static int32_t ref[4 * N];
+    memset(ref, 0, sizeof ref);
+    for (uint32_t k = 0; k < N; k++) {
+        uint32_t t = tm_alloc_tet(&m);
+        ck_assert_uint_eq(t, k);
+        for (int i = 0; i < 4; i++)
+            m.tets[t].v[i] = (uint32_t)i + 1;
+    }
+    rng_state = 11;
+    for (int step = 0; step < 200000; step++) {
+        uint32_t t = (uint32_t)(rnd01() * N) % N;
+        int i = (int)(rnd01() * 4) & 3;
+        double u = rnd01();
+        if (u < 0.02) {
+            /* freed and taken again: the same slot, its markers gone */
+            tm_free_tet(&m, t);
+            ck_assert_uint_eq(tm_alloc_tet(&m), t);
+            memset(&ref[4 * t], 0, 4 * sizeof ref[0]);
+            continue;
+        }
+        int32_t x = u < 0.5 ? 0 : (int32_t)(rnd01() * 2000) - 1000;
+        ck_assert_int_eq(tm_set_marker(&m, t, i, x), 0);
+        ref[4 * t + (uint32_t)i] = x;
+        if (step % 20000 == 0 || step == 199999) {
+            uint32_t held = 0;
+            for (uint32_t s = 0; s < N; s++) {
+                int any = 0;
+                for (int f = 0; f < 4; f++) {
+                    ck_assert_int_eq(tm_marker(&m, s, f), ref[4 * s + (uint32_t)f]);
+                    any |= ref[4 * s + (uint32_t)f] != 0;
+                }
+                held += (uint32_t)any;
+            }
+            ck_assert_uint_eq(m.mk_n, held);
+            ck_assert_uint_le(2 * m.mk_n, m.mk_cap);
+        }
+    }
+    for (uint32_t s = 0; s < N; s++)
+        for (int f = 0; f < 4; f++)
+            ck_assert_int_eq(tm_set_marker(&m, s, f, 0), 0);
+    ck_assert_uint_eq(m.mk_n, 0);
+    tm_free(&m);
+    /* After tm_marker_room(k), k more slots take markers without a new
+     * map (the commits that cannot fail midway count on it); a fresh
+     * map is small. */
+    ck_assert_int_eq(tm_init(&m, TM_FEAT_MARKERS), 0);
+    ck_assert_int_eq(tm_room(&m, 1000), 0);
+    for (uint32_t k = 0; k < 1000; k++)
+        ck_assert_uint_eq(tm_alloc_tet(&m), k);
+    ck_assert_uint_lt(m.mk_cap, 2000);
+    ck_assert_int_eq(tm_marker_room(&m, 1000), 0);
+    const uint32_t *keys = m.mk_key;
+    for (uint32_t s = 0; s < 1000; s++)
+        ck_assert_int_eq(tm_set_marker(&m, s, (int)(s & 3), 7), 0);
+    ck_assert_ptr_eq(m.mk_key, keys);
+    for (uint32_t s = 0; s < 1000; s++)
+        ck_assert_int_eq(tm_marker(&m, s, (int)(s & 3)), 7);
+    tm_free(&m);
+}
+END_TEST
+
 START_TEST(points_on_a_few_planes)
 {
     tm_mesh m;
@@ -1260,6 +1332,7 @@ static Suite *delaunay_suite(void)
     tcase_add_test(tc, points_on_a_few_planes);
     tcase_add_test(tc, large_cavities_on_a_helix);
     tcase_add_test(tc, build_with_markers_and_locks);
+    tcase_add_test(tc, marker_map_reads_as_a_dense_array);
     tcase_add_test(tc, duplicates_are_skipped_and_counted);
     tcase_add_test(tc, degenerate_inputs_are_refused);
     suite_add_tcase(s, tc);
