@@ -116,19 +116,19 @@ void tm_free(tm_mesh *m)
 
 #define MK_MIN_CAP 64u
 
-static inline size_t marks_home(uint32_t t, uint32_t cap)
+static inline size_t marks_home(uint32_t key, uint32_t cap)
 {
     /* Fibonacci hashing: the top bits of the product, as many as cap
-     * has; neighbouring slots land far apart. */
+     * has; neighbouring faces land far apart. */
     unsigned bits = (unsigned)__builtin_ctz(cap);
-    return (size_t)(((uint64_t)t * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - bits));
+    return (size_t)(((uint64_t)key * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - bits));
 }
 
-/* The index of t's key, or of the empty key where it would go. */
-static size_t marks_probe(const tm_mesh *m, uint32_t t)
+/* The index of key, or of the empty key where it would go. */
+static size_t marks_probe(const tm_mesh *m, uint32_t key)
 {
-    size_t mask = m->mk_cap - 1, i = marks_home(t, m->mk_cap);
-    while (m->mk_key[i] != t && m->mk_key[i] != TM_NONE)
+    size_t mask = m->mk_cap - 1, i = marks_home(key, m->mk_cap);
+    while (m->mk_key[i] != key && m->mk_key[i] != TM_NONE)
         i = (i + 1) & mask;
     return i;
 }
@@ -138,7 +138,7 @@ static size_t marks_probe(const tm_mesh *m, uint32_t t)
 static int marks_rehash(tm_mesh *m, uint32_t cap)
 {
     uint32_t *key = pr_malloc((size_t)cap * sizeof *key);
-    int32_t *val = pr_malloc((size_t)cap * 4 * sizeof *val);
+    int32_t *val = pr_malloc((size_t)cap * sizeof *val);
     if (!key || !val) {
         pr_free(key);
         pr_free(val);
@@ -150,12 +150,12 @@ static int marks_rehash(tm_mesh *m, uint32_t cap)
     nm.mk_val = val;
     nm.mk_cap = cap;
     for (uint32_t j = 0; j < m->mk_cap; j++) {
-        uint32_t t = m->mk_key[j];
-        if (t == TM_NONE)
+        uint32_t k = m->mk_key[j];
+        if (k == TM_NONE)
             continue;
-        size_t i = marks_probe(&nm, t);
-        key[i] = t;
-        memcpy(val + 4 * i, m->mk_val + 4 * (size_t)j, 4 * sizeof *val);
+        size_t i = marks_probe(&nm, k);
+        key[i] = k;
+        val[i] = m->mk_val[j];
     }
     pr_free(m->mk_key);
     pr_free(m->mk_val);
@@ -179,23 +179,13 @@ static int marks_room(tm_mesh *m, size_t more)
     return marks_rehash(m, (uint32_t)cap);
 }
 
-int tm_marker_room(tm_mesh *m, size_t count)
+/* Removes the key at index i (backward-shift deletion: every later key
+ * of the run that may live at i, its home not cyclically in (i, j], is
+ * moved up). */
+static void marks_remove_at(tm_mesh *m, size_t i)
 {
-    return m->mk_has ? marks_room(m, count) : 0;
-}
-
-const int32_t *tm__marks(const tm_mesh *m, uint32_t t)
-{
-    return m->mk_val + 4 * marks_probe(m, t);
-}
-
-void tm__clear_marks(tm_mesh *m, uint32_t t)
-{
-    size_t mask = m->mk_cap - 1, i = marks_probe(m, t);
-    m->mk_has[t >> 6] &= ~((uint64_t)1 << (t & 63u));
+    size_t mask = m->mk_cap - 1;
     m->mk_n--;
-    /* backward-shift deletion: move up every later key of the run that
-     * may live at i (its home is not cyclically in (i, j]) */
     for (size_t j = i;;) {
         m->mk_key[i] = TM_NONE;
         for (;;) {
@@ -208,32 +198,61 @@ void tm__clear_marks(tm_mesh *m, uint32_t t)
             break;
         }
         m->mk_key[i] = m->mk_key[j];
-        memcpy(m->mk_val + 4 * i, m->mk_val + 4 * j, 4 * sizeof *m->mk_val);
+        m->mk_val[i] = m->mk_val[j];
         i = j;
+    }
+}
+
+int tm_marker_room(tm_mesh *m, size_t count)
+{
+    return m->mk_has ? marks_room(m, count) : 0;
+}
+
+int32_t tm__marker(const tm_mesh *m, uint32_t t, int i)
+{
+    size_t k = marks_probe(m, 4 * t + (uint32_t)i);
+    return m->mk_key[k] == TM_NONE ? 0 : m->mk_val[k];
+}
+
+void tm__clear_marks(tm_mesh *m, uint32_t t)
+{
+    m->mk_has[t >> 6] &= ~((uint64_t)1 << (t & 63u));
+    for (uint32_t i = 0; i < 4; i++) {
+        size_t k = marks_probe(m, 4 * t + i);
+        if (m->mk_key[k] != TM_NONE)
+            marks_remove_at(m, k);
     }
 }
 
 int tm_set_marker(tm_mesh *m, uint32_t t, int i, int32_t marker)
 {
-    if (tm__has_marks(m, t)) {
-        int32_t *v = m->mk_val + 4 * marks_probe(m, t);
-        v[i] = marker;
-        if (!(v[0] | v[1] | v[2] | v[3]))
-            tm__clear_marks(m, t);
+    uint32_t key = 4 * t + (uint32_t)i;
+    if (!marker) {
+        if (!tm__has_marks(m, t))
+            return 0;
+        size_t k = marks_probe(m, key);
+        if (m->mk_key[k] == TM_NONE)
+            return 0;
+        marks_remove_at(m, k);
+        /* the slot's bit goes with its last marker */
+        int left = 0;
+        for (uint32_t f = 0; f < 4; f++)
+            left |= m->mk_key[marks_probe(m, 4 * t + f)] != TM_NONE;
+        if (!left)
+            m->mk_has[t >> 6] &= ~((uint64_t)1 << (t & 63u));
         return 0;
     }
-    if (!marker)
-        return 0;
-    int rc = marks_room(m, 1);
-    if (rc)
-        return rc;
-    size_t k = marks_probe(m, t);
-    int32_t *v = m->mk_val + 4 * k;
-    m->mk_key[k] = t;
-    v[0] = v[1] = v[2] = v[3] = 0;
-    v[i] = marker;
-    m->mk_has[t >> 6] |= (uint64_t)1 << (t & 63u);
-    m->mk_n++;
+    size_t k = marks_probe(m, key);
+    if (m->mk_key[k] == TM_NONE) {
+        int rc = marks_room(m, 1);
+        if (rc)
+            return rc;
+        k = marks_probe(m, key); /* the map may have moved */
+        m->mk_key[k] = key;
+        m->mk_n++;
+        m->mk_has[t >> 6] |= (uint64_t)1 << (t & 63u);
+    }
+    m->mk_val[k] = marker;
     return 0;
 }
 
@@ -595,7 +614,7 @@ size_t tm_bytes_used(const tm_mesh *m)
 {
     size_t words = ((size_t)m->nslots + 63) / 64 * sizeof(uint64_t);
     size_t bits = (m->locked ? words : 0) + (m->mk_has ? words : 0);
-    size_t map = (size_t)m->mk_cap * (sizeof(uint32_t) + 4 * sizeof(int32_t));
+    size_t map = (size_t)m->mk_cap * (sizeof(uint32_t) + sizeof(int32_t));
     return (size_t)m->nslots * slot_bytes(m) + bits + map +
            (size_t)m->nv * tm_bytes_per_vertex(m);
 }

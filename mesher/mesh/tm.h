@@ -79,15 +79,16 @@
  * tm_set_lock).
  *
  * Face markers are sparse: nearly every face of a quality mesh has none,
- * so instead of 16 bytes per slot the mesh keeps a map from a slot to its
- * four markers, holding only the slots with a nonzero one (open
- * addressing, linear probing, backward-shift deletion, at most half
- * full), and one bit per slot in mk_has saying whether the map holds
- * the slot: a slot without it reads four zeros without a probe. The map
- * behaves exactly as the array it replaces: a marker is whatever was last
- * written (0 if never, or since the slot was taken), whatever the
- * TM_F_FACEMARK bits say. At 10^6 tetrahedra with a few percent of them
- * on the boundary that is about 1-2 bytes per slot instead of 16.
+ * so instead of 16 bytes per slot the mesh keeps a map from a face
+ * (4t + i) to its marker, holding only the nonzero ones (open addressing,
+ * linear probing, backward-shift deletion, at most half full: 16 to 32
+ * bytes per marked face), and one bit per slot in mk_has saying whether
+ * the map holds a face of the slot: a slot without it reads four zeros
+ * without a probe. The map behaves exactly as the array it replaces: a
+ * marker is whatever was last written (0 if never, or since the slot was
+ * taken), whatever the TM_F_FACEMARK bits say. At 10^6 tetrahedra, where
+ * about a tenth of the slots have a marked face, that is about 2 bytes
+ * per slot instead of 16.
  */
 #ifndef PDR_TETMESH_H
 #define PDR_TETMESH_H
@@ -148,11 +149,11 @@ typedef struct tm_mesh {
     tm_tet *tets;
     uint16_t *flags;
     /* optional (TM_FEAT_MARKERS): the sparse face markers (above) */
-    uint64_t *mk_has; /* bit t set iff the map holds slot t */
-    uint32_t *mk_key; /* mk_cap keys: a slot, or TM_NONE (empty) */
-    int32_t *mk_val;  /* 4 per key */
+    uint64_t *mk_has; /* bit t set iff the map holds a face of slot t */
+    uint32_t *mk_key; /* mk_cap keys: a face 4t + i, or TM_NONE (empty) */
+    int32_t *mk_val;  /* its marker, never 0 */
     uint32_t mk_cap;  /* power of two (0 before tm_enable) */
-    uint32_t mk_n;    /* slots held */
+    uint32_t mk_n;    /* faces held */
     uint32_t *lock;  /* optional (TM_FEAT_LOCKS) */
     uint64_t *locked; /* with lock: bit t of word t/64 set iff lock[t] != 0 */
     uint32_t nslots; /* slots in use (live + free) */
@@ -257,13 +258,13 @@ static inline int tm_has_markers(const tm_mesh *m)
 {
     return m->mk_has != NULL;
 }
-/* 1 if the marker map holds slot t (some face of t has a nonzero marker). */
+/* 1 if the marker map holds a face of t (one has a nonzero marker). */
 static inline int tm__has_marks(const tm_mesh *m, uint32_t t)
 {
     return (int)((m->mk_has[t >> 6] >> (t & 63u)) & 1u);
 }
-/* The four markers of t, which the map holds (tm__has_marks). */
-const int32_t *tm__marks(const tm_mesh *m, uint32_t t);
+/* The marker of face i of t, a slot the map holds (tm__has_marks). */
+int32_t tm__marker(const tm_mesh *m, uint32_t t, int i);
 /* Forgets t's markers (all four 0). */
 void tm__clear_marks(tm_mesh *m, uint32_t t);
 /* The marker of face i of t: 0 if none, and 0 without TM_FEAT_MARKERS. */
@@ -271,15 +272,15 @@ static inline int32_t tm_marker(const tm_mesh *m, uint32_t t, int i)
 {
     if (!m->mk_has || !tm__has_marks(m, t))
         return 0;
-    return tm__marks(m, t)[i];
+    return tm__marker(m, t, i);
 }
 /* Sets the marker of face i of t alone (not the neighbour's face, not the
  * flags; needs TM_FEAT_MARKERS). Returns 0 or PDR_ENOMEM; it cannot fail
- * while at most `count` slots not held before got markers since
+ * while at most `count` faces without a marker got one since
  * tm_marker_room(m, count) returned 0. */
 int tm_set_marker(tm_mesh *m, uint32_t t, int i, int32_t marker);
-/* Makes room in the marker map for `count` more slots (0 without
- * TM_FEAT_MARKERS). Returns 0 or PDR_ENOMEM. */
+/* Makes room in the marker map for `count` more slots' markers, a face
+ * each (0 without TM_FEAT_MARKERS). Returns 0 or PDR_ENOMEM. */
 int tm_marker_room(tm_mesh *m, size_t count);
 
 /* Takes a slot from the free list or the end (the caller ensured room)
