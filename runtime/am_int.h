@@ -730,6 +730,8 @@ int am__shm_in_on(const am_ctx_t *ctx, int pe);  /* frames from pe by ring */
 /* Every peer's frames come through a ring (and no large frame is
  * awaited from ZeroMQ). */
 int am__shm_all_in(const am_ctx_t *ctx);
+/* Bytes of data in each of this PE's incoming rings, 0 without rings. */
+size_t am__shm_ring_bytes(const am_ctx_t *ctx);
 /* Whether a frame of n bytes to a ring peer goes by ZeroMQ instead. */
 int am__shm_big(const am_ctx_t *ctx, size_t n);
 /* Reader: the ring of pe waits for a large frame from ZeroMQ (SHM_VIA);

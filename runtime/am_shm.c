@@ -449,6 +449,11 @@ int am__shm_all_in(const am_ctx_t *ctx)
            ctx->shm->npaused == 0;
 }
 
+size_t am__shm_ring_bytes(const am_ctx_t *ctx)
+{
+    return ctx->shm ? ctx->shm->cap : 0;
+}
+
 int am__shm_big(const am_ctx_t *ctx, size_t n)
 {
     return ctx->shm_big && n >= ctx->shm_big;

@@ -131,6 +131,7 @@ static void write_json(am_ctx_t *ctx, FILE *f)
             ctx->sched.stack_size);
     fprintf(f, "  \"send_window\": %zu, \"send_queue\": %zu,\n",
             ctx->send_window, ctx->send_queue);
+    fprintf(f, "  \"shm_ring_bytes\": %zu,\n", am__shm_ring_bytes(ctx));
     fprintf(f, "  \"wall_s\": %.9g,\n", st.wall_s);
     fprintf(f,
             "  \"runtime\": {\"poll_s\": %.9g, \"poll_excess_s\": %.9g, "

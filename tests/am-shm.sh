@@ -31,6 +31,42 @@ expect_ok "storm with PE 1 on ZeroMQ only"
 expect_line "^storm: 4 PEs, 4800 messages delivered exactly once.* 0 failed checks" "storm mixed"
 [ "$(shm_on_recv)" -eq 6 ] || fail "mixed job: $(shm_on_recv) of 6 pairs without PE 1 use a ring"
 
+# Ring sizes (runtime/am_shm.c, ring_cap), from each PE's stats: 1 MiB on
+# 2 PEs with a processor each, also when --cpu-bind core has narrowed
+# each PE to one (the host's processors are counted before binding); 16
+# KiB with more PEs than processors; AM_SHM_RING overrides both.
+ring_bytes() {
+    sed -n 's/^  "shm_ring_bytes": \([0-9]*\),$/\1/p' "$work"/st/stats-*.json | sort -u | tr '\n' ' ' |
+        sed 's/ $//'
+}
+ring_size() { # EXPECTED WHAT COMMAND...
+    want=$1 what=$2
+    shift 2
+    rm -rf "$work/st"
+    job 60 "$@" --stats "$work/st" -- "$MP" wake 5
+    expect_ok "ring size: $what"
+    got=$(ring_bytes)
+    [ "$got" = "$want" ] || fail "ring size: $what: rings of '$got' bytes, expected $want"
+    echo "shm: $what: rings of $got bytes"
+}
+if command -v taskset >/dev/null; then
+    cpus=$(sed -n 's/^Cpus_allowed_list:[[:space:]]*//p' /proc/self/status)
+    first=$(echo "$cpus" | sed 's/[^0-9].*//')
+    second=$(echo "$cpus" | tr ',' '\n' | awk -F- -v f="$first" '
+            {lo = $1; hi = (NF == 2 ? $2 : $1); for (c = lo; c <= hi; c++) if (c != f) {print c; exit}}')
+    ring_size 16384 "2 PEs on one processor" taskset -c "$first" "$AMRUN" -n 2
+    AM_SHM_RING=64k ring_size 65536 "2 PEs on one processor, AM_SHM_RING=64k" \
+        taskset -c "$first" "$AMRUN" -n 2
+    if [ -n "$second" ]; then
+        ring_size 1048576 "2 PEs on two processors" taskset -c "$first,$second" "$AMRUN" -n 2
+        ring_size 1048576 "2 PEs bound to one processor each" \
+            taskset -c "$first,$second" "$AMRUN" -n 2 --cpu-bind core
+        ring_size 16384 "3 PEs on two processors" taskset -c "$first,$second" "$AMRUN" -n 3
+    else
+        echo "shm: one processor only: the two-processor ring sizes not tested"
+    fi
+fi
+
 # The victim stops reading, the rings to it (64 KiB) fill, then it dies:
 # every sender must exit with an error naming it, on its own and in
 # bounded time. On 2 PEs each way round: the victim connected to the
