@@ -48,25 +48,35 @@ void mpar_default_opts(mpar_opts *o)
 typedef struct job {
     int got;
     uint8_t status;
-    void *data; /* owned copy of the payload */
-    size_t len;
+    int rc;               /* load's code, with status 0 */
+    size_t mem_loaded;    /* pdr_rss_nonfile() with the submesh built and
+                             the message still held */
+    /* where the submesh goes (the caller's; load fills them) */
+    plc *p;
+    ref_opts *ro;
+    par_sub *s;
+    int *have_plc;
 } job;
 
+static int load(const void *data, size_t len, plc *p, ref_opts *ro, par_sub *s, int *have_plc);
+
+/* The job's submesh is built here, in the handler, from the message's
+ * bytes where they lie: a copy of them first (3.5 MB for half of
+ * cube-in-cube's Mo on 2 PEs) cost 15-25 ms of page faults on this VM
+ * (fresh memory), while rank 0 waited for the PE at the refinement's
+ * barrier (bench/parallel.md, run 27). */
 static void on_job(am_ctx_t *am, const am_msg_t *msg, void *arg)
 {
     (void)am;
     job *j = arg;
     if (j->got || msg->len < 1)
         return;
-    j->data = pr_malloc(msg->len);
-    if (!j->data) {
-        j->got = 1;
-        j->status = 1;
-        return;
-    }
-    memcpy(j->data, msg->data, msg->len);
-    j->len = msg->len;
     j->status = ((const uint8_t *)msg->data)[0];
+    if (j->status == 0) {
+        j->rc = load(msg->data, msg->len, j->p, j->ro, j->s, j->have_plc);
+        if (!j->rc)
+            j->mem_loaded = pdr_rss_nonfile();
+    }
     j->got = 1;
 }
 
@@ -571,10 +581,10 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
 }
 
 /* Every PE: the submesh from the job message. */
-static int load(const job *j, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
+static int load(const void *data, size_t len, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
 {
     pr_reader r;
-    pr_reader_init(&r, j->data, j->len);
+    pr_reader_init(&r, data, len);
     uint8_t st;
     const uint8_t *b[3];
     size_t n[3];
@@ -627,7 +637,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         return PDR_EXIT_FAIL;
     }
     int rank = am_rank(am), size = am_size(am);
-    job j = {0};
     mp_ctx c;
     mp_init(&c, mo);
     plc p;
@@ -635,6 +644,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     int have_plc = 0, have_sub = 0;
     par_sub s;
     ref_opts ro = mo->ref;
+    job j = {.p = &p, .ro = &ro, .s = &s, .have_plc = &have_plc};
+    /* rank 0's own job message (the others' are built in on_job) */
+    void *own = NULL;
+    size_t own_len = 0;
     ref_stats sum;
     memset(&sum, 0, sizeof sum);
     par_table1 row, *rows = NULL;
@@ -684,9 +697,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                 am_send(am, k, H_JOB, msg[k].data, msg[k].len);
         }
         if (!prc && pre != PRE_ALONE) {
-            j.got = 1;
-            j.len = msg[0].len;
-            j.data = pr_buf_take(&msg[0], &j.len);
+            own_len = msg[0].len;
+            own = pr_buf_take(&msg[0], &own_len);
         }
         for (int k = 0; msg && k < size; k++)
             pr_buf_free(&msg[k]);
@@ -715,6 +727,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
+        j.got = 1;
+        j.rc = load(own, own_len, &p, &ro, &s, &have_plc);
+        if (!j.rc)
+            j.mem_loaded = pdr_rss_nonfile();
     } else if ((rc = wait_job(am, &j))) {
         goto done;
     }
@@ -724,22 +740,22 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     if (j.status)
         goto done; /* rank 0 said why */
-    if ((rc = load(&j, &p, &ro, &s, &have_plc))) {
+    if ((rc = j.rc)) {
         fprintf(stderr, "pdr mesh: PE %d: cannot build its submesh: %s\n", rank,
                 pdr_strerror(rc));
         goto done;
     }
     have_sub = 1;
-    /* The submesh and the message it came in, both held here: a sample
-     * of par_table1.peak_nonfile. */
-    size_t mem_loaded = pdr_rss_nonfile();
+    /* The submesh and the message it came in, both held when it was
+     * built: a sample of par_table1.peak_nonfile. */
+    size_t mem_loaded = j.mem_loaded;
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
     /* --max-points bounds the points of each PE too (par_run.h) */
     s.r.o.max_points = mo->max_points < 0 ? ref_point_limit(&p, &s.r.o) : (size_t)mo->max_points;
-    pr_free(j.data);
-    j.data = NULL;
+    pr_free(own);
+    own = NULL;
 
     /* Refine. */
     t_start = pdr_now();
@@ -1089,7 +1105,7 @@ done:
     pr_free(min.got);
     par_merge_ahead_free(&ahead);
     pr_free(rows);
-    pr_free(j.data);
+    pr_free(own);
     if (have_sub)
         par_sub_free(&s);
     if (have_plc)
