@@ -48,37 +48,25 @@ void mpar_default_opts(mpar_opts *o)
 typedef struct job {
     int got;
     uint8_t status;
-    int rc;               /* load's code, with status 0 */
-    size_t mem_loaded;    /* pdr_rss_nonfile() with the submesh built and
-                             the message still held */
-    /* where the submesh goes (the caller's; load fills them) */
-    plc *p;
-    ref_opts *ro;
-    par_sub *s;
-    int *have_plc;
+    void *data; /* owned copy of the payload */
+    size_t len;
 } job;
 
-static int load(const void *data, size_t len, plc *p, ref_opts *ro, par_sub *s, int *have_plc);
-static int load_parts(const uint8_t *const b[3], const size_t n[3], plc *p, ref_opts *ro,
-                      par_sub *s, int *have_plc);
-
-/* The job's submesh is built here, in the handler, from the message's
- * bytes where they lie: a copy of them first (3.5 MB for half of
- * cube-in-cube's Mo on 2 PEs) cost 15-25 ms of page faults on this VM
- * (fresh memory), while rank 0 waited for the PE at the refinement's
- * barrier (bench/parallel.md, run 27). */
 static void on_job(am_ctx_t *am, const am_msg_t *msg, void *arg)
 {
     (void)am;
     job *j = arg;
     if (j->got || msg->len < 1)
         return;
-    j->status = ((const uint8_t *)msg->data)[0];
-    if (j->status == 0) {
-        j->rc = load(msg->data, msg->len, j->p, j->ro, j->s, j->have_plc);
-        if (!j->rc)
-            j->mem_loaded = pdr_rss_nonfile();
+    j->data = pr_malloc(msg->len);
+    if (!j->data) {
+        j->got = 1;
+        j->status = 1;
+        return;
     }
+    memcpy(j->data, msg->data, msg->len);
+    j->len = msg->len;
+    j->status = ((const uint8_t *)msg->data)[0];
     j->got = 1;
 }
 
@@ -516,7 +504,7 @@ static int refine_alone(mp_ctx *c, const mpar_opts *po, int *alone)
  * refine_alone did (PRE_ALONE: no message built) and *mo_st Mo's counts.
  * Returns 0 or a code (its message printed). */
 static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int size, pr_buf *msg,
-                   pr_buf own[3], size_t *mo_tets, double t[3], int *alone, ref_stats *mo_st)
+                   size_t *mo_tets, double t[3], int *alone, ref_stats *mo_st)
 {
     mp_opts *o = &c->o;
     /* As pdr mesh alone does (cmd_mesh.c, run_pipeline): a failure with
@@ -566,23 +554,13 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
     c->o.ref.keep_stuck = c->r.keep_stuck;
     if (!rc)
         rc = par_decomp_opts_put(&optb, &c->o.ref);
-    for (int k = 1; k < size && !rc; k++) {
+    for (int k = 0; k < size && !rc; k++) {
         pr_put_u8(&msg[k], 0);
         put_blob(&msg[k], &plcb);
         put_blob(&msg[k], &optb);
         put_blob(&msg[k], &d.msg[k]);
         if (msg[k].err)
             rc = PDR_ENOMEM;
-    }
-    /* Rank 0's own part is no message: its three pieces as they are (a
-     * copy of them into one, 3.5 MB for half of cube-in-cube's Mo on 2
-     * PEs, cost rank 0 10-15 ms of page faults before the others' parts
-     * could leave). */
-    if (!rc) {
-        own[0] = plcb;
-        own[1] = optb;
-        own[2] = d.msg[0];
-        plcb = optb = d.msg[0] = (pr_buf)PR_BUF_INIT;
     }
     pr_buf_free(&plcb);
     pr_buf_free(&optb);
@@ -593,10 +571,10 @@ static int prepare(mp_ctx *c, const mp_opts *given, const mpar_opts *po, int siz
 }
 
 /* Every PE: the submesh from the job message. */
-static int load(const void *data, size_t len, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
+static int load(const job *j, plc *p, ref_opts *ro, par_sub *s, int *have_plc)
 {
     pr_reader r;
-    pr_reader_init(&r, data, len);
+    pr_reader_init(&r, j->data, j->len);
     uint8_t st;
     const uint8_t *b[3];
     size_t n[3];
@@ -606,14 +584,6 @@ static int load(const void *data, size_t len, plc *p, ref_opts *ro, par_sub *s, 
             return PDR_EPARSE;
     if (pr_reader_finish(&r))
         return PDR_EPARSE;
-    return load_parts(b, n, p, ro, s, have_plc);
-}
-
-/* The submesh from the job's three pieces: the PLC, the refinement
- * options, the part (rank 0 has them without a message). */
-static int load_parts(const uint8_t *const b[3], const size_t n[3], plc *p, ref_opts *ro,
-                      par_sub *s, int *have_plc)
-{
     pdr_diag diag = {0};
     int rc = par_decomp_plc_decode(b[0], n[0], p, &diag);
     *have_plc = 1;
@@ -657,6 +627,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         return PDR_EXIT_FAIL;
     }
     int rank = am_rank(am), size = am_size(am);
+    job j = {0};
     mp_ctx c;
     mp_init(&c, mo);
     plc p;
@@ -664,10 +635,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     int have_plc = 0, have_sub = 0;
     par_sub s;
     ref_opts ro = mo->ref;
-    job j = {.p = &p, .ro = &ro, .s = &s, .have_plc = &have_plc};
-    /* rank 0's own part: PLC, options, submesh (the others' are built in
-     * on_job) */
-    pr_buf own[3] = {PR_BUF_INIT, PR_BUF_INIT, PR_BUF_INIT};
     ref_stats sum;
     memset(&sum, 0, sizeof sum);
     par_table1 row, *rows = NULL;
@@ -705,8 +672,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         int pre = PRE_NONE;
         ref_stats mo_st;
         memset(&mo_st, 0, sizeof mo_st);
-        int prc = msg ? prepare(&c, mo, po, size, msg, own, &mo_tets, t_prep, &pre, &mo_st)
+        int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep, &pre, &mo_st)
                       : PDR_ENOMEM;
+        mem_prepared = pdr_rss_nonfile();
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -715,9 +683,11 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
             else
                 am_send(am, k, H_JOB, msg[k].data, msg[k].len);
         }
-        /* After the sends: a pass over /proc/self/smaps (5 ms at 60 MB)
-         * while the parts travel. */
-        mem_prepared = pdr_rss_nonfile();
+        if (!prc && pre != PRE_ALONE) {
+            j.got = 1;
+            j.len = msg[0].len;
+            j.data = pr_buf_take(&msg[0], &j.len);
+        }
         for (int k = 0; msg && k < size; k++)
             pr_buf_free(&msg[k]);
         pr_free(msg);
@@ -745,12 +715,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         /* Mo's memory goes before the submeshes are built. */
         ref_free(&c.r);
         c.have_r = 0;
-        j.got = 1;
-        const uint8_t *ob[3] = {own[0].data, own[1].data, own[2].data};
-        size_t on[3] = {own[0].len, own[1].len, own[2].len};
-        j.rc = load_parts(ob, on, &p, &ro, &s, &have_plc);
-        if (!j.rc)
-            j.mem_loaded = pdr_rss_nonfile();
     } else if ((rc = wait_job(am, &j))) {
         goto done;
     }
@@ -760,22 +724,22 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     if (j.status)
         goto done; /* rank 0 said why */
-    if ((rc = j.rc)) {
+    if ((rc = load(&j, &p, &ro, &s, &have_plc))) {
         fprintf(stderr, "pdr mesh: PE %d: cannot build its submesh: %s\n", rank,
                 pdr_strerror(rc));
         goto done;
     }
     have_sub = 1;
-    /* The submesh and the message it came in, both held when it was
-     * built: a sample of par_table1.peak_nonfile. */
-    size_t mem_loaded = j.mem_loaded;
+    /* The submesh and the message it came in, both held here: a sample
+     * of par_table1.peak_nonfile. */
+    size_t mem_loaded = pdr_rss_nonfile();
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
     /* --max-points bounds the points of each PE too (par_run.h) */
     s.r.o.max_points = mo->max_points < 0 ? ref_point_limit(&p, &s.r.o) : (size_t)mo->max_points;
-    for (int k = 0; k < 3; k++)
-        pr_buf_free(&own[k]);
+    pr_free(j.data);
+    j.data = NULL;
 
     /* Refine. */
     t_start = pdr_now();
@@ -1125,8 +1089,7 @@ done:
     pr_free(min.got);
     par_merge_ahead_free(&ahead);
     pr_free(rows);
-    for (int k = 0; k < 3; k++)
-        pr_buf_free(&own[k]);
+    pr_free(j.data);
     if (have_sub)
         par_sub_free(&s);
     if (have_plc)
