@@ -224,6 +224,9 @@ typedef struct ref_stats {
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
     size_t shrunk;       /* constrained: cavities shrunk to a star */
+    size_t offcentres;   /* constrained: off-centre points inserted for
+                            tetrahedra left above the bound
+                            (refine_offc.c) */
     size_t moved_splits; /* constrained, at rank 0's finish: subsegment
                             splits a face no flip mends asked for, made
                             elsewhere than at the split point, which was
