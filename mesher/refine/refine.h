@@ -76,6 +76,10 @@
  *    is inserted nearer to another than the shortest edge already near it;
  *  - slivers (bad only by a dihedral angle) whose circumradius is below
  *    0.7 of their shortest edge are left.
+ * In the constrained mode, what is left above the radius-edge bound is
+ * then retried once more with off-centre points (refine_offc.c), each
+ * inserted only where its star leaves fewer tetrahedra above the bound
+ * than the cavity it replaces.
  * Missing pieces are always split: the mesh must conform.
  *
  * Subsegments and subfacets are kept in a bd_set (refine/bd.h) next to the marks

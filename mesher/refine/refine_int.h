@@ -14,6 +14,8 @@
  *                      and the insertion loop
  *   refine_classify.c  the whole mesh: regions, consistency, counts,
  *                      quality range, export
+ *   refine_offc.c      after the refinement: off-centre points for the
+ *                      tetrahedra left above the radius-edge bound
  *
  * Each function below is defined in the file named above its group; the
  * comment at its definition says what it does.

@@ -169,16 +169,27 @@ static int offc_try(ref_mesher *r, uint32_t t, size_t *made)
 
 int ref__offc_passes(ref_mesher *r)
 {
+    /* Nothing given up, nothing left above the bound: no scan (the
+     * paper's domains). */
+    if (!r->st.gave_up)
+        return 0;
     int rc = 0;
     r->cav.max_tets = OFFC_MAX_CAVITY;
+    uint32_t vnew = 0; /* later passes: tetrahedra at the last one's points */
     for (int pass = 0; pass < OFFC_PASSES && !rc; pass++) {
         size_t made = 0;
-        uint32_t n = r->m.nslots;
-        for (uint32_t t = 0; t < n && !rc; t++)
-            if (!tm_is_dead(&r->m, t))
-                rc = offc_try(r, t, &made);
+        uint32_t n = r->m.nslots, nv = r->m.nv;
+        for (uint32_t t = 0; t < n && !rc; t++) {
+            if (tm_is_dead(&r->m, t))
+                continue;
+            const uint32_t *v = r->m.tets[t].v;
+            if (v[0] < vnew && v[1] < vnew && v[2] < vnew && v[3] < vnew)
+                continue;
+            rc = offc_try(r, t, &made);
+        }
         if (!made)
             break;
+        vnew = nv;
     }
     r->cav.max_tets = 0;
     return rc;
