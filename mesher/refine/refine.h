@@ -771,6 +771,15 @@ size_t ref_interior_tets(const ref_mesher *r);
  * cheaper than classifying again. */
 size_t ref_unmarked_bounds(const ref_mesher *r);
 
+/* After ref_refine, in the sequential constrained mode (nothing without
+ * the constrained mode, with parallel hooks, or after a pause): off-centre
+ * points for the tetrahedra left above the radius-edge bound, each
+ * inserted only where its star leaves fewer of them (refine_offc.c).
+ * Not run on the parallel path's merged mesh, where it left a face not
+ * locally Delaunay (tests/mesh-cad-parallel.sh, torus-0.3 on 3 PEs).
+ * Returns 0 or a negative code. */
+int ref_offcentres(ref_mesher *r);
+
 /* Radius-edge ratio and volume of tetrahedron abcd (positively oriented):
  * returns the squared ratio circumradius^2 / shortest-edge^2 (INFINITY if
  * degenerate); *vol, *lmax2 and *cc (circumcentre) when not NULL. */

@@ -222,10 +222,4 @@ int ref__commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, dou
                       uint32_t *vout);
 double ref__cavity_clearance(const tm_mesh *m, const dt_cavity *c, const double *p);
 
-/* refine_offc.c: after the quality refinement and its passes (constrained
- * mode, sequential), off-centre points for the tetrahedra left above the
- * radius-edge bound, each inserted only where it leaves fewer of them.
- * Returns 0 or a negative code. */
-int ref__offc_passes(ref_mesher *r);
-
 #endif /* PDR_REFINE_INT_H */

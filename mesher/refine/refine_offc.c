@@ -167,11 +167,11 @@ static int offc_try(ref_mesher *r, uint32_t t, size_t *made)
     return 0;
 }
 
-int ref__offc_passes(ref_mesher *r)
+int ref_offcentres(ref_mesher *r)
 {
     /* Nothing given up, nothing left above the bound: no scan (the
      * paper's domains). */
-    if (!r->st.gave_up)
+    if (r->paused || !r->o.constrained || !r->carved || r->hooks || !r->st.gave_up)
         return 0;
     int rc = 0;
     r->cav.max_tets = OFFC_MAX_CAVITY;

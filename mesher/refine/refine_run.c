@@ -1980,8 +1980,6 @@ int ref_refine(ref_mesher *r)
         rc = run_and_reclassify(r);
     if (!rc && !r->paused && r->o.constrained && r->carved && !r->hooks)
         rc = shrink_passes(r);
-    if (!rc && !r->paused && r->o.constrained && r->carved && !r->hooks)
-        rc = ref__offc_passes(r);
     return rc;
 }
 
