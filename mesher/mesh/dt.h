@@ -82,8 +82,10 @@ enum dt_search_flags {
     DT_STAR = 1u << 6,        /* without locks: stop (DT_NOT_STAR, nothing
                                  marked) at the first boundary face that p
                                  does not see from inside, i.e. when the
-                                 cavity cannot be a star from p (see
-                                 dt_cavity_is_star) */
+                                 cavity cannot be a star from p; faces
+                                 next to DT_GHOST_WALLS ghosts are not
+                                 tested, so a cavity found may still fail
+                                 dt_cavity_is_star */
 };
 
 enum dt_status {
