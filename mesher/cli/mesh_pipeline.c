@@ -393,6 +393,8 @@ int mp_refine(mp_ctx *c)
 {
     double t = pdr_now();
     int rc = ref_refine(&c->r);
+    if (!rc)
+        rc = ref_offcentres(&c->r);
     if (rc == PDR_ELIMIT)
         return point_limit(c);
     if (rc)

@@ -258,6 +258,18 @@ static inline int add_cavity_tet(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *s
     return 0;
 }
 
+/* 0 if p lies on or behind face f of tetrahedron t (seen from t), the
+ * test of dt_cavity_is_star for one boundary face; 1 for a ghost's face. */
+static int face_sees(const tm_mesh *m, uint32_t t, int f, const double p[3])
+{
+    const tm_tet *T = &m->tets[t];
+    const uint8_t *fv = tm_face_vtx[f];
+    uint32_t a = T->v[fv[0]], b = T->v[fv[1]], d = T->v[fv[2]];
+    if (a == TM_VINF || b == TM_VINF || d == TM_VINF)
+        return 1;
+    return pred_orient3d(X(m, a), X(m, b), X(m, d), p) > 0;
+}
+
 /* The search of dt_cavity_search once its mode of locking is known:
  * lock 0 none, 1 take (DT_LOCK), 2 check (DT_CHECK_LOCKS). Inlined once
  * per mode, so that each copy tests only what its mode needs: the
@@ -311,7 +323,13 @@ static inline __attribute__((always_inline)) int search_locked(tm_mesh *m, const
     uint16_t *fl = m->flags;
     int stop_marked = (flags & DT_STOP_MARKED) != 0;
     int walls = stop_marked && (flags & DT_GHOST_WALLS);
+    int star = !lock && (flags & DT_STAR);
     while (!rc && sp > 0) {
+        if (!lock && c->max_tets && c->ntets > c->max_tets) {
+            clear_marks(m, c);
+            c->status = DT_TOO_BIG;
+            return 0;
+        }
         /* Room for the four faces of t, so that the appends below need no
          * checks. */
         if ((c->ntets + 4 > c->cap_tets &&
@@ -337,6 +355,11 @@ static inline __attribute__((always_inline)) int search_locked(tm_mesh *m, const
                 int remote = l != TM_LINK_NONE;
                 rc = add_bface(c, t, f, remote ? DT_BND_REMOTE : DT_BND_DOMAIN, l);
                 c->nremote += (size_t)remote;
+                if (star && !rc && !face_sees(m, t, f, p)) {
+                    clear_marks(m, c);
+                    c->status = DT_NOT_STAR;
+                    return 0;
+                }
                 continue;
             }
             int crossed = 0;
@@ -355,6 +378,11 @@ static inline __attribute__((always_inline)) int search_locked(tm_mesh *m, const
                     }
                     rc = add_bface(c, t, f, DT_BND_MARKED, l);
                     c->nmarked++;
+                    if (star && !rc && !face_sees(m, t, f, p)) {
+                        clear_marks(m, c);
+                        c->status = DT_NOT_STAR;
+                        return 0;
+                    }
                     continue;
                 }
                 crossed = 1;
@@ -438,6 +466,11 @@ static inline __attribute__((always_inline)) int search_locked(tm_mesh *m, const
             b->spare = 0;
             b->outer = l;
             c->nbnd += !in;
+            if (star && !in && !face_sees(m, t, f, p)) {
+                clear_marks(m, c);
+                c->status = DT_NOT_STAR;
+                return 0;
+            }
         }
     }
     if (rc) {

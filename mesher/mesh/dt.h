@@ -79,6 +79,13 @@ enum dt_search_flags {
                                  boundary piece the point splits), whatever
                                  the conflict test says, and the search
                                  never goes from a ghost to another */
+    DT_STAR = 1u << 6,        /* without locks: stop (DT_NOT_STAR, nothing
+                                 marked) at the first boundary face that p
+                                 does not see from inside, i.e. when the
+                                 cavity cannot be a star from p; faces
+                                 next to DT_GHOST_WALLS ghosts are not
+                                 tested, so a cavity found may still fail
+                                 dt_cavity_is_star */
 };
 
 enum dt_status {
@@ -87,6 +94,8 @@ enum dt_status {
     DT_LOCKED,          /* a tet is locked by another owner (blocker) */
     DT_OUTSIDE_DOMAIN,  /* the walk left the domain through a boundary or
                            remote face (exit_link); nothing marked */
+    DT_TOO_BIG,         /* more than max_tets tetrahedra; nothing marked */
+    DT_NOT_STAR,        /* DT_STAR: no star from p; nothing marked */
 };
 
 /* A reusable cavity: initialise once, search many times, free at the end.
@@ -121,6 +130,10 @@ typedef struct dt_cavity {
      * them to NULL and the search never changes them. */
     int (*may_cross)(void *arg, const tm_mesh *m, uint32_t t, int f);
     void *cross_arg;
+    /* A search without locks that has taken more than max_tets
+     * tetrahedra stops there, with status DT_TOO_BIG and nothing marked
+     * (0: no limit; init sets 0, the search never changes it). */
+    size_t max_tets;
     size_t nmarked;      /* boundary faces of reason DT_BND_MARKED */
     size_t nremote;      /* boundary faces of reason DT_BND_REMOTE: 0 for
                             a cavity on this PE alone, which its callers

@@ -14,6 +14,7 @@ libpdrmesh_la_SOURCES += \
 	mesher/refine/refine_classify.c \
 	mesher/refine/refine_decide.c \
 	mesher/refine/refine_facrec.c \
+	mesher/refine/refine_offc.c \
 	mesher/refine/refine_run.c \
 	mesher/refine/refine_segrec.c
 EXTRA_DIST += mesher/refine/RECOVERY.md mesher/refine/QUALITY.md

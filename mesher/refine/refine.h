@@ -76,6 +76,10 @@
  *    is inserted nearer to another than the shortest edge already near it;
  *  - slivers (bad only by a dihedral angle) whose circumradius is below
  *    0.7 of their shortest edge are left.
+ * In the constrained mode, what is left above the radius-edge bound is
+ * then retried once more with off-centre points (refine_offc.c), each
+ * inserted only where its star leaves fewer tetrahedra above the bound
+ * than the cavity it replaces.
  * Missing pieces are always split: the mesh must conform.
  *
  * Subsegments and subfacets are kept in a bd_set (refine/bd.h) next to the marks
@@ -224,6 +228,9 @@ typedef struct ref_stats {
     size_t degenerate;   /* tetrahedra whose circumcentre was unusable */
     size_t flat_centres; /* flat tetrahedra split at a face's circumcentre */
     size_t shrunk;       /* constrained: cavities shrunk to a star */
+    size_t offcentres;   /* constrained: off-centre points inserted for
+                            tetrahedra left above the bound
+                            (refine_offc.c) */
     size_t moved_splits; /* constrained, at rank 0's finish: subsegment
                             splits a face no flip mends asked for, made
                             elsewhere than at the split point, which was
@@ -766,6 +773,15 @@ size_t ref_interior_tets(const ref_mesher *r);
  * domain's boundary is made of marked faces. One pass over the faces,
  * cheaper than classifying again. */
 size_t ref_unmarked_bounds(const ref_mesher *r);
+
+/* After ref_refine, in the sequential constrained mode (nothing without
+ * the constrained mode, with parallel hooks, or after a pause): off-centre
+ * points for the tetrahedra left above the radius-edge bound, each
+ * inserted only where its star leaves fewer of them (refine_offc.c).
+ * Not run on the parallel path's merged mesh, where it left a face not
+ * locally Delaunay (tests/mesh-cad-parallel.sh, torus-0.3 on 3 PEs).
+ * Returns 0 or a negative code. */
+int ref_offcentres(ref_mesher *r);
 
 /* Radius-edge ratio and volume of tetrahedron abcd (positively oriented):
  * returns the squared ratio circumradius^2 / shortest-edge^2 (INFINITY if

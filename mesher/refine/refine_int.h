@@ -14,6 +14,8 @@
  *                      and the insertion loop
  *   refine_classify.c  the whole mesh: regions, consistency, counts,
  *                      quality range, export
+ *   refine_offc.c      after the refinement: off-centre points for the
+ *                      tetrahedra left above the radius-edge bound
  *
  * Each function below is defined in the file named above its group; the
  * comment at its definition says what it does.
@@ -209,5 +211,15 @@ int ref__seg_small_angle(const ref_mesher *r, uint32_t seg);
 /* 1 if finite tetrahedron t of m holds p (closed: on a face counts),
  * exactly; 0 for a ghost or when p lies beyond a face. */
 int ref__tet_holds(const tm_mesh *m, uint32_t t, const double p[3]);
+
+/* refine_run.c, for refine_offc.c: the flags of the pending cavity's
+ * tetrahedra, OR-ed; the insertion of its point (a new vertex of kind
+ * vkind on feature feat, insertion radius rins: new tetrahedra inherit the
+ * exterior flag and region of the ones they replace); the distance from p
+ * to the nearest vertex of cavity c's boundary. */
+uint16_t ref__cavity_flags(const ref_mesher *r);
+int ref__commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, double rins,
+                      uint32_t *vout);
+double ref__cavity_clearance(const tm_mesh *m, const dt_cavity *c, const double *p);
 
 #endif /* PDR_REFINE_INT_H */

@@ -316,7 +316,7 @@ static int cavity_hook(ref_mesher *r, const double p[3], uint32_t start)
 
 /* ---------------------------------------------------------- commit */
 
-static uint16_t cavity_flags(const ref_mesher *r)
+uint16_t ref__cavity_flags(const ref_mesher *r)
 {
     uint16_t any = 0;
     const dt_cavity *c = &r->cav;
@@ -328,8 +328,8 @@ static uint16_t cavity_flags(const ref_mesher *r)
 /* Inserts p (the pending cavity's point) as a new vertex lying on a
  * feature of the given kind; new tetrahedra inherit the exterior flag and
  * region of the cavity tetrahedron they are built on. */
-static int commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, double rins,
-                        uint32_t *vout)
+int ref__commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, double rins,
+                      uint32_t *vout)
 {
     tm_mesh *m = &r->m;
     dt_cavity *c = &r->cav;
@@ -644,7 +644,7 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         r->st.tol_floor++;
         return 0;
     }
-    uint16_t any = cavity_flags(r);
+    uint16_t any = ref__cavity_flags(r);
     rc = ref_gather_marks(m, &r->cav, &r->marks);
     ref_decision d;
     if (!rc)
@@ -665,7 +665,7 @@ static int split_subseg_at(ref_mesher *r, uint32_t id, double rmin, int queued, 
         r->anomalies++; /* not expected for a point on the segment */
     uint32_t v;
     r->last_op = "subsegment point";
-    rc = commit_point(r, any, BD_V_SEGMENT, S.seg, rins, &v);
+    rc = ref__commit_point(r, any, BD_V_SEGMENT, S.seg, rins, &v);
     if (rc) {
         ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
@@ -827,7 +827,7 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
         r->st.tolerated++;
         return 0;
     }
-    uint16_t any = cavity_flags(r);
+    uint16_t any = ref__cavity_flags(r);
     rc = ref_gather_marks(m, &r->cav, &r->marks);
     if (rc) {
         ref__list_clear(r);
@@ -860,7 +860,7 @@ static int split_subfac_cdt(ref_mesher *r, uint32_t id, const double c[3], doubl
     }
     uint32_t v;
     r->last_op = "subfacet point (constrained)";
-    rc = commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
+    rc = ref__commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
     if (rc) {
         ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
@@ -967,7 +967,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
         r->st.tolerated++;
         return 0;
     }
-    uint16_t any = cavity_flags(r);
+    uint16_t any = ref__cavity_flags(r);
     rc = ref_gather_marks(m, &r->cav, &r->marks);
     if (rc) {
         dt_cavity_abandon(m, &r->cav);
@@ -1064,7 +1064,7 @@ static int split_subfac(ref_mesher *r, uint32_t id, double rmin, int *result)
     }
     uint32_t v;
     r->last_op = r->forced ? "subfacet point (forced 2D cavity)" : "subfacet point";
-    rc = commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
+    rc = ref__commit_point(r, any, BD_V_FACET, G.facet, rins, &v);
     if (rc) {
         ref__list_clear(r);
         dt_cavity_abandon(m, &r->cav);
@@ -1105,7 +1105,7 @@ int ref__flat_tet_centre(const tm_mesh *m, uint32_t t, double cc[3])
 /* The distance from p to the nearest vertex of cavity c's boundary: the
  * nearest vertex of the whole mesh when the cavity is an unconstrained
  * Bowyer-Watson cavity (p's nearest neighbour is joined to p). */
-static double cavity_clearance(const tm_mesh *m, const dt_cavity *c, const double *p)
+double ref__cavity_clearance(const tm_mesh *m, const dt_cavity *c, const double *p)
 {
     double d2 = INFINITY;
     for (size_t i = 0; i < c->nbnd; i++) {
@@ -1370,7 +1370,7 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
             return split_instead(r, t, why, rt, d.action == REF_SPLIT_SUBSEGS, g);
         }
     }
-    uint16_t any = cavity_flags(r);
+    uint16_t any = ref__cavity_flags(r);
     const uint32_t *tv = m->tets[t].v;
     double rp = sqrt(v3_dist2(cc, X(m, tv[0])));
     if (flat || shrunk) {
@@ -1380,7 +1380,7 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
          * shortest edge is not inserted. The same for a shrunk cavity:
          * the vertices of the conflicting tetrahedra it dropped may lie
          * nearer than t's circumradius. */
-        rp = dmin(rp, cavity_clearance(m, &r->cav, cc));
+        rp = dmin(rp, ref__cavity_clearance(m, &r->cav, cc));
         double lmin2 = INFINITY;
         for (int e = 0; e < 6; e++)
             lmin2 = dmin(lmin2, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
@@ -1413,7 +1413,7 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
     uint32_t v;
     r->last_op = any & (TM_F_FACEMARKS | TM_F_SUBSEGS) ? "circumcentre (cavity with marks)"
                                                         : "circumcentre";
-    rc = commit_point(r, any, BD_V_VOLUME, 0, rp, &v);
+    rc = ref__commit_point(r, any, BD_V_VOLUME, 0, rp, &v);
     if (rc) {
         dt_cavity_abandon(m, &r->cav);
         return rc;
