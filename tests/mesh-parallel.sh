@@ -10,8 +10,8 @@
 #  - the summary's refinement line: its points by kind add up to the
 #    vertices added;
 #  - --work-clock cpu|wall: the JSON rows and the summary say which;
-#  - the PE memory figures: peak RSS and peak RSS without file pages, in
-#    the JSON rows and the summary;
+#  - the PE memory figures: peak RSS, peak RSS without file pages and
+#    peak PSS, in the JSON rows and the summary;
 #  - a bad input: every PE exits, status 1, file:line message, no file;
 #  - a PE killed mid-refinement: the job ends non-zero within seconds with
 #    a message naming it, and no output file is written.
@@ -113,16 +113,18 @@ for r in 0 1 2 3; do
     [ -s "$tmp/stats/stats-$r.json" ] || fail "no runtime stats of PE $r"
 done
 grep -q '"latency_tolerance"' "$tmp/stats/table1-0.json" || fail "table1 JSON fields"
-# Memory: every row has its peak RSS and its peak without file pages
-# (program and library code), 0 < the latter < the former, and the
-# summary gives both per tetrahedron.
+# Memory: every row has its peak RSS, its peak without file pages
+# (program and library code) and its peak PSS (shared pages divided among
+# the processes mapping them), 0 < the last two < the first, and the
+# summary gives all three per tetrahedron.
 for r in 0 1 2 3; do
     rss=$(sed -n 's/.*"peak_rss_bytes": \([0-9]*\).*/\1/p' "$tmp/stats/table1-$r.json")
     nf=$(sed -n 's/.*"peak_rss_nonfile_bytes": \([0-9]*\).*/\1/p' "$tmp/stats/table1-$r.json")
-    [ "${nf:-0}" -gt 0 ] && [ "$nf" -lt "${rss:-0}" ] ||
-        fail "PE $r: peak RSS ${rss:-none}, without file pages ${nf:-none}"
+    ps=$(sed -n 's/.*"peak_pss_bytes": \([0-9]*\).*/\1/p' "$tmp/stats/table1-$r.json")
+    [ "${nf:-0}" -gt 0 ] && [ "$nf" -lt "${rss:-0}" ] && [ "${ps:-0}" -gt 0 ] && [ "$ps" -lt "$rss" ] ||
+        fail "PE $r: peak RSS ${rss:-none}, without file pages ${nf:-none}, PSS ${ps:-none}"
 done
-grep -q '^PE memory: peak RSS per interior tetrahedron held: at most [0-9]* bytes on PEs 1-3, [0-9]* on rank 0 (.*); without file pages: at most [1-9][0-9]*, [1-9][0-9]* on rank 0$' \
+grep -q '^PE memory: peak RSS per interior tetrahedron held: at most [0-9]* bytes on PEs 1-3, [0-9]* on rank 0 (.*); without file pages: at most [1-9][0-9]*, [1-9][0-9]* on rank 0; proportional (PSS): at most [1-9][0-9]*, [1-9][0-9]* on rank 0$' \
     "$tmp/lat.out" || fail "PE memory line: $(grep '^PE memory' "$tmp/lat.out")"
 echo "latency: $line"
 echo "$line" | grep -q ' deferred;' || fail "no deferral count: $line"

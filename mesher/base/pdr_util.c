@@ -57,13 +57,14 @@ static long long smaps_kib(const char *line, const char *key)
     return end != line + k + 1 && v >= 0 ? v : -1;
 }
 
-size_t pdr_rss_nonfile(void)
+void pdr_mem_sample(pdr_mem_now *out)
 {
+    out->nonfile = out->pss = 0;
     FILE *f = fopen("/proc/self/smaps", "re");
     if (!f)
-        return 0;
+        return;
     char line[512];
-    unsigned long long kib = 0;
+    unsigned long long kib = 0, pss_kib = 0;
     /* The mapping whose fields follow: 0 anonymous or shared (its Rss
      * counts), 1 private file mapping (its Anonymous counts: the pages
      * written to), 2 the kernel's ([vdso], [vvar]: neither). */
@@ -77,6 +78,9 @@ size_t pdr_rss_nonfile(void)
                                       : -1;
             if (v > 0)
                 kib += (unsigned long long)v;
+            v = smaps_kib(line, "Pss");
+            if (v > 0)
+                pss_kib += (unsigned long long)v;
         } else { /* "lo-hi perms offset dev inode [name]" */
             char *p = strchr(line, ' ');
             char *perms = p ? p + 1 : NULL;
@@ -100,7 +104,10 @@ size_t pdr_rss_nonfile(void)
         }
     }
     fclose(f);
-    return seen ? (size_t)kib * 1024 : 0;
+    if (seen) {
+        out->nonfile = (size_t)kib * 1024;
+        out->pss = (size_t)pss_kib * 1024;
+    }
 }
 
 int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size)

@@ -24,18 +24,27 @@ void pdr_line(FILE *f, const char *fmt, ...)
     ;
 /* Peak resident set size of this process in bytes, or 0 if unknown. */
 size_t pdr_peak_rss(void);
-/* The resident set size of this process now without the unmodified
- * pages of its private file mappings, in bytes, from /proc/self/smaps
- * (Linux): it counts the whole resident part of anonymous mappings (the
- * heap, malloc's arenas, stacks) and of shared mappings (libam's rings,
- * counted whole in every process that touched them), and of private file
- * mappings only the pages written to (relocations, .data, .bss). Left out:
- * the program's and the libraries' code and read-only data, which every
- * process running the same binary shares, and the kernel's [vdso] and
- * [vvar]. 0 where the file cannot be read. Costs a pass of the kernel
- * over the page tables: about 0.15 ms in a small process, 5 ms in one
- * of 60 MB. */
-size_t pdr_rss_nonfile(void);
+/* Two figures of this process's memory now, in bytes, from one pass over
+ * /proc/self/smaps (Linux); both 0 where the file cannot be read.
+ * nonfile: the resident set without the unmodified pages of private file
+ *   mappings: the whole resident part of anonymous mappings (the heap,
+ *   malloc's arenas, stacks) and of shared mappings (libam's rings,
+ *   counted whole in every process that touched them), and of private
+ *   file mappings only the pages written to (relocations, .data, .bss).
+ *   Left out: the program's and the libraries' code and read-only data,
+ *   which every process running the same binary shares, and the kernel's
+ *   [vdso] and [vvar].
+ * pss: the proportional set size, the kernel's sum over every resident
+ *   page of 1/(the number of processes that map it): each page counted
+ *   once over all processes, a ring's pages half in each of its two PEs,
+ *   the libraries' shared among every process using them.
+ * Costs a pass of the kernel over the page tables: about 0.15 ms in a
+ * small process, 5 ms in one of 60 MB. */
+typedef struct pdr_mem_now {
+    size_t nonfile;
+    size_t pss;
+} pdr_mem_now;
+void pdr_mem_sample(pdr_mem_now *out);
 
 /* Makes the array *p of *cap elements of 'size' bytes hold at least 'need'
  * elements, doubling its capacity (from 64) so that n appends cost O(n).

@@ -171,7 +171,7 @@ static int send_merge(am_ctx_t *am, const par_sub *s, int *am_err)
 /* A row travels as ROW_F64 f64 values, then ROW_U64 u64 counters, then
  * the refinement's insertion counts. */
 #define ROW_F64 12
-#define ROW_U64 19
+#define ROW_U64 20
 
 static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
 {
@@ -183,7 +183,8 @@ static void put_row(pr_buf *b, const par_table1 *t, const ref_stats *st)
                            t->backoffs, t->tets_in,  t->tets_out, t->msgs_sent,
                            t->bytes_sent, t->tets_end, t->slots_end, t->peak_rss,
                            t->missing_segs, t->missing_facs, t->deferred, t->cpu_clock,
-                           t->region_doubts, t->left_elsewhere, t->peak_nonfile};
+                           t->region_doubts, t->left_elsewhere, t->peak_nonfile,
+                           t->peak_pss};
     pr_put_f64_array(b, f, ROW_F64);
     pr_put_u64_array(b, u, ROW_U64);
     uint64_t s[7] = {st->tet_points, st->fac_points, st->seg_points, st->rejected,
@@ -237,6 +238,7 @@ static int get_row(const void *data, size_t len, par_table1 *t, ref_stats *st, s
     t->region_doubts = u[16];
     t->left_elsewhere = u[17];
     t->peak_nonfile = u[18];
+    t->peak_pss = u[19];
     st->tet_points += s[0];
     st->fac_points += s[1];
     st->seg_points += s[2];
@@ -272,7 +274,7 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             "  \"tets_migrated_out\": %llu,\n  \"messages_sent\": %llu,\n"
             "  \"bytes_sent\": %llu,\n  \"tets_held_at_end\": %llu,\n"
             "  \"tet_slots_at_end\": %llu,\n  \"peak_rss_bytes\": %llu,\n"
-            "  \"peak_rss_nonfile_bytes\": %llu,\n"
+            "  \"peak_rss_nonfile_bytes\": %llu,\n  \"peak_pss_bytes\": %llu,\n"
             "  \"work_units\": %llu,\n  \"points_inserted\": %llu,\n"
             "  \"cavities_too_big\": %llu\n}\n",
             rank, size, t->exec_s, t->completed_s, t->masked_local_s, t->masked_dist_s,
@@ -285,7 +287,7 @@ static int write_row_json(const char *dir, int rank, int size, const par_table1 
             (unsigned long long)t->tets_out, (unsigned long long)t->msgs_sent,
             (unsigned long long)t->bytes_sent, (unsigned long long)t->tets_end,
             (unsigned long long)t->slots_end, (unsigned long long)t->peak_rss,
-            (unsigned long long)t->peak_nonfile,
+            (unsigned long long)t->peak_nonfile, (unsigned long long)t->peak_pss,
             (unsigned long long)t->work, (unsigned long long)t->points,
             (unsigned long long)t->too_big);
     return outfile_commit(&of, NULL) ? PDR_EIO : 0;
@@ -336,7 +338,10 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
      * libraries' code), which RSS counts in every PE. */
     uint64_t worst_b = 0, rank0_b = rows[0].tets_end ? rows[0].peak_rss / rows[0].tets_end : 0;
     uint64_t worst_nf = 0, rank0_nf = rows[0].tets_end ? rows[0].peak_nonfile / rows[0].tets_end : 0;
+    uint64_t worst_ps = 0, rank0_ps = rows[0].tets_end ? rows[0].peak_pss / rows[0].tets_end : 0;
     for (int k = 1; k < size; k++) {
+        if (rows[k].tets_end && rows[k].peak_pss / rows[k].tets_end > worst_ps)
+            worst_ps = rows[k].peak_pss / rows[k].tets_end;
         if (rows[k].tets_end && rows[k].peak_rss / rows[k].tets_end > worst_b)
             worst_b = rows[k].peak_rss / rows[k].tets_end;
         if (rows[k].tets_end && rows[k].peak_nonfile / rows[k].tets_end > worst_nf)
@@ -345,9 +350,11 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     if (size > 1)
         printf("PE memory: peak RSS per interior tetrahedron held: at most %llu bytes on PEs "
                "1-%d, %llu on rank 0 (with the input, Mo and the merge); without file pages: "
-               "at most %llu, %llu on rank 0\n",
+               "at most %llu, %llu on rank 0; proportional (PSS): at most %llu, %llu on "
+               "rank 0\n",
                (unsigned long long)worst_b, size - 1, (unsigned long long)rank0_b,
-               (unsigned long long)worst_nf, (unsigned long long)rank0_nf);
+               (unsigned long long)worst_nf, (unsigned long long)rank0_nf,
+               (unsigned long long)worst_ps, (unsigned long long)rank0_ps);
     printf("table 1 (s):    execution  completed  masked local (dist)   setback  tolerance"
            "  poll (excess)\n");
     char label[32];
@@ -656,9 +663,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * started and ended, submeshes gathered (the merge's own time is
      * measured around it). */
     double t_prep[3] = {0, 0, 0}, t_start = 0, t_end = 0, t_gathered = 0;
-    /* Rank 0's sample of par_table1.peak_nonfile with Mo and the parts'
-     * messages held (its resident set peaks there). */
-    size_t mem_prepared = 0;
+    /* Rank 0's sample of par_table1.peak_nonfile and peak_pss with Mo and
+     * the parts' messages held (its resident set peaks there). */
+    pdr_mem_now mem_prepared = {0, 0};
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
     if (!rc)
         rc = am_register(am, H_MERGE, "mesh-merge", on_merge, &min);
@@ -674,7 +681,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         memset(&mo_st, 0, sizeof mo_st);
         int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep, &pre, &mo_st)
                       : PDR_ENOMEM;
-        mem_prepared = pdr_rss_nonfile();
+        pdr_mem_sample(&mem_prepared);
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -731,8 +738,9 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     have_sub = 1;
     /* The submesh and the message it came in, both held here: a sample
-     * of par_table1.peak_nonfile. */
-    size_t mem_loaded = pdr_rss_nonfile();
+     * of par_table1.peak_nonfile and peak_pss. */
+    pdr_mem_now mem_loaded;
+    pdr_mem_sample(&mem_loaded);
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
@@ -797,10 +805,14 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
     if (!rc)
         rc = par_run_refine(am, &s, &ro_run, &row);
-    if (row.peak_nonfile < mem_loaded)
-        row.peak_nonfile = mem_loaded;
-    if (row.peak_nonfile < mem_prepared)
-        row.peak_nonfile = mem_prepared;
+    if (row.peak_nonfile < mem_loaded.nonfile)
+        row.peak_nonfile = mem_loaded.nonfile;
+    if (row.peak_nonfile < mem_prepared.nonfile)
+        row.peak_nonfile = mem_prepared.nonfile;
+    if (row.peak_pss < mem_loaded.pss)
+        row.peak_pss = mem_loaded.pss;
+    if (row.peak_pss < mem_prepared.pss)
+        row.peak_pss = mem_prepared.pss;
     if (rc && s.r.recovery_stuck) {
         char why[512];
         mp_recovery_stuck_text(&s.r, 9, why, sizeof why);

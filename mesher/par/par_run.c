@@ -727,7 +727,10 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->tets_end = interior_tets(&s->r);
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
-    row->peak_nonfile = pdr_rss_nonfile(); /* the second sample (par_run.h) */
+    pdr_mem_now mem;
+    pdr_mem_sample(&mem); /* the second sample (par_run.h) */
+    row->peak_nonfile = mem.nonfile;
+    row->peak_pss = mem.pss;
     row->work = pr->work;
     row->points = pr->points;
     row->bands_in = pr->cc.st.bands_in;

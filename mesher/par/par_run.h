@@ -168,7 +168,7 @@ typedef struct par_table1 {
                                 (getrusage's ru_maxrss, at the end of the
                                 refinement) */
     uint64_t peak_nonfile;   /* the largest resident memory without file
-                                pages (pdr_rss_nonfile) of the PE's samples,
+                                pages (pdr_mem_sample's nonfile) of the PE's samples,
                                 bytes: at the end of the refinement (set
                                 here), where the resident set of a PE other
                                 than rank 0 peaks (cube-in-cube 10^6 on 16
@@ -179,6 +179,9 @@ typedef struct par_table1 {
                                 Not in between: a sample is a pass over
                                 /proc/self/smaps, whose cost grows with the
                                 resident pages (5 ms at 60 MB) */
+    uint64_t peak_pss;       /* the largest proportional set size
+                                (pdr_mem_sample's pss) of the same samples,
+                                bytes */
     uint64_t missing_segs, missing_facs; /* pieces still missing at the end
                                 (0 unless the mesh fails to conform) */
     uint64_t deferred;       /* bad tetrahedra put back unstarted, held by
