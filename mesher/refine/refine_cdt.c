@@ -971,14 +971,7 @@ uint32_t ref__cdt_seditious_tet(const ref_mesher *r, uint32_t t)
 {
     const tm_mesh *m = &r->m;
     const uint32_t *tv = m->tets[t].v;
-    int e = 0;
-    double lo = INFINITY;
-    for (int k = 0; k < 6; k++) {
-        double l = v3_dist2(X(m, tv[tm_edge_vtx[k][0]]), X(m, tv[tm_edge_vtx[k][1]]));
-        if (l < lo) {
-            lo = l;
-            e = k;
-        }
-    }
+    double l2;
+    int e = ref__shortest_edge(m, t, &l2);
     return ref__cdt_seditious(r, tv[tm_edge_vtx[e][0]], tv[tm_edge_vtx[e][1]]);
 }

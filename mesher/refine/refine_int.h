@@ -26,6 +26,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "base/v3.h"
 #include "refine/refine.h"
 
 /* ------------------------------------------------ refine_decide.c */
@@ -56,6 +57,26 @@ static inline uint32_t ref__vertex_tet(const tm_mesh *m, uint32_t v)
     if (h == TM_NONE || h >= m->nslots || tm_is_dead(m, h) || ref__slot_in(&m->tets[h], v) < 0)
         return TM_NONE;
     return h;
+}
+
+/* The shortest edge of tetrahedron t (0..5, as tm_edge_vtx numbers them;
+ * the first of equal ones) and its squared length in *l2. */
+static inline int ref__shortest_edge(const tm_mesh *m, uint32_t t, double *l2)
+{
+    const uint32_t *tv = m->tets[t].v;
+    const double *xyz = m->xyz;
+    int emin = 0;
+    double lo = INFINITY;
+    for (int e = 0; e < 6; e++) {
+        double d2 = v3_dist2(xyz + 3 * (size_t)tv[tm_edge_vtx[e][0]],
+                             xyz + 3 * (size_t)tv[tm_edge_vtx[e][1]]);
+        if (d2 < lo) {
+            lo = d2;
+            emin = e;
+        }
+    }
+    *l2 = lo;
+    return emin;
 }
 
 /* ------------------------------------------------------ refine_run.c */

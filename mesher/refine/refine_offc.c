@@ -115,15 +115,8 @@ static int offc_try(ref_mesher *r, uint32_t t, size_t *made)
         !(q2 < OFFC_RATIO2_MAX) || !isfinite(cc[0]) || !isfinite(cc[1]) || !isfinite(cc[2]))
         return 0;
     const uint32_t *tv = m->tets[t].v;
-    int emin = 0;
-    double l2 = INFINITY;
-    for (int e = 0; e < 6; e++) {
-        double d2 = v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]]));
-        if (d2 < l2) {
-            l2 = d2;
-            emin = e;
-        }
-    }
+    double l2;
+    int emin = ref__shortest_edge(m, t, &l2);
     const double *a = X(m, tv[tm_edge_vtx[emin][0]]), *b = X(m, tv[tm_edge_vtx[emin][1]]);
     double mid[3];
     for (int k = 0; k < 3; k++)

@@ -1132,7 +1132,6 @@ static void give_up(ref_mesher *r, uint32_t t, int degenerate)
 static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs, uint32_t g)
 {
     tm_mesh *m = &r->m;
-    const uint32_t *tv = m->tets[t].v;
     r->st.rejected++;
     /* Whether one of the pieces to split ends at a needle point. */
     int needle = g != BD_NONE && ref__needle_facet(r, r->bd.facs[g].facet);
@@ -1153,9 +1152,8 @@ static int split_instead(ref_mesher *r, uint32_t t, int why, double rp, int segs
         r->st.slivers_left++;
         return 0;
     }
-    double lmin = INFINITY;
-    for (int e = 0; e < 6; e++)
-        lmin = fmin(lmin, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+    double lmin;
+    ref__shortest_edge(m, t, &lmin);
     /* For a tetrahedron that is bad by its size alone the floor is half
      * its circumradius instead (the clean bound is r/sqrt(2)): its splits
      * are then never smaller than a fixed fraction of the size bound. */
@@ -1381,9 +1379,8 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
          * the vertices of the conflicting tetrahedra it dropped may lie
          * nearer than t's circumradius. */
         rp = dmin(rp, ref__cavity_clearance(m, &r->cav, cc));
-        double lmin2 = INFINITY;
-        for (int e = 0; e < 6; e++)
-            lmin2 = dmin(lmin2, v3_dist2(X(m, tv[tm_edge_vtx[e][0]]), X(m, tv[tm_edge_vtx[e][1]])));
+        double lmin2;
+        ref__shortest_edge(m, t, &lmin2);
         if (!(rp >= 0.5 * sqrt(lmin2))) {
             dt_cavity_abandon(m, &r->cav);
             give_up(r, t, 1);
