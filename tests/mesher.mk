@@ -113,7 +113,8 @@ REFINE_TESTS = tests/mesh-models.sh tests/mesh-example.sh tests/mesh-errors.sh \
 	tests/check-bent-area.sh tests/mesh-tessellated.sh tests/mesh-strips.sh \
 	tests/mesh-cad.sh tests/mesh-cad-public.sh tests/mesh-cad-cascade.sh tests/mesh-cad-size.sh \
 	tests/mesh-cad-quality.sh tests/mesh-cad-pinion.sh tests/mesh-formats.sh \
-	tests/mesh-cad-leftover.sh tests/mesh-cad-bent.sh tests/mesh-cad-offcentre.sh
+	tests/mesh-cad-leftover.sh tests/mesh-cad-bent.sh tests/mesh-cad-offcentre.sh \
+	tests/mesh-cad-flat.sh
 TESTS += $(REFINE_TESTS)
 dist_check_SCRIPTS += $(REFINE_TESTS)
 EXTRA_DIST += tests/cad-lib.sh

@@ -260,6 +260,7 @@ void ql_print(const ql_stats *s, FILE *out, int dih_bin)
     fprintf(out, "radius-edge ratio min %.4f max %.4f; %zu at or above %g\n",
             s->re_min, s->re_max, s->re_above, s->re_bound);
     fprintf(out, "dihedral angle min %.3f max %.3f degrees\n", s->dih_min, s->dih_max);
+    fprintf(out, "shortest edge %.6g\n", s->shortest_edge);
 
     size_t max = 0;
     for (int i = 0; i < QL_RE_NBINS; i++)

@@ -95,6 +95,8 @@ void ref_free(ref_mesher *r)
     pr_free(r->region);
     pr_free(r->seg_acute);
     pr_free(r->corner_steps);
+    hmap_free(&r->flat_made);
+    hmap_free(&r->flat_tries);
     pr_free(r->leftover);
     pr_free(r->fac_needle);
     pr_free(r->bflag);

@@ -482,6 +482,13 @@ typedef struct ref_mesher {
                                   subsegment split it asks for whose
                                   cavity folds takes the edge star
                                   (refine_run.c, split_subseg_at) */
+    /* constrained, without hooks: what stops a flat tetrahedron's
+     * floorless splits from cascading (refine_run.c, flat_spent) */
+    hmap flat_made;            /* vertex + 1 -> 1: inserted while a flat
+                                  tetrahedron was split */
+    hmap flat_tries;           /* hash of a flat tetrahedron's vertices ->
+                                  its splits that left it standing */
+    int flat_step;             /* split_tet_at is splitting a flat one */
     uint32_t shrink_keep;      /* constrained: the bad tetrahedron whose
                                   circumcentre's cavity is shrunk (kept) */
     uint32_t split_a, split_b; /* constrained: the subsegment being split
@@ -589,6 +596,20 @@ size_t ref_point_limit(const plc *p, const ref_opts *o);
  * -a 1e-4 to 3e-4 stay the same (their requests end by themselves; up
  * to 10 at one corner, mostly for subsegments already queued). */
 #define REF_STUCK_CORNER 6
+
+/* A flat tetrahedron on a facet (four vertices on it by construction) is
+ * removed by splitting the subfacet it lies on, with no floor: its
+ * circumcentre is meaningless. In the constrained mode that split may go
+ * to a subsegment the subfacet's circumcentre lies beyond, and leave the
+ * flat tetrahedron standing, or make a new one of the same subfacet and
+ * the new point on the subsegment: either way the next split halves the
+ * same piece again, with no end (rank 0's finish of part.off on 2 PEs,
+ * about one run in ten with latency: pieces down to 2^-33 of the
+ * bounding box, 14,605 tetrahedra against 3,846 sequentially). So,
+ * without parallel hooks, a flat tetrahedron having a vertex that such a
+ * split inserted, or whose splits left it standing REF_FLAT_TRIES times,
+ * is left (counted as degenerate). */
+#define REF_FLAT_TRIES 3
 
 /* Of those, the ones the quality refinement (ref_refine, after the
  * initial mesh) may make: REF_STUCK_QUALITY_BASE plus one per

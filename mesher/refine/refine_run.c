@@ -307,7 +307,11 @@ static int queue_new_tets(ref_mesher *r)
  * came from other PEs (for REF_ORDER_LOCAL_FIRST). */
 static int cavity_hook(ref_mesher *r, const double p[3], uint32_t start)
 {
+    /* Other cavity threads run while this one waits: the state of its
+     * step that they may change is put back. */
+    int flat_step = r->flat_step;
     int h = r->hooks->cavity(r->hooks->arg, p, start, &r->cav);
+    r->flat_step = flat_step;
     if (h == 0)
         r->step_remote = 1;
     return h;
@@ -361,6 +365,8 @@ int ref__commit_point(ref_mesher *r, uint16_t any, int vkind, uint32_t feat, dou
         rc = ref_region_room(r);
     if (!rc && r->hooks)
         rc = r->hooks->committed(r->hooks->arg, v, c);
+    if (!rc && r->flat_step)
+        rc = hmap_put(&r->flat_made, (uint64_t)v + 1, 1);
     if (rc)
         return rc;
     if (keep_ext || keep_reg)
@@ -1255,6 +1261,55 @@ static int seditious_tet(const ref_mesher *r, uint32_t t)
     return 0;
 }
 
+/* The key of tetrahedron t's vertex set in r->flat_tries: a hash of its
+ * sorted vertices, never 0 (a collision only leaves a flat tetrahedron
+ * early). */
+static uint64_t flat_key(const ref_mesher *r, uint32_t t)
+{
+    uint32_t v[4];
+    memcpy(v, r->m.tets[t].v, sizeof v);
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && v[j - 1] > v[j]; j--) {
+            uint32_t x = v[j];
+            v[j] = v[j - 1];
+            v[j - 1] = x;
+        }
+    uint64_t h = 1469598103934665603ull;
+    for (int i = 0; i < 4; i++)
+        h = (h ^ v[i]) * 1099511628211ull;
+    return h | 1;
+}
+
+/* 1 if flat tetrahedron t is past its floorless splits (REF_FLAT_TRIES):
+ * a split of a flat tetrahedron inserted one of its vertices
+ * (ref__commit_point), or its own splits left it standing that many
+ * times (flat_count). Only in the constrained mode. */
+static int flat_spent(const ref_mesher *r, uint32_t t)
+{
+    if (!r->o.constrained)
+        return 0;
+    for (int k = 0; k < 4; k++)
+        if (hmap_get(&r->flat_made, (uint64_t)r->m.tets[t].v[k] + 1) != HMAP_NONE)
+            return 1;
+    uint32_t n = hmap_get(&r->flat_tries, flat_key(r, t));
+    return n != HMAP_NONE && n >= REF_FLAT_TRIES;
+}
+
+/* After split_tet_at(t) split a flat tetrahedron (r->flat_step): t, if
+ * it still stands (vertices was), has one more try counted. 0 or
+ * PDR_ENOMEM. */
+static int flat_count(ref_mesher *r, uint32_t t, const uint32_t was[4])
+{
+    tm_mesh *m = &r->m;
+    if (tm_is_dead(m, t) || memcmp(was, m->tets[t].v, 4 * sizeof *was))
+        return 0;
+    uint64_t key = flat_key(r, t);
+    uint32_t n = hmap_get(&r->flat_tries, key);
+    if (n != HMAP_NONE)
+        hmap_del(&r->flat_tries, key, n);
+    return hmap_put(&r->flat_tries, key, n == HMAP_NONE ? 1 : n + 1);
+}
+
 /* Refine(t) for a bad tetrahedron: its circumcentre, or the split of the
  * subsegments or the subfacet that circumcentre encroaches. Those splits
  * must not put a vertex nearer to another than t's shortest edge (on an
@@ -1291,6 +1346,11 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
         int rc = ref__cdt_remove_flat(r, t);
         if (rc)
             return rc < 0 ? rc : 0;
+        if (flat_spent(r, t)) {
+            give_up(r, t, 1);
+            return 0;
+        }
+        r->flat_step = 1;
     }
     if (why == 3) {
         /* Flat on a facet: its circumcentre is ill-conditioned, and what
@@ -1451,7 +1511,13 @@ static int split_tet(ref_mesher *r, uint32_t t)
         r->leftover_try =
             bsearch(k, r->leftover, r->nleftover, sizeof *r->leftover, cmp_key) != NULL;
     }
+    uint32_t was[4];
+    memcpy(was, r->m.tets[t].v, sizeof was);
+    r->flat_step = 0;
     int rc = split_tet_at(r, t);
+    if (!rc && r->flat_step)
+        rc = flat_count(r, t, was);
+    r->flat_step = 0;
     r->leftover_try = 0;
     return rc;
 }
@@ -1673,6 +1739,7 @@ int ref_step(ref_mesher *r, int kind, uint32_t id, float rmin)
 {
     tm_mesh *m = &r->m;
     r->step_remote = 0;
+    r->flat_step = 0; /* another thread's, if it waits (cavity_hook) */
     switch (kind) {
     case REF_SUBSEG:
         return id < r->bd.nsegs ? process_seg(r, id, rmin) : PDR_EINVAL;
