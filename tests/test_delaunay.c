@@ -397,6 +397,116 @@ START_TEST(search_then_abandon_leaves_the_mesh_unchanged)
 }
 END_TEST
 
+/* keep of dt_cavity_shrink: the tetrahedron *arg. */
+static int keep_one(void *arg, uint32_t t)
+{
+    return t == *(const uint32_t *)arg;
+}
+
+/* 1 if p sees face f of t from inside (a face at the infinite vertex
+ * counts as seen), as dt_cavity_shrink decides it. */
+static int sees(const tm_mesh *m, uint32_t t, int f, const double p[3])
+{
+    const uint32_t *v = m->tets[t].v;
+    const uint8_t *fv = tm_face_vtx[f];
+    if (v[fv[0]] == TM_VINF || v[fv[1]] == TM_VINF || v[fv[2]] == TM_VINF)
+        return 1;
+    return pred_orient3d(m->xyz + 3 * (size_t)v[fv[0]], m->xyz + 3 * (size_t)v[fv[1]],
+                         m->xyz + 3 * (size_t)v[fv[2]], p) > 0;
+}
+
+START_TEST(cavity_shrink_takes_off_what_layer_by_layer_rounds_take)
+{
+    /* A ball of tetrahedra around the one holding p, a few neighbour
+     * steps deep, is no star from p; dt_cavity_shrink must leave exactly
+     * what taking off, round after round, every tetrahedron with a
+     * boundary face p does not see leaves (or refuse when that takes
+     * the tetrahedron its keep names). */
+    int shrunk = 0, refused = 0;
+    for (uint64_t seed = 1; seed <= 40; seed++) {
+        tm_mesh m;
+        random_mesh(&m, 400, seed, 0);
+        double p[3] = {0.2 + 0.6 * rnd01(), 0.2 + 0.6 * rnd01(), 0.2 + 0.6 * rnd01()};
+        dt_cavity c;
+        dt_cavity_init(&c);
+        ck_assert_int_eq(dt_cavity_search(&m, p, TM_NONE, DT_LOCATE, &c), 0);
+        uint32_t t0 = c.located;
+        dt_cavity_abandon(&m, &c);
+        /* the ball: breadth first from t0, depth 1 + seed % 4 */
+        uint8_t *in = calloc(m.nslots, 1);
+        uint32_t *ball = malloc(m.nslots * sizeof *ball);
+        ck_assert(in && ball);
+        size_t n = 0, from = 0;
+        ball[n++] = t0;
+        in[t0] = 1;
+        for (int depth = 0; depth < 1 + (int)(seed % 4); depth++) {
+            size_t to = n;
+            for (size_t i = from; i < to; i++)
+                for (int f = 0; f < 4; f++) {
+                    tm_link l = m.tets[ball[i]].n[f];
+                    if (tm_is_special(l) || in[tm_ltet(l)] || tm_is_ghost(&m, tm_ltet(l)))
+                        continue;
+                    in[tm_ltet(l)] = 1;
+                    ball[n++] = tm_ltet(l);
+                }
+            from = to;
+        }
+        /* kept: the tetrahedron holding p (which sees all its faces), or
+         * for odd seeds one of the outer layer, which may have to go */
+        uint32_t keep = seed % 2 ? ball[n - 1] : t0;
+        /* the rounds */
+        int kept_out = 0;
+        for (int changed = 1; changed;) {
+            changed = 0;
+            uint8_t *leave = calloc(m.nslots, 1);
+            ck_assert(leave);
+            for (size_t i = 0; i < n; i++)
+                for (int f = 0; f < 4 && in[ball[i]]; f++) {
+                    tm_link l = m.tets[ball[i]].n[f];
+                    if (!tm_is_special(l) && in[tm_ltet(l)])
+                        continue;
+                    if (!sees(&m, ball[i], f, p))
+                        leave[ball[i]] = 1;
+                }
+            for (size_t i = 0; i < n; i++)
+                if (in[ball[i]] && leave[ball[i]]) {
+                    in[ball[i]] = 0;
+                    changed = 1;
+                    kept_out |= ball[i] == keep;
+                }
+            free(leave);
+        }
+        size_t left = 0;
+        for (size_t i = 0; i < n; i++)
+            left += in[ball[i]];
+        ck_assert_int_eq(dt_cavity_set(&m, p, ball, n, 0, &c), 0);
+        int rc = dt_cavity_shrink(&m, &c, keep_one, &keep);
+        if (kept_out) {
+            ck_assert_int_eq(rc, 1);
+            refused++;
+        } else {
+            ck_assert_int_eq(rc, 0);
+            ck_assert_uint_eq(c.ntets, left);
+            size_t k = 0;
+            for (size_t i = 0; i < n; i++)
+                if (in[ball[i]])
+                    ck_assert_uint_eq(c.tets[k++], ball[i]); /* same order */
+            ck_assert(dt_cavity_is_star(&m, &c));
+            shrunk += left < n;
+            dt_cavity_abandon(&m, &c);
+        }
+        assert_clean(&m);
+        free(in);
+        free(ball);
+        dt_cavity_free(&c);
+        tm_free(&m);
+    }
+    /* both outcomes were met, and cavities did shrink */
+    ck_assert_int_gt(shrunk, 5);
+    ck_assert_int_gt(refused, 0);
+}
+END_TEST
+
 START_TEST(single_insertions_inside_and_outside_the_hull)
 {
     tm_mesh m;
@@ -1340,6 +1450,7 @@ static Suite *delaunay_suite(void)
     tc = tcase_create("insert");
     tcase_set_timeout(tc, 120);
     tcase_add_test(tc, search_then_abandon_leaves_the_mesh_unchanged);
+    tcase_add_test(tc, cavity_shrink_takes_off_what_layer_by_layer_rounds_take);
     tcase_add_test(tc, single_insertions_inside_and_outside_the_hull);
     tcase_add_test(tc, marked_faces_stop_the_search_and_move_with_commit);
     tcase_add_test(tc, markers_on_the_cavity_boundary_move_to_the_new_tets);

@@ -514,66 +514,106 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
     return 1;
 }
 
+/* 1 if p sees face f of cavity tetrahedron t from inside (a face at the
+ * infinite vertex counts as seen). */
+static int sees_face(const tm_mesh *m, uint32_t t, int f, const double p[3])
+{
+    const tm_tet *T = &m->tets[t];
+    const uint8_t *fv = tm_face_vtx[f];
+    uint32_t a = T->v[fv[0]], b = T->v[fv[1]], d = T->v[fv[2]];
+    return a == TM_VINF || b == TM_VINF || d == TM_VINF ||
+           pred_orient3d(X(m, a), X(m, b), X(m, d), p) > 0;
+}
+
+/* Takes cavity tetrahedron t out (it has a face p does not see), unless
+ * keep names it: 1 then, else 0 or PDR_ENOMEM. */
+static int shrink_out(tm_mesh *m, dt_cavity *c, uint32_t t, size_t *top,
+                      int (*keep)(void *arg, uint32_t t), void *arg)
+{
+    if (keep && keep(arg, t))
+        return 1;
+    m->flags[t] &= (uint16_t)~TM_F_CAVITY;
+    if (*top == c->cap_stack && pdr_grow((void **)&c->stack, &c->cap_stack, *top + 1,
+                                         sizeof *c->stack))
+        return PDR_ENOMEM;
+    c->stack[(*top)++] = t;
+    return 0;
+}
+
 int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t), void *arg)
 {
     uint16_t *fl = m->flags;
-    for (int round = 0; round < 1000; round++) {
-        /* Tetrahedra with a face p does not see from inside leave. */
-        size_t out = 0;
-        for (size_t i = 0; i < c->nbnd; i++) {
-            const tm_tet *T = &m->tets[c->bnd[i].tet];
-            const uint8_t *fv = tm_face_vtx[c->bnd[i].face];
-            uint32_t a = T->v[fv[0]], b = T->v[fv[1]], d = T->v[fv[2]];
-            if (a == TM_VINF || b == TM_VINF || d == TM_VINF ||
-                pred_orient3d(X(m, a), X(m, b), X(m, d), c->p) > 0)
+    /* Tetrahedra with a boundary face p does not see from inside leave;
+     * each one that leaves turns its faces against the tetrahedra that
+     * stay into boundary faces, which are tested in turn. What leaves is
+     * the same set whatever the order (leaving only adds boundary faces),
+     * so one pass over the boundary and a work list do what rounds of
+     * tests of the whole boundary did (a shrink cost its cavity's size
+     * times the layers taken off). The search is over: its stack is the
+     * work list. */
+    size_t top = 0, out = 0;
+    int rc = 0;
+    for (size_t i = 0; i < c->nbnd && !rc; i++) {
+        uint32_t t = c->bnd[i].tet;
+        if (!(fl[t] & TM_F_CAVITY) || sees_face(m, t, c->bnd[i].face, c->p))
+            continue; /* seen, or leaving already */
+        rc = shrink_out(m, c, t, &top, keep, arg);
+    }
+    out = top;
+    while (top && !rc) {
+        const tm_tet *T = &m->tets[c->stack[--top]];
+        for (int f = 0; f < 4 && !rc; f++) {
+            tm_link l = T->n[f];
+            if (tm_is_special(l))
                 continue;
-            uint32_t t = c->bnd[i].tet;
-            if (!(fl[t] & TM_F_CAVITY))
-                continue; /* leaving already */
-            if (keep && keep(arg, t)) {
-                dt_cavity_abandon(m, c);
-                return 1;
-            }
-            fl[t] &= (uint16_t)~TM_F_CAVITY;
+            uint32_t u = tm_ltet(l);
+            if (!(fl[u] & TM_F_CAVITY) || sees_face(m, u, tm_lface(l), c->p))
+                continue;
+            rc = shrink_out(m, c, u, &top, keep, arg);
             out++;
         }
-        if (!out)
-            return 0;
-        size_t n = 0;
-        for (size_t i = 0; i < c->ntets; i++)
-            if (fl[c->tets[i]] & TM_F_CAVITY)
-                c->tets[n++] = c->tets[i];
-        c->ntets = n;
-        if (!n) {
-            dt_cavity_abandon(m, c);
-            return 1;
-        }
-        /* The boundary again: every face of a cavity tetrahedron whose
-         * neighbour is not in the cavity. */
-        c->nbnd = c->nmarked = c->nremote = 0;
-        for (size_t i = 0; i < c->ntets; i++) {
-            uint32_t t = c->tets[i];
-            const tm_tet *T = &m->tets[t];
-            for (int f = 0; f < 4; f++) {
-                tm_link l = T->n[f];
-                int reason;
-                if (tm_is_special(l))
-                    reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
-                else if (fl[tm_ltet(l)] & TM_F_CAVITY)
-                    continue;
-                else if ((c->flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
-                    reason = DT_BND_MARKED;
-                else
-                    reason = DT_BND_OUTSIDE;
-                if (add_bface(c, t, f, reason, l))
-                    return PDR_ENOMEM;
-                c->nmarked += reason == DT_BND_MARKED;
-                c->nremote += reason == DT_BND_REMOTE;
+    }
+    if (rc) {
+        dt_cavity_abandon(m, c);
+        return rc;
+    }
+    if (!out)
+        return 0;
+    size_t n = 0;
+    for (size_t i = 0; i < c->ntets; i++)
+        if (fl[c->tets[i]] & TM_F_CAVITY)
+            c->tets[n++] = c->tets[i];
+    c->ntets = n;
+    if (!n) {
+        dt_cavity_abandon(m, c);
+        return 1;
+    }
+    /* The boundary again: every face of a cavity tetrahedron whose
+     * neighbour is not in the cavity. */
+    c->nbnd = c->nmarked = c->nremote = 0;
+    for (size_t i = 0; i < c->ntets; i++) {
+        uint32_t t = c->tets[i];
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            int reason;
+            if (tm_is_special(l))
+                reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
+            else if (fl[tm_ltet(l)] & TM_F_CAVITY)
+                continue;
+            else if ((c->flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
+                reason = DT_BND_MARKED;
+            else
+                reason = DT_BND_OUTSIDE;
+            if (add_bface(c, t, f, reason, l)) {
+                dt_cavity_abandon(m, c);
+                return PDR_ENOMEM;
             }
+            c->nmarked += reason == DT_BND_MARKED;
+            c->nremote += reason == DT_BND_REMOTE;
         }
     }
-    dt_cavity_abandon(m, c);
-    return 1;
+    return 0;
 }
 
 int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n, unsigned flags,

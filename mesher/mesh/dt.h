@@ -191,7 +191,7 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c);
  * tetrahedra that must stay. Returns 0 with a star-shaped cavity (c->tets
  * and c->bnd rebuilt), 1 when that would drop a tetrahedron keep names or
  * empty the cavity (the cavity is then abandoned: nothing marked), or
- * PDR_ENOMEM (the cavity still pending). */
+ * PDR_ENOMEM (abandoned too). */
 int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t), void *arg);
 
 /* Makes tets[0..n) the pending cavity of p (no conflict test: the caller
