@@ -514,6 +514,39 @@ int dt_cavity_is_star(const tm_mesh *m, const dt_cavity *c)
     return 1;
 }
 
+/* Sets the boundary of pending cavity c (its tetrahedra marked
+ * TM_F_CAVITY) anew: every face of a cavity tetrahedron whose neighbour is
+ * not in the cavity, in the order of c->tets, with the reasons of a search
+ * with c->flags. 0, or PDR_ENOMEM with the cavity abandoned. */
+static int set_boundary(tm_mesh *m, dt_cavity *c)
+{
+    const uint16_t *fl = m->flags;
+    c->nbnd = c->nmarked = c->nremote = 0;
+    for (size_t i = 0; i < c->ntets; i++) {
+        uint32_t t = c->tets[i];
+        const tm_tet *T = &m->tets[t];
+        for (int f = 0; f < 4; f++) {
+            tm_link l = T->n[f];
+            int reason;
+            if (tm_is_special(l))
+                reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
+            else if (fl[tm_ltet(l)] & TM_F_CAVITY)
+                continue;
+            else if ((c->flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
+                reason = DT_BND_MARKED;
+            else
+                reason = DT_BND_OUTSIDE;
+            if (add_bface(c, t, f, reason, l)) {
+                dt_cavity_abandon(m, c);
+                return PDR_ENOMEM;
+            }
+            c->nmarked += reason == DT_BND_MARKED;
+            c->nremote += reason == DT_BND_REMOTE;
+        }
+    }
+    return 0;
+}
+
 /* 1 if p sees face f of cavity tetrahedron t from inside (a face at the
  * infinite vertex counts as seen). */
 static int sees_face(const tm_mesh *m, uint32_t t, int f, const double p[3])
@@ -588,32 +621,8 @@ int dt_cavity_shrink(tm_mesh *m, dt_cavity *c, int (*keep)(void *arg, uint32_t t
         dt_cavity_abandon(m, c);
         return 1;
     }
-    /* The boundary again: every face of a cavity tetrahedron whose
-     * neighbour is not in the cavity. */
-    c->nbnd = c->nmarked = c->nremote = 0;
-    for (size_t i = 0; i < c->ntets; i++) {
-        uint32_t t = c->tets[i];
-        const tm_tet *T = &m->tets[t];
-        for (int f = 0; f < 4; f++) {
-            tm_link l = T->n[f];
-            int reason;
-            if (tm_is_special(l))
-                reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
-            else if (fl[tm_ltet(l)] & TM_F_CAVITY)
-                continue;
-            else if ((c->flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
-                reason = DT_BND_MARKED;
-            else
-                reason = DT_BND_OUTSIDE;
-            if (add_bface(c, t, f, reason, l)) {
-                dt_cavity_abandon(m, c);
-                return PDR_ENOMEM;
-            }
-            c->nmarked += reason == DT_BND_MARKED;
-            c->nremote += reason == DT_BND_REMOTE;
-        }
-    }
-    return 0;
+    /* The boundary again. */
+    return set_boundary(m, c);
 }
 
 int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n, unsigned flags,
@@ -641,29 +650,7 @@ int dt_cavity_set(tm_mesh *m, const double p[3], const uint32_t *tets, size_t n,
         c->tets[c->ntets++] = tets[i];
     }
     c->pending = 1;
-    for (size_t i = 0; i < c->ntets; i++) {
-        uint32_t t = c->tets[i];
-        const tm_tet *T = &m->tets[t];
-        for (int f = 0; f < 4; f++) {
-            tm_link l = T->n[f];
-            int reason;
-            if (tm_is_special(l))
-                reason = l == TM_LINK_NONE ? DT_BND_DOMAIN : DT_BND_REMOTE;
-            else if (fl[tm_ltet(l)] & TM_F_CAVITY)
-                continue;
-            else if ((flags & DT_STOP_MARKED) && (fl[t] & TM_F_FACEMARK(f)))
-                reason = DT_BND_MARKED;
-            else
-                reason = DT_BND_OUTSIDE;
-            if (add_bface(c, t, f, reason, l)) {
-                dt_cavity_abandon(m, c);
-                return PDR_ENOMEM;
-            }
-            c->nmarked += reason == DT_BND_MARKED;
-            c->nremote += reason == DT_BND_REMOTE;
-        }
-    }
-    return 0;
+    return set_boundary(m, c);
 }
 
 /* -------------------------------------------------------------- commit */
