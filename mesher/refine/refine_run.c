@@ -1261,19 +1261,26 @@ static int seditious_tet(const ref_mesher *r, uint32_t t)
     return 0;
 }
 
+/* The key of tetrahedron t in r->leftover (and what flat_key hashes): its
+ * vertices, ascending. */
+static void leftover_key(const ref_mesher *r, uint32_t t, uint32_t k[4])
+{
+    memcpy(k, r->m.tets[t].v, 4 * sizeof *k);
+    for (int i = 1; i < 4; i++)
+        for (int j = i; j > 0 && k[j] < k[j - 1]; j--) {
+            uint32_t x = k[j];
+            k[j] = k[j - 1];
+            k[j - 1] = x;
+        }
+}
+
 /* The key of tetrahedron t's vertex set in r->flat_tries: a hash of its
  * sorted vertices, never 0 (a collision only leaves a flat tetrahedron
  * early). */
 static uint64_t flat_key(const ref_mesher *r, uint32_t t)
 {
     uint32_t v[4];
-    memcpy(v, r->m.tets[t].v, sizeof v);
-    for (int i = 1; i < 4; i++)
-        for (int j = i; j > 0 && v[j - 1] > v[j]; j--) {
-            uint32_t x = v[j];
-            v[j] = v[j - 1];
-            v[j - 1] = x;
-        }
+    leftover_key(r, t, v);
     uint64_t h = 1469598103934665603ull;
     for (int i = 0; i < 4; i++)
         h = (h ^ v[i]) * 1099511628211ull;
@@ -1477,18 +1484,6 @@ static int split_tet_at(ref_mesher *r, uint32_t t)
     }
     r->st.tet_points++;
     return queue_new_tets(r);
-}
-
-/* The key of tetrahedron t in r->leftover: its vertices, ascending. */
-static void leftover_key(const ref_mesher *r, uint32_t t, uint32_t k[4])
-{
-    memcpy(k, r->m.tets[t].v, 4 * sizeof *k);
-    for (int i = 1; i < 4; i++)
-        for (int j = i; j > 0 && k[j] < k[j - 1]; j--) {
-            uint32_t x = k[j];
-            k[j] = k[j - 1];
-            k[j - 1] = x;
-        }
 }
 
 static int cmp_key(const void *a, const void *b)
