@@ -59,12 +59,12 @@ static long long smaps_kib(const char *line, const char *key)
 
 void pdr_mem_sample(pdr_mem_now *out)
 {
-    out->nonfile = out->pss = 0;
+    out->nonfile = out->pss = out->rss = 0;
     FILE *f = fopen("/proc/self/smaps", "re");
     if (!f)
         return;
     char line[512];
-    unsigned long long kib = 0, pss_kib = 0;
+    unsigned long long kib = 0, pss_kib = 0, rss_kib = 0;
     /* The mapping whose fields follow: 0 anonymous or shared (its Rss
      * counts), 1 private file mapping (its Anonymous counts: the pages
      * written to), 2 the kernel's ([vdso], [vvar]: neither). */
@@ -81,6 +81,9 @@ void pdr_mem_sample(pdr_mem_now *out)
             v = smaps_kib(line, "Pss");
             if (v > 0)
                 pss_kib += (unsigned long long)v;
+            v = smaps_kib(line, "Rss");
+            if (v > 0)
+                rss_kib += (unsigned long long)v;
         } else { /* "lo-hi perms offset dev inode [name]" */
             char *p = strchr(line, ' ');
             char *perms = p ? p + 1 : NULL;
@@ -107,7 +110,20 @@ void pdr_mem_sample(pdr_mem_now *out)
     if (seen) {
         out->nonfile = (size_t)kib * 1024;
         out->pss = (size_t)pss_kib * 1024;
+        out->rss = (size_t)rss_kib * 1024;
     }
+}
+
+void pdr_mem_peak(pdr_mem_now *out)
+{
+    pdr_mem_sample(out);
+    size_t hwm = pdr_peak_rss();
+    if (out->rss == 0 || hwm <= out->rss)
+        return;
+    size_t given_back = hwm - out->rss;
+    out->nonfile += given_back;
+    out->pss += given_back;
+    out->rss = hwm;
 }
 
 int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size)

@@ -24,8 +24,8 @@ void pdr_line(FILE *f, const char *fmt, ...)
     ;
 /* Peak resident set size of this process in bytes, or 0 if unknown. */
 size_t pdr_peak_rss(void);
-/* Two figures of this process's memory now, in bytes, from one pass over
- * /proc/self/smaps (Linux); both 0 where the file cannot be read.
+/* Figures of this process's memory now, in bytes, from one pass over
+ * /proc/self/smaps (Linux); all 0 where the file cannot be read.
  * nonfile: the resident set without the unmodified pages of private file
  *   mappings: the whole resident part of anonymous mappings (the heap,
  *   malloc's arenas, stacks) and of shared mappings (libam's rings,
@@ -43,8 +43,18 @@ size_t pdr_peak_rss(void);
 typedef struct pdr_mem_now {
     size_t nonfile;
     size_t pss;
+    size_t rss; /* the whole resident set, for pdr_mem_peak */
 } pdr_mem_now;
 void pdr_mem_sample(pdr_mem_now *out);
+/* pdr_mem_sample's figures at this process's peak so far, estimated from
+ * a sample now: each is the figure now plus the resident memory given back
+ * since the peak (the peak RSS, getrusage's, less the RSS now), which is
+ * the heap and the mappings freed since (anonymous, private). Exact when
+ * no file page was mapped in or dropped since the peak; where the program
+ * faulted in more of its code since, low by that much (tens of KiB). A
+ * sample taken at any time therefore covers the peaks before it, which a
+ * bare sample misses (a buffer freed before the sample). */
+void pdr_mem_peak(pdr_mem_now *out);
 
 /* Makes the array *p of *cap elements of 'size' bytes hold at least 'need'
  * elements, doubling its capacity (from 64) so that n appends cost O(n).

@@ -1,6 +1,10 @@
 /* cli/mesh_par.c -- the parallel driver of 'pdr mesh' (see cli/mesh_par.h). */
 #include "config.h"
 
+#ifdef HAVE_MALLOC_TRIM
+#include <malloc.h>
+#endif
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -333,9 +337,11 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
            size, parts, mo_tets, (unsigned long long)local, (unsigned long long)dist,
            (unsigned long long)setbacks, (unsigned long long)deferred,
            (unsigned long long)moved);
-    /* Rank 0's peak also holds the input, Mo and the merged mesh. The
-     * second figure leaves out the file pages (the program's and the
-     * libraries' code), which RSS counts in every PE. */
+    /* A PE's figures are of its whole run (its merge message made);
+     * rank 0's hold the input and Mo, not the merged mesh, made after its
+     * row (the summary's total line has that peak). The second figure
+     * leaves out the file pages (the program's and the libraries' code),
+     * which RSS counts in every PE. */
     uint64_t worst_b = 0, rank0_b = rows[0].tets_end ? rows[0].peak_rss / rows[0].tets_end : 0;
     uint64_t worst_nf = 0, rank0_nf = rows[0].tets_end ? rows[0].peak_nonfile / rows[0].tets_end : 0;
     uint64_t worst_ps = 0, rank0_ps = rows[0].tets_end ? rows[0].peak_pss / rows[0].tets_end : 0;
@@ -349,7 +355,8 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     }
     if (size > 1)
         printf("PE memory: peak RSS per interior tetrahedron held: at most %llu bytes on PEs "
-               "1-%d, %llu on rank 0 (with the input, Mo and the merge); without file pages: "
+               "1-%d (with its merge message), %llu on rank 0 (with the input and Mo); without "
+               "file pages: "
                "at most %llu, %llu on rank 0; proportional (PSS): at most %llu, %llu on "
                "rank 0\n",
                (unsigned long long)worst_b, size - 1, (unsigned long long)rank0_b,
@@ -665,7 +672,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     double t_prep[3] = {0, 0, 0}, t_start = 0, t_end = 0, t_gathered = 0;
     /* Rank 0's sample of par_table1.peak_nonfile and peak_pss with Mo and
      * the parts' messages held (its resident set peaks there). */
-    pdr_mem_now mem_prepared = {0, 0};
+    pdr_mem_now mem_prepared = {0, 0, 0};
     rc = am_register(am, H_JOB, "mesh-job", on_job, &j);
     if (!rc)
         rc = am_register(am, H_MERGE, "mesh-merge", on_merge, &min);
@@ -681,7 +688,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         memset(&mo_st, 0, sizeof mo_st);
         int prc = msg ? prepare(&c, mo, po, size, msg, &mo_tets, t_prep, &pre, &mo_st)
                       : PDR_ENOMEM;
-        pdr_mem_sample(&mem_prepared);
+        pdr_mem_peak(&mem_prepared);
         for (int k = 1; k < size; k++) {
             if (prc)
                 am_send(am, k, H_JOB, "\1", 1);
@@ -740,7 +747,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     /* The submesh and the message it came in, both held here: a sample
      * of par_table1.peak_nonfile and peak_pss. */
     pdr_mem_now mem_loaded;
-    pdr_mem_sample(&mem_loaded);
+    pdr_mem_peak(&mem_loaded);
     /* This PE's own debugging aids (its environment, not rank 0's). */
     s.r.o.check_each_step = mo->ref.check_each_step;
     s.r.o.log = mo->ref.log;
@@ -867,9 +874,6 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         fprintf(stderr, "pdr mesh: PE %d: check at the end of the refinement: %zu problem%s\n",
                 rank, bad, bad == 1 ? "" : "s");
     }
-    if (po->stats && write_row_json(po->stats, rank, size, &row))
-        fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
-                rank);
     if (po->submeshes) {
         const char *base = c.base ? c.base : mo->out ? mo->out : "pdr-mesh";
         if (write_submesh(&s, base))
@@ -881,15 +885,37 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
      * (on_merge); rank 0 meanwhile takes its own submesh as it is and
      * checks its links on the way (par_wire_from_sub_pairs: no message),
      * then the rows are gathered. */
+    int am_err = 0;
+    /* What only the refinement used goes first, and the heap's free
+     * pages back to the system: a PE's memory peaks with its merge
+     * message. */
+    ref_release_work(&s.r);
+    tm_drop_locks(&s.r.m);
+#ifdef HAVE_MALLOC_TRIM
+    malloc_trim(0);
+#endif
+    if (rank != 0)
+        rc = send_merge(am, &s, &am_err);
+    else
+        rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
+    /* A PE's resident set peaks here, with its submesh and its merge
+     * message (and the tables the message was made from, freed since): the
+     * row's memory figures are of the whole run so far. */
+    pdr_mem_now mem_merge;
+    pdr_mem_peak(&mem_merge);
+    row.peak_rss = pdr_peak_rss();
+    if (row.peak_nonfile < mem_merge.nonfile)
+        row.peak_nonfile = mem_merge.nonfile;
+    if (row.peak_pss < mem_merge.pss)
+        row.peak_pss = mem_merge.pss;
+    if (po->stats && write_row_json(po->stats, rank, size, &row))
+        fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
+                rank);
     pr_buf rb = PR_BUF_INIT;
     size_t nmissing;
-    put_row(&rb, &row, &s.r.st);
-    rc = rb.err ? PDR_ENOMEM : par_merge_put_missing(&rb, &s, &nmissing);
-    int am_err = 0;
-    if (!rc && rank != 0) {
-        rc = send_merge(am, &s, &am_err);
-    } else if (!rc) {
-        rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
+    if (!rc) {
+        put_row(&rb, &row, &s.r.st);
+        rc = rb.err ? PDR_ENOMEM : par_merge_put_missing(&rb, &s, &nmissing);
     }
     par_sub_free(&s);
     have_sub = 0;

@@ -288,6 +288,14 @@ int tm_enable(tm_mesh *m, unsigned features)
     return 0;
 }
 
+void tm_drop_locks(tm_mesh *m)
+{
+    pr_free(m->lock);
+    pr_free(m->locked);
+    m->lock = NULL;
+    m->locked = NULL;
+}
+
 void tm__unlock_slot(tm_mesh *m, uint32_t t)
 {
     tm_set_lock(m, t, 0);

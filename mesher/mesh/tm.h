@@ -215,6 +215,8 @@ int tm_init(tm_mesh *m, unsigned features);
 void tm_free(tm_mesh *m);
 /* Allocates the optional arrays for features (idempotent). */
 int tm_enable(tm_mesh *m, unsigned features);
+/* Frees the lock arrays (TM_FEAT_LOCKS) once no lock is needed again. */
+void tm_drop_locks(tm_mesh *m);
 /* Makes room for nverts vertices and ntets tetrahedra in total, so later
  * additions do not reallocate. Returns 0, PDR_ENOMEM or PDR_ELIMIT. */
 int tm_reserve(tm_mesh *m, size_t nverts, size_t ntets);

@@ -728,7 +728,7 @@ int par_run_refine(am_ctx_t *am, par_sub *s, const par_run_opts *o, par_table1 *
     row->slots_end = s->r.m.nslots;
     row->peak_rss = pdr_peak_rss();
     pdr_mem_now mem;
-    pdr_mem_sample(&mem); /* the second sample (par_run.h) */
+    pdr_mem_peak(&mem); /* a sample (par_run.h) */
     row->peak_nonfile = mem.nonfile;
     row->peak_pss = mem.pss;
     row->work = pr->work;

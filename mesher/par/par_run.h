@@ -165,20 +165,25 @@ typedef struct par_table1 {
     uint64_t slots_end;      /* tetrahedron slots of the submesh at the end
                                 (exterior, ghosts and free ones included) */
     uint64_t peak_rss;       /* the PE's peak resident memory, bytes
-                                (getrusage's ru_maxrss, at the end of the
-                                refinement) */
+                                (getrusage's ru_maxrss; par_run_refine sets
+                                it at the end of the refinement, pdr mesh
+                                again once the PE's merge message is made,
+                                where a PE other than rank 0 peaks: its
+                                submesh and that message, at 10^6
+                                tetrahedra on 16 PEs about half as large
+                                as the submesh, held together) */
     uint64_t peak_nonfile;   /* the largest resident memory without file
-                                pages (pdr_mem_sample's nonfile) of the PE's samples,
-                                bytes: at the end of the refinement (set
-                                here), where the resident set of a PE other
-                                than rank 0 peaks (cube-in-cube 10^6 on 16
-                                PEs: VmRSS equals VmHWM there on each), and
-                                pdr mesh's once the submesh was built (the
-                                message it came in still held) and, on rank
-                                0, once Mo was cut into the parts' messages.
-                                Not in between: a sample is a pass over
-                                /proc/self/smaps, whose cost grows with the
-                                resident pages (5 ms at 60 MB) */
+                                pages of the PE's samples, bytes, each
+                                taken with pdr_mem_peak (an estimate of the
+                                figure at the peak so far, base/pdr_util.h):
+                                at the end of the refinement (set here),
+                                and pdr mesh's once the submesh was built,
+                                on rank 0 once Mo was cut into the parts'
+                                messages, and once the merge message was
+                                made (rank 0: its own submesh taken for the
+                                merge). Not more often: a sample is a pass
+                                over /proc/self/smaps, whose cost grows
+                                with the resident pages (5 ms at 60 MB) */
     uint64_t peak_pss;       /* the largest proportional set size
                                 (pdr_mem_sample's pss) of the same samples,
                                 bytes */
