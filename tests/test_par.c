@@ -1775,6 +1775,153 @@ START_TEST(merge_threads_same_mesh)
 }
 END_TEST
 
+/* The live tetrahedra of m as rows of their four vertices' gids, each row
+ * sorted and the rows sorted: *n rows of 4, malloc'd. */
+static int cmp_gid_row(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    for (int i = 0; i < 4; i++)
+        if (x[i] != y[i])
+            return x[i] < y[i] ? -1 : 1;
+    return 0;
+}
+
+static uint64_t *gid_rows(const tm_mesh *m, size_t *n)
+{
+    uint64_t *r = malloc(((size_t)m->nlive + 1) * 4 * sizeof *r);
+    ck_assert_ptr_nonnull(r);
+    size_t k = 0;
+    for (uint32_t t = 0; t < m->nslots; t++) {
+        if (tm_is_dead(m, t))
+            continue;
+        uint64_t *row = r + 4 * k++;
+        for (int i = 0; i < 4; i++)
+            row[i] = m->gid[m->tets[t].v[i]];
+        for (int i = 1; i < 4; i++)
+            for (int j = i; j > 0 && row[j - 1] > row[j]; j--) {
+                uint64_t x = row[j];
+                row[j] = row[j - 1];
+                row[j - 1] = x;
+            }
+    }
+    qsort(r, k, 4 * sizeof *r, cmp_gid_row);
+    *n = k;
+    return r;
+}
+
+/* A PE's submesh in pieces (par_merge_pieces, as pdr mesh -n sends it):
+ * the pieces hold every live tetrahedron once, in ascending slots, every
+ * piece but the last as many as asked; merged in order of PE, with the
+ * faces between pieces matched by their vertices, they make the mesh the
+ * whole messages make (the same tetrahedra, by their vertices' gids) with
+ * no mismatch. Out of order the merge refuses them, and with a piece left
+ * out it finds the faces left open. */
+START_TEST(merge_pieces_same_mesh)
+{
+    plc p;
+    unit_cube_plc(&p);
+    ref_opts o;
+    ref_default_opts(&o);
+    o.maxvol = 2e-4;
+    ref_mesher mo;
+    build_mo(&p, &o, 0, &mo);
+    ck_assert_int_eq(ref_refine(&mo), 0);
+    enum { P = 3, PIECE = 97, MAXN = 1024 };
+    par_sub subs[P];
+    subs_of(&mo, P, subs);
+    pr_buf wb[P];
+    const void *wmsg[P];
+    size_t wlen[P];
+    encode_subs(subs, NULL, P, wb, wmsg, wlen);
+    ref_mesher m1, m2;
+    par_merge_report r1, r2;
+    ck_assert_int_eq(par_merge_build(wmsg, wlen, P, &p, NULL, &m1, &r1), 0);
+
+    pr_buf *pb = calloc(MAXN, sizeof *pb);
+    const void **pmsg = calloc(MAXN, sizeof *pmsg);
+    size_t *plen = calloc(MAXN, sizeof *plen);
+    ck_assert(pb && pmsg && plen);
+    uint32_t n = 0, first_of[P + 1];
+    for (uint32_t k = 0; k < P; k++) {
+        const tm_mesh *m = &subs[k].r.m;
+        par_merge_pieces pc;
+        ck_assert_int_eq(par_merge_pieces_init(&pc, &subs[k], PIECE), 0);
+        uint8_t *seen = calloc(m->nslots + 1, 1);
+        ck_assert_ptr_nonnull(seen);
+        const uint32_t *tets;
+        uint32_t nt, got = 0;
+        size_t total = 0;
+        first_of[k] = n;
+        while (par_merge_pieces_next(&pc, &tets, &nt)) {
+            ck_assert_uint_lt(n, MAXN);
+            got++;
+            if (got < pc.count)
+                ck_assert_uint_eq(nt, PIECE);
+            ck_assert_uint_ge(nt, 1);
+            ck_assert_uint_le(nt, PIECE);
+            for (uint32_t i = 0; i < nt; i++) {
+                ck_assert_uint_lt(tets[i], m->nslots);
+                ck_assert(!tm_is_dead(m, tets[i]));
+                ck_assert(!seen[tets[i]]);
+                seen[tets[i]] = 1;
+                if (i > 0)
+                    ck_assert_uint_gt(tets[i], tets[i - 1]);
+            }
+            total += nt;
+            pb[n] = (pr_buf)PR_BUF_INIT;
+            ck_assert_int_eq(par_wire_encode_tets(&pb[n], &subs[k], tets, nt), 0);
+            pmsg[n] = pb[n].data;
+            plen[n] = pb[n].len;
+            n++;
+        }
+        ck_assert_uint_eq(got, pc.count);
+        ck_assert_uint_eq(total, m->nlive);
+        ck_assert_uint_ge(pc.count, 3);
+        par_merge_pieces_free(&pc);
+        free(seen);
+    }
+    first_of[P] = n;
+    ck_assert_int_eq(par_merge_build(pmsg, plen, n, &p, NULL, &m2, &r2), 0);
+    ck_assert_uint_eq(par_merge_problems(&r2), 0);
+    ck_assert_uint_eq(r2.tets, r1.tets);
+    ck_assert_uint_eq(r2.vertices, r1.vertices);
+    size_t n1, n2;
+    uint64_t *g1 = gid_rows(&m1.m, &n1), *g2 = gid_rows(&m2.m, &n2);
+    ck_assert_uint_eq(n1, n2);
+    ck_assert(!memcmp(g1, g2, n1 * 4 * sizeof *g1));
+    free(g1);
+    free(g2);
+    ref_free(&m1);
+    ref_free(&m2);
+
+    /* out of the PEs' order: PE 2's first piece before PE 1's */
+    const void *xm = pmsg[first_of[1]];
+    size_t xl = plen[first_of[1]];
+    pmsg[first_of[1]] = pmsg[first_of[2]];
+    plen[first_of[1]] = plen[first_of[2]];
+    pmsg[first_of[2]] = xm;
+    plen[first_of[2]] = xl;
+    ck_assert_int_eq(par_merge_build(pmsg, plen, n, &p, NULL, &m2, &r2), PDR_EPARSE);
+    pmsg[first_of[2]] = pmsg[first_of[1]];
+    plen[first_of[2]] = plen[first_of[1]];
+    pmsg[first_of[1]] = xm;
+    plen[first_of[1]] = xl;
+    /* PE 1's second piece left out */
+    uint32_t gone = first_of[1] + 1;
+    memmove(&pmsg[gone], &pmsg[gone + 1], (n - gone - 1) * sizeof *pmsg);
+    memmove(&plen[gone], &plen[gone + 1], (n - gone - 1) * sizeof *plen);
+    ck_assert_int_eq(par_merge_build(pmsg, plen, n - 1, &p, NULL, &m2, &r2), PDR_ETOPOLOGY);
+    ck_assert_uint_gt(r2.open_faces, 0);
+
+    for (uint32_t i = 0; i < n; i++)
+        pr_buf_free(&pb[i]);
+    free(pb);
+    free(pmsg);
+    free(plen);
+    free_merge_case(wb, subs, P, &mo, &p);
+}
+END_TEST
+
 /* Two merged meshes are the same: slots, vertices, links, markers, flags,
  * regions and boundary tables. */
 static void same_merged(const ref_mesher *pm1, const ref_mesher *pm2)
@@ -2228,6 +2375,7 @@ static Suite *suite(void)
     tcase_add_test(t, merge_shares_agree);
     tcase_add_test(t, merge_threads_same_mesh);
     tcase_add_test(t, merge_own_submesh_same);
+    tcase_add_test(t, merge_pieces_same_mesh);
     tcase_add_test(t, hdup_finds_repeats);
     suite_add_tcase(s, t);
     return s;

@@ -6,6 +6,7 @@
 #endif
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,69 +106,159 @@ static int wait_job(am_ctx_t *am, job *j)
 
 /* ------------------------------------------------------ merge messages */
 
-/* Rank 0's receipt of the merge messages: each decoded as it comes, in
- * its handler (the handler's bytes go with it, so the decoded form keeps
- * its own copy of what it would read in place, par_wire_decode_own). */
+/* Rank 0's receipt of the merge messages. A PE sends its submesh in
+ * pieces (par_merge_pieces), each as one message: u32 the piece's index,
+ * u32 the PE's number of pieces, then the piece's par_wire message. Each
+ * is decoded as it comes, in its handler (the handler's bytes go with it,
+ * so the decoded form keeps its own copy of what it would read in place,
+ * par_wire_decode_own). */
+typedef struct merge_pe {
+    par_wire *w;     /* [count]: the pieces, by index */
+    uint8_t *seen;   /* [count] */
+    uint32_t count;  /* pieces the PE sends (0: none in yet) */
+    uint32_t got;    /* pieces in */
+    int rc;          /* the first decoder's (or allocation's) error */
+} merge_pe;
+
 typedef struct merge_in {
     const plc *p;  /* rank 0's PLC: loaded before any merge message comes */
     int size;
-    par_wire *w;   /* [size]: w[k] PE k's message, k > 0 */
-    int *rc;       /* [size]: its decoder's code */
-    uint8_t *got;  /* [size] */
-    int ngot;      /* messages in, of size - 1 */
-    int stray;     /* messages from rank 0 itself, or a second from a PE */
+    par_wire own;  /* rank 0's own submesh (par_wire_from_sub_pairs) */
+    merge_pe *pe;  /* [size]: pe[k] PE k's pieces, k > 0 */
+    int ndone;     /* PEs all of whose pieces are in, of size - 1 */
+    int stray;     /* messages from rank 0 itself, malformed pieces, or a
+                      piece a second time */
 } merge_in;
+
+/* A bound on a PE's pieces (a submesh below TM_MAX_TETS). */
+#define MERGE_MAX_PIECES (TM_MAX_TETS / PAR_MERGE_PIECE + 1)
 
 static void on_merge(am_ctx_t *am, const am_msg_t *msg, void *arg)
 {
     (void)am;
     merge_in *in = arg;
     int k = msg->src;
-    if (!in->w || k <= 0 || k >= in->size || in->got[k]) {
+    if (!in->pe || k <= 0 || k >= in->size || msg->len < 8) {
         in->stray++;
         return;
     }
-    in->got[k] = 1;
-    in->ngot++;
-    in->rc[k] = par_wire_decode_own(msg->data, msg->len, in->p, &in->w[k]);
+    const uint8_t *d = msg->data;
+    uint32_t idx = pr_load_u32(d), cnt = pr_load_u32(d + 4);
+    merge_pe *e = &in->pe[k];
+    if (cnt == 0 || cnt > MERGE_MAX_PIECES || idx >= cnt || (e->count && cnt != e->count) ||
+        e->got >= cnt || (e->seen && e->seen[idx])) {
+        in->stray++;
+        return;
+    }
+    if (!e->count) {
+        e->count = cnt;
+        e->w = pr_calloc(cnt, sizeof *e->w);
+        e->seen = pr_calloc(cnt, 1);
+        if (!e->w || !e->seen) {
+            pr_free(e->w);
+            pr_free(e->seen);
+            e->w = NULL;
+            e->seen = NULL;
+            e->rc = PDR_ENOMEM;
+        }
+    }
+    if (e->seen) {
+        e->seen[idx] = 1;
+        int rc = par_wire_decode_own(d + 8, msg->len - 8, in->p, &e->w[idx]);
+        if (rc && !e->rc)
+            e->rc = rc;
+    }
+    if (++e->got == cnt)
+        in->ndone++;
 }
 
+/* Frees what rank 0 received (the wires are cleared unless handed on). */
+static void merge_in_free(merge_in *in)
+{
+    par_wire_clear(&in->own);
+    for (int k = 0; in->pe && k < in->size; k++) {
+        for (uint32_t i = 0; in->pe[k].w && i < in->pe[k].count; i++)
+            par_wire_clear(&in->pe[k].w[i]);
+        pr_free(in->pe[k].w);
+        pr_free(in->pe[k].seen);
+    }
+    pr_free(in->pe);
+    in->pe = NULL;
+}
+
+/* A frame handed to the runtime (am_send_zc) is freed here, maybe by a
+ * ZeroMQ I/O thread: *hint counts the frames not freed yet. */
 static void free_frame(void *frame, void *hint)
 {
-    (void)hint;
     pr_free(frame);
+    if (hint)
+        atomic_fetch_sub((atomic_int *)hint, 1);
 }
 
-/* A PE but rank 0: its merge message to rank 0, encoded after room for
- * the runtime's header and handed over without a copy (am_send_zc): 33
- * MB at 10^6 tetrahedra on 2 PEs, which the gather copied into its own
- * frame first. Returns 0, a PDR_ code of the encoder or an AM_ code. */
-static int send_merge(am_ctx_t *am, const par_sub *s, int *am_err)
+/* A PE but rank 0: its submesh to rank 0, in pieces (par_merge_pieces),
+ * each encoded after room for the runtime's header and handed over
+ * without a copy (am_send_zc), and the next made only once the runtime
+ * let go of it: the PE holds one piece's message at a time beside its
+ * mesh. *held (0 on entry) counts the frames the runtime holds; it must
+ * live until am_finalize, which frees those an error left. Returns 0, a
+ * PDR_ code of the encoder or an AM_ code. */
+static int send_merge(am_ctx_t *am, const par_sub *s, atomic_int *held, int *am_err)
 {
     *am_err = 0;
-    pr_buf b = PR_BUF_INIT;
-    if (pr_buf_reserve(&b, AM_HEADROOM))
-        return PDR_ENOMEM;
-    memset(b.data, 0, AM_HEADROOM);
-    b.len = AM_HEADROOM;
-    int rc = par_merge_encode(&b, s);
-    if (rc) {
-        pr_buf_free(&b);
+    par_merge_pieces pc;
+    int rc = par_merge_pieces_init(&pc, s, PAR_MERGE_PIECE);
+    if (rc)
         return rc;
+    const uint32_t *tets;
+    uint32_t nt;
+    for (uint32_t idx = 0; !rc && idx < pc.count; idx++) {
+        if (!par_merge_pieces_next(&pc, &tets, &nt)) {
+            rc = PDR_EINVAL; /* fewer live tetrahedra than counted */
+            break;
+        }
+        pr_buf b = PR_BUF_INIT;
+        if (pr_buf_reserve(&b, AM_HEADROOM + 8)) {
+            rc = PDR_ENOMEM;
+            break;
+        }
+        memset(b.data, 0, AM_HEADROOM);
+        pr_store_u32(b.data + AM_HEADROOM, idx);
+        pr_store_u32(b.data + AM_HEADROOM + 4, pc.count);
+        b.len = AM_HEADROOM + 8;
+        rc = par_wire_encode_tets(&b, s, tets, nt);
+        if (rc) {
+            pr_buf_free(&b);
+            break;
+        }
+        size_t len;
+        uint8_t *frame = pr_buf_take(&b, &len);
+        if (!frame) {
+            rc = PDR_ENOMEM;
+            break;
+        }
+        atomic_fetch_add(held, 1);
+        rc = am_send_zc(am, 0, H_MERGE, frame, len - AM_HEADROOM, free_frame, held);
+        if (rc) {
+            /* not handed over: freed here (am_send_zc's contract) */
+            atomic_fetch_sub(held, 1);
+            pr_free(frame);
+            *am_err = 1;
+            break;
+        }
+        /* out now, not at the rows' gather: rank 0 decodes it meanwhile */
+        am_flush(am);
+        while (!rc && atomic_load(held) > 0) {
+            rc = am_poll(am);
+            if (rc >= 0)
+                rc = atomic_load(held) > 0 ? am_idle(am, 0.001) : 0;
+            if (rc > 0)
+                rc = 0;
+            if (rc)
+                *am_err = 1;
+        }
     }
-    size_t len;
-    uint8_t *frame = pr_buf_take(&b, &len);
-    if (!frame)
-        return PDR_ENOMEM;
-    rc = am_send_zc(am, 0, H_MERGE, frame, len - AM_HEADROOM, free_frame, NULL);
-    if (rc) {
-        pr_free(frame);
-        *am_err = 1;
-        return rc;
-    }
-    /* out now, not at the rows' gather: rank 0 decodes it meanwhile */
-    am_flush(am);
-    return 0;
+    par_merge_pieces_free(&pc);
+    return rc;
 }
 
 /* ------------------------------------------------------- Table 1 rows */
@@ -337,7 +428,7 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
            size, parts, mo_tets, (unsigned long long)local, (unsigned long long)dist,
            (unsigned long long)setbacks, (unsigned long long)deferred,
            (unsigned long long)moved);
-    /* A PE's figures are of its whole run (its merge message made);
+    /* A PE's figures are of its whole run (its merge messages sent);
      * rank 0's hold the input and Mo, not the merged mesh, made after its
      * row (the summary's total line has that peak). The second figure
      * leaves out the file pages (the program's and the libraries' code),
@@ -355,7 +446,7 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     }
     if (size > 1)
         printf("PE memory: peak RSS per interior tetrahedron held: at most %llu bytes on PEs "
-               "1-%d (with its merge message), %llu on rank 0 (with the input and Mo); without "
+               "1-%d (with its merge messages), %llu on rank 0 (with the input and Mo); without "
                "file pages: "
                "at most %llu, %llu on rank 0; proportional (PSS): at most %llu, %llu on "
                "rank 0\n",
@@ -647,6 +738,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     plc p;
     memset(&p, 0, sizeof p);
     int have_plc = 0, have_sub = 0;
+    atomic_int merge_held; /* send_merge's frames, until am_finalize */
+    atomic_init(&merge_held, 0);
     par_sub s;
     ref_opts ro = mo->ref;
     ref_stats sum;
@@ -658,10 +751,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_merge_ahead ahead;
     memset(&ahead, 0, sizeof ahead);
     if (rank == 0) {
-        min.w = pr_calloc((size_t)size, sizeof *min.w);
-        min.rc = pr_calloc((size_t)size, sizeof *min.rc);
-        min.got = pr_calloc((size_t)size, 1);
-        if (!min.w || !min.rc || !min.got) {
+        min.pe = pr_calloc((size_t)size, sizeof *min.pe);
+        if (!min.pe) {
             fprintf(stderr, "pdr mesh: PE 0: out of memory\n");
             goto done;
         }
@@ -881,26 +972,25 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     }
 
     /* The submeshes and the rows to rank 0. Each PE but rank 0 sends its
-     * merge message (send_merge), which rank 0 decodes as it comes
+     * merge messages (send_merge), which rank 0 decodes as they come
      * (on_merge); rank 0 meanwhile takes its own submesh as it is and
      * checks its links on the way (par_wire_from_sub_pairs: no message),
      * then the rows are gathered. */
     int am_err = 0;
     /* What only the refinement used goes first, and the heap's free
-     * pages back to the system: a PE's memory peaks with its merge
-     * message. */
+     * pages back to the system, before the merge messages are made. */
     ref_release_work(&s.r);
     tm_drop_locks(&s.r.m);
 #ifdef HAVE_MALLOC_TRIM
     malloc_trim(0);
 #endif
     if (rank != 0)
-        rc = send_merge(am, &s, &am_err);
+        rc = send_merge(am, &s, &merge_held, &am_err);
     else
-        rc = par_wire_from_sub_pairs(&s, &min.w[0], size > 1 ? &ahead : NULL);
-    /* A PE's resident set peaks here, with its submesh and its merge
-     * message (and the tables the message was made from, freed since): the
-     * row's memory figures are of the whole run so far. */
+        rc = par_wire_from_sub_pairs(&s, &min.own, size > 1 ? &ahead : NULL);
+    /* The merge messages held a piece of the submesh encoded beside the
+     * submesh (and the tables each was made from, freed since): a sample
+     * here makes the row's memory figures those of the whole run. */
     pdr_mem_now mem_merge;
     pdr_mem_peak(&mem_merge);
     row.peak_rss = pdr_peak_rss();
@@ -921,7 +1011,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     have_sub = 0;
     if (rc && !am_err) {
         fprintf(stderr, "pdr mesh: PE %d: cannot %s: %s\n", rank,
-                rank ? "make its merge message" : "take its own submesh for the merge",
+                rank ? "make its merge messages" : "take its own submesh for the merge",
                 pdr_strerror(rc));
         fflush(stderr);
         _exit(PDR_EXIT_FAIL); /* the others would wait for its message */
@@ -932,10 +1022,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         rc = am_gather(am, rb.data, rb.len, &all_rows, &row_lens);
     pr_buf_free(&rb);
     /* Rank 0: the others' merge messages, each decoded in its handler. */
-    while (!rc && rank == 0 && min.ngot < size - 1) {
+    while (!rc && rank == 0 && min.ndone < size - 1) {
         rc = am_poll(am);
         if (rc >= 0)
-            rc = min.ngot < size - 1 ? am_idle(am, 0.25) : 0;
+            rc = min.ndone < size - 1 ? am_idle(am, 0.25) : 0;
         if (rc > 0)
             rc = 0;
     }
@@ -958,16 +1048,31 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         pr += row_lens[k];
     }
     if (!rc && min.stray) {
-        fprintf(stderr, "pdr mesh: %d merge message%s from rank 0 itself or a second time "
-                "from a PE\n", min.stray, min.stray == 1 ? "" : "s");
+        fprintf(stderr, "pdr mesh: %d merge message%s from rank 0 itself, malformed, or a "
+                "second time from a PE\n", min.stray, min.stray == 1 ? "" : "s");
         rc = PDR_EPARSE;
     }
     for (int k = 1; k < size && !rc; k++)
-        if (min.rc[k]) {
+        if (min.pe[k].rc) {
             fprintf(stderr, "pdr mesh: PE %d's merge message: %s\n", k,
-                    pdr_strerror(min.rc[k]));
-            rc = min.rc[k];
+                    pdr_strerror(min.pe[k].rc));
+            rc = min.pe[k].rc;
         }
+    /* Every PE's pieces in order of PE, rank 0's own first (the merge
+     * borrows them; merge_in_free clears them). */
+    uint32_t nw = 1;
+    for (int k = 1; k < size; k++)
+        nw += min.pe[k].count;
+    par_wire *wall = rc ? NULL : pr_malloc((size_t)nw * sizeof *wall);
+    if (!rc && !wall)
+        rc = PDR_ENOMEM;
+    if (!rc) {
+        uint32_t at = 0;
+        wall[at++] = min.own;
+        for (int k = 1; k < size; k++)
+            for (uint32_t i = 0; i < min.pe[k].count; i++)
+                wall[at++] = min.pe[k].w[i];
+    }
     uint64_t miss_s = 0, miss_f = 0;
     for (int k = 0; k < size && !rc; k++) {
         miss_s += rows[k].missing_segs;
@@ -977,10 +1082,10 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     memset(&rep, 0, sizeof rep);
     double tm = pdr_now();
     if (!rc)
-        rc = par_merge_build_wires(min.w, (uint32_t)size, &ahead, size > 1 ? 1 : 0, &c.p,
-                                   &c.o.ref, &c.r, &rep);
-    for (int k = 0; k < size; k++)
-        par_wire_clear(&min.w[k]);
+        rc = par_merge_build_wires(wall, nw, &ahead, size > 1 ? 1 : 0, &c.p, &c.o.ref, &c.r,
+                                   &rep);
+    pr_free(wall);
+    merge_in_free(&min);
     par_merge_ahead_free(&ahead);
     /* A subsegment or subfacet still missing on some PE (its split point
      * lay on a PE that did not know of it) goes into the merged mesh as
@@ -1119,12 +1224,7 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     rc = mp_conclude(&c, job_lines, &ji);
     status = rc ? PDR_EXIT_FAIL : PDR_EXIT_OK;
 done:
-    if (min.w)
-        for (int k = 0; k < size; k++)
-            par_wire_clear(&min.w[k]);
-    pr_free(min.w);
-    pr_free(min.rc);
-    pr_free(min.got);
+    merge_in_free(&min);
     par_merge_ahead_free(&ahead);
     pr_free(rows);
     pr_free(j.data);

@@ -68,6 +68,80 @@ int par_merge_encode(pr_buf *b, const par_sub *s)
     return par_wire_encode_sub(b, s);
 }
 
+int par_merge_pieces_init(par_merge_pieces *pc, const par_sub *s, uint32_t max)
+{
+    memset(pc, 0, sizeof *pc);
+    const tm_mesh *m = &s->r.m;
+    if (max == 0)
+        return PDR_EINVAL;
+    pc->m = m;
+    pc->left = m->nlive;
+    pc->max = max;
+    pc->count = (uint32_t)(((uint64_t)m->nlive + max - 1) / max);
+    size_t cap = m->nlive < max ? m->nlive : max;
+    pc->taken = pr_calloc((size_t)m->nslots / 64 + 1, sizeof *pc->taken);
+    pc->list = pr_malloc((cap ? cap : 1) * sizeof *pc->list);
+    if (!pc->taken || !pc->list) {
+        par_merge_pieces_free(pc);
+        return PDR_ENOMEM;
+    }
+    return 0;
+}
+
+static int piece_taken(const par_merge_pieces *pc, uint32_t t)
+{
+    return (pc->taken[t >> 6] >> (t & 63)) & 1;
+}
+
+static int cmp_slot(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t *nt)
+{
+    const tm_mesh *m = pc->m;
+    uint32_t want = pc->left < pc->max ? pc->left : pc->max, n = 0, head = 0;
+    while (n < want) {
+        if (head == n) { /* what the piece reaches is used up: a new seed */
+            while (pc->scan < m->nslots &&
+                   (tm_is_dead(m, pc->scan) || piece_taken(pc, pc->scan)))
+                pc->scan++;
+            if (pc->scan >= m->nslots)
+                break; /* nlive was wrong; the piece ends here */
+            pc->taken[pc->scan >> 6] |= UINT64_C(1) << (pc->scan & 63);
+            pc->list[n++] = pc->scan;
+        }
+        uint32_t t = pc->list[head++];
+        for (int i = 0; i < 4 && n < want; i++) {
+            tm_link l = m->tets[t].n[i];
+            if (tm_is_special(l))
+                continue;
+            uint32_t u = tm_ltet(l);
+            if (u >= m->nslots || tm_is_dead(m, u) || piece_taken(pc, u))
+                continue;
+            pc->taken[u >> 6] |= UINT64_C(1) << (u & 63);
+            pc->list[n++] = u;
+        }
+    }
+    pc->left -= n;
+    if (n == 0)
+        return 0;
+    /* ascending: the encoder then maps slots with a bit per slot */
+    qsort(pc->list, n, sizeof *pc->list, cmp_slot);
+    *tets = pc->list;
+    *nt = n;
+    return 1;
+}
+
+void par_merge_pieces_free(par_merge_pieces *pc)
+{
+    pr_free(pc->taken);
+    pr_free(pc->list);
+    memset(pc, 0, sizeof *pc);
+}
+
 #define NO_FACE UINT32_MAX
 
 /* A hint to load a cache line now (a no-op where the compiler has none). */
@@ -903,8 +977,8 @@ static void loose_alone(tm_mesh *m, const loose *a, par_merge_report *rep)
 }
 
 /* Two loose faces with the same vertices: linked, and each must name the
- * other's PE (or neither a PE, within one message); checked as in step
- * 4, suspect included. */
+ * other's PE (or neither a PE, within one PE: in one message, or between
+ * two pieces of its submesh); checked as in step 4, suspect included. */
 static void loose_pair(merge *g, tm_mesh *m, const loose *a, const loose *b,
                        par_merge_report *rep)
 {
@@ -916,7 +990,8 @@ static void loose_pair(merge *g, tm_mesh *m, const loose *a, const loose *b,
     int tin = ref_is_interior(m, t), uin = ref_is_interior(m, u);
     if (tin != uin)
         rep->unmarked_bounds += !(m->flags[tin ? t : u] & TM_F_FACEMARK(tin ? i : j));
-    uint32_t st = src_of(g, t), su = src_of(g, u);
+    /* the PEs the two faces came from (a PE's pieces are its messages) */
+    uint32_t st = g->w[src_of(g, t)].sm->rank, su = g->w[src_of(g, u)].sm->rank;
     if (st == su) {
         if (a->pe != PAR_PE_NONE || b->pe != PAR_PE_NONE)
             rep->iface_mismatch++;
@@ -1146,12 +1221,20 @@ static int decode_all(merge *g, const void *const *msg, const size_t *len, const
     return rc;
 }
 
-/* Message k is PE k's of n. */
+/* The messages are of one job's PEs 0..size-1 in ascending order, every
+ * PE's at least one (a PE's submesh may come in pieces, PAR_MERGE_PIECE). */
 static int wires_ok(const merge *g)
 {
-    for (uint32_t k = 0; k < g->n; k++)
-        if (!g->w[k].sm || g->w[k].sm->rank != k || g->w[k].sm->size != g->n)
+    if (g->n == 0 || !g->w[0].sm || g->w[0].sm->rank != 0)
+        return PDR_EPARSE;
+    uint32_t size = g->w[0].sm->size;
+    for (uint32_t k = 1; k < g->n; k++) {
+        const pr_submesh *sm = g->w[k].sm, *prev = g->w[k - 1].sm;
+        if (!sm || sm->size != size || (sm->rank != prev->rank && sm->rank != prev->rank + 1))
             return PDR_EPARSE;
+    }
+    if (g->w[g->n - 1].sm->rank + 1 != size)
+        return PDR_EPARSE;
     for (uint32_t k = 0; k < g->na; k++)
         if (g->ahead[k].tets != g->w[k].sm->tet.n)
             return PDR_EINVAL; /* not this message's */

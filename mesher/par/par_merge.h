@@ -77,10 +77,43 @@ size_t par_merge_problems(const par_merge_report *rep);
  * Returns as par_wire_encode_sub. */
 int par_merge_encode(pr_buf *b, const par_sub *s);
 
+/* A PE's submesh in pieces for the merge. Encoded whole, the message
+ * (about 70 bytes per tetrahedron) and the tables it is made from (about
+ * 40) would be held beside the mesh, which is where a PE's memory peaks;
+ * sent in pieces of at most PAR_MERGE_PIECE tetrahedra, each made once the
+ * one before is gone, only one piece's are. A piece grows breadth first
+ * over the links from the lowest live slot no piece has taken (and from
+ * the next such slot when what it reaches is used up), so that it is
+ * compact and the faces it shares with other pieces, which rank 0 matches
+ * by their vertices as it does interface faces, are few. Every live
+ * tetrahedron is in exactly one piece, and every piece but the last has
+ * PAR_MERGE_PIECE of them, so the count is known before the first. */
+#define PAR_MERGE_PIECE 8192u
+typedef struct par_merge_pieces {
+    const tm_mesh *m; /* borrowed */
+    uint64_t *taken;  /* bit per slot: in a piece already */
+    uint32_t *list;   /* [max]: the current piece's slots */
+    uint32_t scan;    /* the slots below are taken or dead */
+    uint32_t left;    /* live tetrahedra in no piece yet */
+    uint32_t count;   /* pieces in all */
+    uint32_t max;     /* tetrahedra per piece */
+} par_merge_pieces;
+/* Pieces of at most max (> 0) tetrahedra of s, which must not change
+ * until par_merge_pieces_free. Returns 0 or PDR_ENOMEM. */
+int par_merge_pieces_init(par_merge_pieces *pc, const par_sub *s, uint32_t max);
+/* The next piece: its slots in ascending order in *tets (valid until the
+ * next call) and their number in *nt. Returns 1, or 0 when every
+ * tetrahedron is in a piece already. */
+int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t *nt);
+void par_merge_pieces_free(par_merge_pieces *pc);
+
 /* Builds the whole mesh into *out (which this initialises with ref_init
- * for p and o; p must outlive it) from msg[k][0..len[k]), the message of
- * PE k for k < n. *rep gets the counts. Returns 0; PDR_EPARSE when a
- * message does not decode, or is not PE k's of n; PDR_ETOPOLOGY when
+ * for p and o; p must outlive it) from msg[k][0..len[k]), k < n, the
+ * messages of PEs 0..size-1 in ascending order of PE: one per PE, or
+ * several where a PE sent its submesh in pieces (par_merge_pieces; the
+ * faces between two pieces are matched as interface faces are, and must
+ * name no PE). *rep gets the counts. Returns 0; PDR_EPARSE when a
+ * message does not decode, or they are not in that order; PDR_ETOPOLOGY when
  * par_merge_problems(rep) > 0; PDR_ENOMEM or PDR_ELIMIT. On error *out is
  * freed (empty) and *rep holds what was counted. */
 int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const plc *p,
@@ -101,8 +134,9 @@ typedef par_wire_pairs par_merge_ahead;
 int par_merge_check_ahead(const par_wire *w, par_merge_ahead *a);
 #define par_merge_ahead_free par_wire_pairs_free
 
-/* par_merge_build on messages already decoded, w[k] PE k's (borrowed:
- * the caller clears them after), with ahead[k] par_merge_check_ahead's
+/* par_merge_build on messages already decoded, w[0..n) in the order of
+ * par_merge_build's (borrowed: the caller clears them after), with
+ * ahead[k] par_merge_check_ahead's
  * result for w[k] when k < na (na may be 0). The same mesh, report and
  * return codes as par_merge_build on the messages' bytes (PDR_EINVAL
  * when an ahead[k] is not w[k]'s). */

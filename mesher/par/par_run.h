@@ -167,11 +167,10 @@ typedef struct par_table1 {
     uint64_t peak_rss;       /* the PE's peak resident memory, bytes
                                 (getrusage's ru_maxrss; par_run_refine sets
                                 it at the end of the refinement, pdr mesh
-                                again once the PE's merge message is made,
-                                where a PE other than rank 0 peaks: its
-                                submesh and that message, at 10^6
-                                tetrahedra on 16 PEs about half as large
-                                as the submesh, held together) */
+                                again once the PE's merge messages are
+                                sent: the PE holds its submesh and one
+                                piece of it encoded at a time then,
+                                par_merge_pieces) */
     uint64_t peak_nonfile;   /* the largest resident memory without file
                                 pages of the PE's samples, bytes, each
                                 taken with pdr_mem_peak (an estimate of the
@@ -179,8 +178,8 @@ typedef struct par_table1 {
                                 at the end of the refinement (set here),
                                 and pdr mesh's once the submesh was built,
                                 on rank 0 once Mo was cut into the parts'
-                                messages, and once the merge message was
-                                made (rank 0: its own submesh taken for the
+                                messages, and once the merge messages were
+                                sent (rank 0: its own submesh taken for the
                                 merge). Not more often: a sample is a pass
                                 over /proc/self/smaps, whose cost grows
                                 with the resident pages (5 ms at 60 MB) */

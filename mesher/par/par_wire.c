@@ -551,6 +551,14 @@ static int sub_src(const par_sub *s, par_wire_src *src, uint32_t **tets)
     return 0;
 }
 
+int par_wire_encode_tets(pr_buf *b, const par_sub *s, const uint32_t *tets, uint32_t nt)
+{
+    const tm_mesh *m = &s->r.m;
+    par_wire_src src = {&s->r,   m->gid,      tets,   nt,     NULL, s->rank, s->rank,
+                        s->size, s->next_seq, s->ifc, s->nifc};
+    return par_wire_encode(b, &src);
+}
+
 int par_wire_encode_sub(pr_buf *b, const par_sub *s)
 {
     par_wire_src src;

@@ -245,6 +245,10 @@ int par_wire_load(const void *msg, size_t len, const plc *p, const ref_opts *o, 
  * faces (the PE each TM_LINK_REMOTE face names), s->next_seq, and part =
  * rank. Returns as par_wire_encode. */
 int par_wire_encode_sub(pr_buf *b, const par_sub *s);
+/* The same for the live tetrahedra tets[0..nt) of s only (a piece of its
+ * merge message, par_merge_pieces): their faces whose neighbour is not
+ * among them and on no other PE go as PAR_WIRE_LINK_NONE. */
+int par_wire_encode_tets(pr_buf *b, const par_sub *s, const uint32_t *tets, uint32_t nt);
 
 /* Per PLC vertex, 1 where two of its segments meet at less than 90
  * degrees (ref_mesher.seg_acute, which the sequential mesher computes in
