@@ -2006,7 +2006,8 @@ static void same_pairs(const par_merge_ahead *a, const par_merge_ahead *b)
 /* The merge as 'pdr mesh' runs it at rank 0 (cli/mesh_par.c): its own
  * submesh taken as it is (par_wire_from_sub_pairs: no message, its links
  * checked from the mesh ahead of the merge), the others' messages decoded
- * as they come (par_wire_decode_own), merged by par_merge_build_wires.
+ * as they come (par_wire_decode_own), merged by par_merge_build_wires
+ * (and by par_merge_build_wires_spent, which frees the tables it took).
  * Every wire and every check ahead is the same as from the messages'
  * bytes, and so are the merged mesh and the counts: with and without the
  * checks ahead, on a mesh that fits and with faults in PE 0's links. */
@@ -2048,6 +2049,38 @@ static void merge_own_case(const pr_buf *b, const par_sub *subs, uint32_t P, con
         par_merge_report r1;
         ck_assert_int_eq(par_merge_build_wires(w, P, pairs + 1, 1, p, NULL, &m1, &r1),
                          PDR_EINVAL);
+    }
+    /* the merge that frees the tables as it takes them (as 'pdr mesh'
+     * runs it, par_merge_build_wires_spent): the same mesh and counts on a
+     * mesh that fits; on a fault, the same code with the first run's
+     * counts, which find it */
+    for (uint32_t na = 0; na <= P; na += P) {
+        par_wire ws[3];
+        par_merge_ahead ps[3];
+        for (uint32_t k = 0; k < P; k++)
+            ck_assert_int_eq(par_wire_from_sub_pairs(&subs[k], &ws[k], &ps[k]), 0);
+        ref_mesher m1;
+        par_merge_report r1;
+        ck_assert_int_eq(par_merge_build_wires_spent(ws, P, ps, na, p, NULL, &m1, &r1), expect);
+        if (!expect) {
+            ck_assert(!memcmp(&r0, &r1, sizeof r0));
+            same_merged(&m0, &m1);
+            ref_free(&m1);
+        } else {
+            ck_assert_uint_gt(par_merge_problems(&r1), 0);
+        }
+        for (uint32_t k = 0; k < P; k++) {
+            /* taken and freed, the counts kept */
+            ck_assert_ptr_null(ws[k].sm->vert.gid);
+            ck_assert_uint_eq(ws[k].sm->vert.n, w[k].sm->vert.n);
+            if (!expect) {
+                ck_assert_ptr_null(ws[k].sm->tet.v);
+                ck_assert_ptr_null(ws[k].own);
+            }
+            ck_assert_uint_eq(ws[k].sm->tet.n, w[k].sm->tet.n);
+            par_wire_clear(&ws[k]);
+            par_merge_ahead_free(&ps[k]);
+        }
     }
     if (!expect)
         ref_free(&m0);

@@ -1,7 +1,7 @@
 /* cli/mesh_par.c -- the parallel driver of 'pdr mesh' (see cli/mesh_par.h). */
 #include "config.h"
 
-#ifdef HAVE_MALLOC_TRIM
+#if defined HAVE_MALLOC_TRIM || defined HAVE_MALLOPT
 #include <malloc.h>
 #endif
 
@@ -33,6 +33,9 @@
 #define H_JOB 90
 /* Handler of the merge messages the PEs but rank 0 send it at the end. */
 #define H_MERGE 91
+/* Rank 0's threshold from which a block is mapped alone during the merge
+ * (glibc's default, fixed: see mpar_run). */
+#define MMAP_THRESHOLD_MERGE (128 * 1024)
 /* The default Mo: about the paper's 10^5 tetrahedra, but no more than a
  * tenth of the final mesh when the volume bound tells how large that is. */
 #define MO_SIZE_PAPER 100000.0
@@ -395,8 +398,15 @@ static void print_row(const char *label, const par_table1 *t)
            100.0 * par_table1_tolerance(t), t->poll_s, t->poll_excess_s);
 }
 
+/* Rank 0's whole-process peak with the merged mesh of tets interior
+ * tetrahedra, bytes per tetrahedron: RSS, without file pages, PSS. */
+typedef struct merged_mem {
+    uint64_t rss, nonfile, pss;
+} merged_mem;
+
 /* The summary lines of the parallel run (rank 0). */
-static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_t mo_tets)
+static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_t mo_tets,
+                         const merged_mem *mm)
 {
     par_table1 avg = {0};
     uint64_t local = 0, dist = 0, setbacks = 0, moved = 0, deferred = 0;
@@ -429,10 +439,10 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
            (unsigned long long)setbacks, (unsigned long long)deferred,
            (unsigned long long)moved);
     /* A PE's figures are of its whole run (its merge messages sent);
-     * rank 0's hold the input and Mo, not the merged mesh, made after its
-     * row (the summary's total line has that peak). The second figure
-     * leaves out the file pages (the program's and the libraries' code),
-     * which RSS counts in every PE. */
+     * rank 0's row holds the input and Mo, up to the merge, and mm its
+     * whole run, merge included, per tetrahedron of the merged mesh. The
+     * second figure leaves out the file pages (the program's and the
+     * libraries' code), which RSS counts in every PE. */
     uint64_t worst_b = 0, rank0_b = rows[0].tets_end ? rows[0].peak_rss / rows[0].tets_end : 0;
     uint64_t worst_nf = 0, rank0_nf = rows[0].tets_end ? rows[0].peak_nonfile / rows[0].tets_end : 0;
     uint64_t worst_ps = 0, rank0_ps = rows[0].tets_end ? rows[0].peak_pss / rows[0].tets_end : 0;
@@ -446,13 +456,15 @@ static void print_table1(const par_table1 *rows, int size, uint32_t parts, size_
     }
     if (size > 1)
         printf("PE memory: peak RSS per interior tetrahedron held: at most %llu bytes on PEs "
-               "1-%d (with its merge messages), %llu on rank 0 (with the input and Mo); without "
-               "file pages: "
-               "at most %llu, %llu on rank 0; proportional (PSS): at most %llu, %llu on "
-               "rank 0\n",
+               "1-%d (with its merge messages), on rank 0 %llu before the merge (with the "
+               "input and Mo) and %llu with the merged mesh; without file pages: at most "
+               "%llu, rank 0 %llu and %llu; proportional (PSS): at most %llu, rank 0 %llu and "
+               "%llu\n",
                (unsigned long long)worst_b, size - 1, (unsigned long long)rank0_b,
-               (unsigned long long)worst_nf, (unsigned long long)rank0_nf,
-               (unsigned long long)worst_ps, (unsigned long long)rank0_ps);
+               (unsigned long long)mm->rss, (unsigned long long)worst_nf,
+               (unsigned long long)rank0_nf, (unsigned long long)mm->nonfile,
+               (unsigned long long)worst_ps, (unsigned long long)rank0_ps,
+               (unsigned long long)mm->pss);
     printf("table 1 (s):    execution  completed  masked local (dist)   setback  tolerance"
            "  poll (excess)\n");
     char label[32];
@@ -484,7 +496,12 @@ static void job_lines(const mp_ctx *c, void *arg)
     const double *t = j->sec;
     if (c->o.quiet)
         return;
-    print_table1(j->rows, j->size, j->parts, j->mo_tets);
+    /* rank 0's whole run, the merged mesh made and written */
+    pdr_mem_now now;
+    pdr_mem_peak(&now);
+    size_t nt = c->out.view.nt ? c->out.view.nt : 1;
+    merged_mem mm = {pdr_peak_rss() / nt, now.nonfile / nt, now.pss / nt};
+    print_table1(j->rows, j->size, j->parts, j->mo_tets, &mm);
     printf("parallel time: distribute %.3f, refine %.3f, gather %.3f, merge %.3f s (of "
            "which rank 0's finish %.3f)\n",
            t[0], t[1], t[2], t[3], t[4]);
@@ -984,13 +1001,13 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
 #ifdef HAVE_MALLOC_TRIM
     malloc_trim(0);
 #endif
+    /* A PE's merge messages held a piece of its submesh encoded beside
+     * it (and the tables each was made from, freed since): a sample after
+     * them makes the row's memory figures those of the whole run. Rank
+     * 0's row stops before the merge, where it comes to hold the whole
+     * mesh (job_lines gives that peak apart). */
     if (rank != 0)
         rc = send_merge(am, &s, &merge_held, &am_err);
-    else
-        rc = par_wire_from_sub_pairs(&s, &min.own, size > 1 ? &ahead : NULL);
-    /* The merge messages held a piece of the submesh encoded beside the
-     * submesh (and the tables each was made from, freed since): a sample
-     * here makes the row's memory figures those of the whole run. */
     pdr_mem_now mem_merge;
     pdr_mem_peak(&mem_merge);
     row.peak_rss = pdr_peak_rss();
@@ -998,6 +1015,20 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
         row.peak_nonfile = mem_merge.nonfile;
     if (row.peak_pss < mem_merge.pss)
         row.peak_pss = mem_merge.pss;
+    if (rank == 0) {
+#if defined HAVE_MALLOPT && defined M_MMAP_THRESHOLD
+        /* The merge frees each piece's tables once it has taken them
+         * (par_merge_build_wires_spent). glibc raises its threshold for
+         * mapping a block alone to the largest such block freed, and the
+         * pieces' blocks (a few hundred KiB) would then come from the
+         * heap, whose freed pages stay resident: a fixed threshold gives
+         * them back as they go (10^6 tetrahedra on 2 PEs: rank 0's peak
+         * 118-130 MB against 133-138 without, bench/parallel.md run
+         * 31). */
+        mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_MERGE);
+#endif
+        rc = par_wire_from_sub_pairs(&s, &min.own, size > 1 ? &ahead : NULL);
+    }
     if (po->stats && write_row_json(po->stats, rank, size, &row))
         fprintf(stderr, "pdr mesh: PE %d: cannot write %s/table1-%d.json\n", rank, po->stats,
                 rank);
@@ -1058,8 +1089,8 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
                     pdr_strerror(min.pe[k].rc));
             rc = min.pe[k].rc;
         }
-    /* Every PE's pieces in order of PE, rank 0's own first (the merge
-     * borrows them; merge_in_free clears them). */
+    /* Every PE's pieces in order of PE, rank 0's own first, moved into
+     * wall (the merge frees their tables as it goes; cleared below). */
     uint32_t nw = 1;
     for (int k = 1; k < size; k++)
         nw += min.pe[k].count;
@@ -1069,9 +1100,12 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     if (!rc) {
         uint32_t at = 0;
         wall[at++] = min.own;
+        memset(&min.own, 0, sizeof min.own);
         for (int k = 1; k < size; k++)
-            for (uint32_t i = 0; i < min.pe[k].count; i++)
+            for (uint32_t i = 0; i < min.pe[k].count; i++) {
                 wall[at++] = min.pe[k].w[i];
+                memset(&min.pe[k].w[i], 0, sizeof min.pe[k].w[i]);
+            }
     }
     uint64_t miss_s = 0, miss_f = 0;
     for (int k = 0; k < size && !rc; k++) {
@@ -1081,9 +1115,17 @@ int mpar_run(const mp_opts *mo, const mpar_opts *po)
     par_merge_report rep;
     memset(&rep, 0, sizeof rep);
     double tm = pdr_now();
-    if (!rc)
+    /* The merge frees each piece's tables once it has taken them, but
+     * then cannot count a fault in full (its careful run):
+     * PDR_REF_CHECK keeps them for that. */
+    if (!rc && (po->check_end || mo->ref.check_each_step))
         rc = par_merge_build_wires(wall, nw, &ahead, size > 1 ? 1 : 0, &c.p, &c.o.ref, &c.r,
                                    &rep);
+    else if (!rc)
+        rc = par_merge_build_wires_spent(wall, nw, &ahead, size > 1 ? 1 : 0, &c.p, &c.o.ref,
+                                         &c.r, &rep);
+    for (uint32_t k = 0; wall && k < nw; k++)
+        par_wire_clear(&wall[k]);
     pr_free(wall);
     merge_in_free(&min);
     par_merge_ahead_free(&ahead);

@@ -46,6 +46,9 @@
 #include "config.h"
 
 #include <stdlib.h>
+#ifdef HAVE_MALLOC_TRIM
+#include <malloc.h>
+#endif
 #include <string.h>
 
 #include "pr_alloc.h"
@@ -172,6 +175,9 @@ typedef struct link_tally {
 typedef struct merge {
     const par_wire *w; /* [n] decoded messages (borrowed) */
     par_wire *own_w; /* w when the merge decoded them itself, else NULL */
+    par_wire *spend; /* w when the merge frees each message's vertex and
+                        tetrahedron tables once it has taken them (the
+                        first run of par_merge_build_wires_spent), else NULL */
     const par_merge_ahead *ahead; /* [na]: messages 0..na-1's step 4 done */
     uint32_t na;
     uint32_t n;
@@ -434,6 +440,13 @@ static unsigned merge_threads(uint32_t n, size_t total)
     return c < n ? c : n;
 }
 
+/* A face's marker as sent, for the pass after step 2's tasks (the mesh's
+ * marker map is one for all of them). */
+typedef struct face_mark {
+    uint32_t f; /* tm_mklink(merged slot, face) */
+    int32_t marker;
+} face_mark;
+
 /* One message's tetrahedra (step 2), a task of base/fj: message k into
  * the slots from g->base[k], taken already; its loose faces into lf (in
  * the order of its faces), its ghosts counted. Writes only its own slots
@@ -449,7 +462,17 @@ typedef struct tet_task {
     link_tally tally; /* its counts then */
     uint64_t *hash;  /* its pairs' face hashes then, owned until handed over */
     size_t nhash, caphash;
+    face_mark *mk;   /* its marked faces, in face order, owned */
+    size_t nmk, capmk;
 } tet_task;
+
+static int put_mark(tet_task *a, uint32_t f, int32_t marker)
+{
+    if (pdr_grow((void **)&a->mk, &a->capmk, a->nmk + 1, sizeof *a->mk))
+        return PDR_ENOMEM;
+    a->mk[a->nmk++] = (face_mark){f, marker};
+    return 0;
+}
 
 static int put_loose(tet_task *a, uint32_t f, uint32_t pe)
 {
@@ -555,11 +578,14 @@ static int tet_task_run(void *arg)
                 if (rc)
                     return rc;
             }
-            /* the marker itself: add_tets, after the tasks (the marker
-             * map is one for all of them) */
+            /* the marker itself: add_tets, after the tasks */
             int32_t mk = sm->tet.marker[x];
-            if (mk != PR_MARKER_NONE)
+            if (mk != PR_MARKER_NONE) {
                 fl |= TM_F_FACEMARK(i);
+                int rc = put_mark(a, tm_mklink(t, i), mk);
+                if (rc)
+                    return rc;
+            }
         }
         fl |= (uint16_t)((sm->tet.subseg[j] & PR_SUBSEG_MASK) * TM_F_SUBSEG0);
         m->flags[t] = fl;
@@ -569,6 +595,8 @@ static int tet_task_run(void *arg)
         if (g->careful)
             g->hash[t] = tet_hash(g->vk, T->v);
     }
+    if (g->spend)
+        par_wire_drop_tets(&g->spend[a->k]);
     return 0;
 }
 
@@ -618,13 +646,10 @@ static int add_tets(merge *g, ref_mesher *r)
         rc = ft[k].rc;
     /* The face markers, the sent ones + 1 (0 for none), in one pass: the
      * tasks above share the mesh's one marker map (tm.h). */
-    for (uint32_t k = 0; k < g->n && !rc; k++) {
-        const pr_submesh *sm = g->w[k].sm;
-        for (size_t x = 0; x < 4 * (size_t)sm->tet.n && !rc; x++)
-            if (sm->tet.marker[x] != PR_MARKER_NONE)
-                rc = tm_set_marker(m, g->base[k] + (uint32_t)(x >> 2), (int)(x & 3),
-                                   sm->tet.marker[x] + 1);
-    }
+    for (uint32_t k = 0; k < g->n && !rc; k++)
+        for (size_t x = 0; x < a[k].nmk && !rc; x++)
+            rc = tm_set_marker(m, tm_ltet(a[k].mk[x].f), tm_lface(a[k].mk[x].f),
+                               a[k].mk[x].marker + 1);
     size_t nlf = 0, nh = 0;
     for (uint32_t k = 0; k < g->n && !rc; k++) {
         nlf += a[k].nlf;
@@ -668,6 +693,7 @@ static int add_tets(merge *g, ref_mesher *r)
         }
         pr_free(a[k].lf);
         pr_free(a[k].hash);
+        pr_free(a[k].mk);
     }
     pr_free(a);
     pr_free(ft);
@@ -1263,8 +1289,17 @@ static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
         m->gid[0] = PAR_GID_INF;
         rc = add_vertices(g, out, rep);
     }
+    /* the messages' vertices are in the mesh now (g->loc maps them) */
+    for (uint32_t k = 0; k < g->n && g->spend && !rc; k++)
+        par_wire_drop_vertices(&g->spend[k]);
     if (!rc)
         rc = add_tets(g, out);
+#ifdef HAVE_MALLOC_TRIM
+    /* the messages' tables that add_tets freed, back to the system
+     * before steps 5-6 take their own */
+    if (g->spend)
+        malloc_trim(0);
+#endif
     if (!rc && g->careful)
         rc = find_dup_tets(g, m, rep);
     if (!rc)
@@ -1294,7 +1329,7 @@ static int merge_all(merge *g, ref_mesher *out, par_merge_report *rep)
  * the later copies first and count what is left, as the report says. */
 /* The two runs (see par_merge_build) on the messages w[0..n), decoded
  * into own (freed here) when the caller gave the bytes. */
-static int build_runs(const par_wire *w, par_wire *own, uint32_t n,
+static int build_runs(const par_wire *w, par_wire *own, par_wire *spend, uint32_t n,
                       const par_merge_ahead *ahead, uint32_t na, const plc *p,
                       const ref_opts *o, ref_mesher *out, par_merge_report *rep)
 {
@@ -1311,8 +1346,19 @@ static int build_runs(const par_wire *w, par_wire *own, uint32_t n,
         g.ahead = ahead;
         g.na = na < n ? na : n;
         g.careful = careful;
+        g.spend = spend;
         rc = n ? merge_all(&g, out, rep) : PDR_EINVAL;
         int again = !careful && (rc == PDR_ETOPOLOGY || (!rc && g.suspect));
+        if (again && spend) {
+            /* no careful run without the tables: the first run's counts,
+             * a pair of linked tetrahedra with one vertex set being a
+             * tetrahedron sent twice */
+            again = 0;
+            if (!rc) {
+                rep->dup_tets++;
+                rc = PDR_ETOPOLOGY;
+            }
+        }
         st_free(&g);
         if (rc || again)
             ref_free(out);
@@ -1348,7 +1394,7 @@ int par_merge_build(const void *const *msg, const size_t *len, uint32_t n, const
             ref_free(out);
         return irc ? irc : rc;
     }
-    return build_runs(own, own, n, NULL, 0, p, o, out, rep);
+    return build_runs(own, own, NULL, n, NULL, 0, p, o, out, rep);
 }
 
 int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *ahead,
@@ -1356,7 +1402,15 @@ int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *
                           par_merge_report *rep)
 {
     memset(rep, 0, sizeof *rep);
-    return build_runs(w, NULL, n, ahead, na, p, o, out, rep);
+    return build_runs(w, NULL, NULL, n, ahead, na, p, o, out, rep);
+}
+
+int par_merge_build_wires_spent(par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                                uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                                par_merge_report *rep)
+{
+    memset(rep, 0, sizeof *rep);
+    return build_runs(w, NULL, w, n, ahead, na, p, o, out, rep);
 }
 
 /* The other side of face x's link, asked for a few faces ahead (as

@@ -144,6 +144,20 @@ int par_merge_build_wires(const par_wire *w, uint32_t n, const par_merge_ahead *
                           uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
                           par_merge_report *rep);
 
+/* par_merge_build_wires that frees each message's vertex and
+ * tetrahedron tables once it has taken them (par_wire_drop_vertices,
+ * par_wire_drop_tets), so that the messages and the merged mesh are not
+ * held whole at once: at 10^6 tetrahedra the tables are about 55 bytes
+ * per tetrahedron beside the mesh's 70. The careful run cannot be made
+ * then: when the first run finds a fault, its own counts are returned
+ * with PDR_ETOPOLOGY (they say that the pieces do not fit and of what
+ * kind, but count less than the careful run would; two linked
+ * tetrahedra with one vertex set count as one tetrahedron sent twice).
+ * The caller still clears w. */
+int par_merge_build_wires_spent(par_wire *w, uint32_t n, const par_merge_ahead *ahead,
+                                uint32_t na, const plc *p, const ref_opts *o, ref_mesher *out,
+                                par_merge_report *rep);
+
 /* The subsegments and subfacets still missing on PE s when its
  * refinement ends (a piece whose split point lay on another PE, which
  * did not know of it): appended to b as u32 n, then n times u8 nv (2 or

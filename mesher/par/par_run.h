@@ -170,7 +170,8 @@ typedef struct par_table1 {
                                 again once the PE's merge messages are
                                 sent: the PE holds its submesh and one
                                 piece of it encoded at a time then,
-                                par_merge_pieces) */
+                                par_merge_pieces; rank 0's before its
+                                merge) */
     uint64_t peak_nonfile;   /* the largest resident memory without file
                                 pages of the PE's samples, bytes, each
                                 taken with pdr_mem_peak (an estimate of the
@@ -179,10 +180,11 @@ typedef struct par_table1 {
                                 and pdr mesh's once the submesh was built,
                                 on rank 0 once Mo was cut into the parts'
                                 messages, and once the merge messages were
-                                sent (rank 0: its own submesh taken for the
-                                merge). Not more often: a sample is a pass
-                                over /proc/self/smaps, whose cost grows
-                                with the resident pages (5 ms at 60 MB) */
+                                sent (rank 0: before it takes its own
+                                submesh for the merge). Not more often: a
+                                sample is a pass over /proc/self/smaps,
+                                whose cost grows with the resident pages
+                                (5 ms at 60 MB) */
     uint64_t peak_pss;       /* the largest proportional set size
                                 (pdr_mem_sample's pss) of the same samples,
                                 bytes */

@@ -772,6 +772,37 @@ void par_wire_clear(par_wire *w)
     memset(w, 0, sizeof *w);
 }
 
+void par_wire_drop_vertices(par_wire *w)
+{
+    uint32_t n = w->sm ? w->sm->vert.n : 0;
+    if (w->sm) {
+        pr_vtable_clear(&w->sm->vert);
+        w->sm->vert.n = n;
+    }
+    pr_free(w->vkind);
+    pr_free(w->vfeat);
+    pr_free(w->vrins);
+    w->vkind = NULL;
+    w->vfeat = NULL;
+    w->vrins = NULL;
+}
+
+void par_wire_drop_tets(par_wire *w)
+{
+    uint32_t n = w->sm ? w->sm->tet.n : 0;
+    if (w->sm) {
+        pr_ttable_clear(&w->sm->tet);
+        w->sm->tet.n = n;
+    }
+    if (w->own) {
+        pr_free(w->own);
+        w->own = NULL;
+        w->tflags_le = NULL;
+        w->region_le = NULL;
+        w->link_le = NULL;
+    }
+}
+
 /* The feature index a vertex of this kind may have. */
 static int vfeat_ok(const plc *p, uint8_t kind, uint32_t feat)
 {

@@ -184,6 +184,13 @@ int par_wire_encode(pr_buf *b, const par_wire_src *src);
  * value out of range) or PDR_ENOMEM. */
 int par_wire_decode(const void *msg, size_t len, const plc *p, par_wire *out);
 void par_wire_clear(par_wire *w);
+/* Free w's vertex table (gids, coordinates, flags, kinds, features,
+ * insertion radii), or its tetrahedron table with the extension's
+ * per-tetrahedron arrays when w owns them (own), keeping the counts
+ * sm->vert.n and sm->tet.n; w is good then only for par_wire_clear and
+ * what reads neither (the merge, see par_merge_build_wires_spent). */
+void par_wire_drop_vertices(par_wire *w);
+void par_wire_drop_tets(par_wire *w);
 
 /* par_wire_decode, then the per-tetrahedron arrays of the extension
  * copied into out->own (20 bytes per tetrahedron, against the whole
