@@ -197,3 +197,9 @@ void pdr_progress_end(pdr_progress *p)
     if (p->shown && p->tty)
         fputc('\n', stderr);
 }
+
+int pdr_cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}

@@ -60,6 +60,9 @@ void pdr_mem_peak(pdr_mem_now *out);
  * elements, doubling its capacity (from 64) so that n appends cost O(n).
  * Returns 0, or PDR_ENOMEM with *p and *cap unchanged. The check that
  * usually succeeds is inline; the reallocation is not. */
+/* qsort and bsearch comparator of uint32_t values, ascending. */
+int pdr_cmp_u32(const void *a, const void *b);
+
 int pdr__grow_slow(void **p, size_t *cap, size_t need, size_t size);
 static inline int pdr_grow(void **p, size_t *cap, size_t need, size_t size)
 {

@@ -96,10 +96,9 @@ static int piece_taken(const par_merge_pieces *pc, uint32_t t)
     return (pc->taken[t >> 6] >> (t & 63)) & 1;
 }
 
-static int cmp_slot(const void *a, const void *b)
+static void piece_take(par_merge_pieces *pc, uint32_t t)
 {
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
+    pc->taken[t >> 6] |= UINT64_C(1) << (t & 63);
 }
 
 int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t *nt)
@@ -113,7 +112,7 @@ int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t 
                 pc->scan++;
             if (pc->scan >= m->nslots)
                 break; /* nlive was wrong; the piece ends here */
-            pc->taken[pc->scan >> 6] |= UINT64_C(1) << (pc->scan & 63);
+            piece_take(pc, pc->scan);
             pc->list[n++] = pc->scan;
         }
         uint32_t t = pc->list[head++];
@@ -124,7 +123,7 @@ int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t 
             uint32_t u = tm_ltet(l);
             if (u >= m->nslots || tm_is_dead(m, u) || piece_taken(pc, u))
                 continue;
-            pc->taken[u >> 6] |= UINT64_C(1) << (u & 63);
+            piece_take(pc, u);
             pc->list[n++] = u;
         }
     }
@@ -132,7 +131,7 @@ int par_merge_pieces_next(par_merge_pieces *pc, const uint32_t **tets, uint32_t 
     if (n == 0)
         return 0;
     /* ascending: the encoder then maps slots with a bit per slot */
-    qsort(pc->list, n, sizeof *pc->list, cmp_slot);
+    qsort(pc->list, n, sizeof *pc->list, pdr_cmp_u32);
     *tets = pc->list;
     *nt = n;
     return 1;

@@ -8,6 +8,7 @@
 
 #include "pr_alloc.h"
 #include "base/outfile.h"
+#include "base/pdr_util.h"
 #include "plc/plc.h"
 #include "plc/plc_int.h"
 
@@ -454,12 +455,6 @@ static int derive_segments(plc *p)
     return 0;
 }
 
-static int cmp_u32(const void *x, const void *y)
-{
-    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
-    return a < b ? -1 : a > b;
-}
-
 static int derive_incidence(plc *p)
 {
     size_t nv = p->nv;
@@ -524,7 +519,7 @@ static int derive_incidence(plc *p)
      * fill loop runs over s increasing); keep them sorted for lookups. */
     for (size_t v = 0; v < nv; v++)
         qsort(p->v_segs + p->v_sstart[v], p->v_sstart[v + 1] - p->v_sstart[v],
-              sizeof *p->v_segs, cmp_u32);
+              sizeof *p->v_segs, pdr_cmp_u32);
     return 0;
 }
 

@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/pdr_util.h"
 #include "plc/plc.h"
 #include "plc/plc_int.h"
 #include "geom/pred.h"
@@ -95,12 +96,6 @@ static int collinear3(const double *a, const double *b, const double *c)
     return 1;
 }
 
-static int cmp_u32(const void *x, const void *y)
-{
-    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
-    return a < b ? -1 : a > b;
-}
-
 static int check_polygons(const plc *p, pdr_diag *diag)
 {
     int bad = 0;
@@ -119,7 +114,7 @@ static int check_polygons(const plc *p, pdr_diag *diag)
                 return PDR_ENOMEM;
             }
             memcpy(tmp, c, q->n * sizeof *c);
-            qsort(tmp, q->n, sizeof *tmp, cmp_u32);
+            qsort(tmp, q->n, sizeof *tmp, pdr_cmp_u32);
             int rep = 0;
             for (uint32_t i = 1; i < q->n && !rep; i++)
                 if (tmp[i] == tmp[i - 1]) {

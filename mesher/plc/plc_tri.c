@@ -31,6 +31,7 @@
 #include <string.h>
 
 #include "pr_alloc.h"
+#include "base/pdr_util.h"
 #include "plc/plc_int.h"
 #include "geom/pred.h"
 #include "plc/plc_tri.h"
@@ -476,15 +477,9 @@ static int insert_segment(plc_cdt *w, uint32_t a, uint32_t b, plc_cdt_fail *fail
 
 /* ------------------------------------------------------------ the facet */
 
-static int cmp_u32(const void *x, const void *y)
-{
-    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
-    return a < b ? -1 : a > b;
-}
-
 static uint32_t local_id(const plc_cdt *w, size_t m, uint32_t g)
 {
-    const uint32_t *hit = bsearch(&g, w->gid, m, sizeof *w->gid, cmp_u32);
+    const uint32_t *hit = bsearch(&g, w->gid, m, sizeof *w->gid, pdr_cmp_u32);
     return (uint32_t)(hit - w->gid);
 }
 
@@ -531,7 +526,7 @@ int plc_cdt_facet(plc_cdt *w, const plc *p, size_t f, plc_cdt_fail *fail)
         for (uint32_t i = 0; i < q->n; i++)
             w->gid[m++] = p->corners[q->first + i];
     }
-    qsort(w->gid, m, sizeof *w->gid, cmp_u32);
+    qsort(w->gid, m, sizeof *w->gid, pdr_cmp_u32);
     size_t u = 0;
     for (size_t i = 0; i < m; i++)
         if (i == 0 || w->gid[i] != w->gid[i - 1])
