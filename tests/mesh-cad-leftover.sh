@@ -20,8 +20,8 @@
 #
 # The summary also says which of the tetrahedra given up for want of a
 # usable circumcentre are flat ("degenerate": no circumcentre in conflict
-# with them) and which had one whose cavity could not be made ("hidden");
-# it had one label for both. joint's are hidden ones.
+# with them, or flat on a facet) and which had one whose cavity could not
+# be made ("hidden"); it had one label for both. joint's are hidden ones.
 #
 # The passes stop once they have added more than a quarter of the
 # vertices the mesh had before them (REF_SHRINK_GROWTH): on pipe, a thin
@@ -82,11 +82,22 @@ grep -q '^input preparation: 80 segments along thin facets cut' "$tmp/pipe.out" 
 # are gone, and what it leaves for want of a usable circumcentre is
 # hidden, not degenerate (no flat one).
 line=$(grep '^left above the bound:' "$tmp/joint.out")
-kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no circumcentre in conflict), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
+kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no usable circumcentre), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
 [ -n "$kinds" ] || fail "joint: no labelled kinds in '$line'"
 set -- $kinds
 [ "$1" -eq $(($2 + $3 + $4 + $5 + $6)) ] || fail "joint: the kinds do not add up: $line"
 [ "$3" -le 4 ] || fail "joint: $3 given up elsewhere (44 before the leftover passes)"
 [ "$4" -eq 0 ] && [ "$5" -gt 0 ] || fail "joint: expected hidden ones and no degenerate: $line"
 echo "joint: $line"
+
+# rotor_small leaves tetrahedra flat on a facet once their facet's splits
+# are spent (refine_run.c, flat_spent): degenerate, not hidden (all 14
+# were counted hidden before; 11 degenerate and 3 hidden since).
+line=$(grep '^left above the bound:' "$tmp/rotor_small.out")
+kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no usable circumcentre), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
+[ -n "$kinds" ] || fail "rotor_small: no labelled kinds in '$line'"
+set -- $kinds
+[ "$1" -eq $(($2 + $3 + $4 + $5 + $6)) ] || fail "rotor_small: the kinds do not add up: $line"
+[ "$4" -gt 0 ] || fail "rotor_small: expected flat ones counted degenerate: $line"
+echo "rotor_small: $line"
 echo "ok"

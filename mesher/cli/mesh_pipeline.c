@@ -725,7 +725,7 @@ static void print_left(const mp_ctx *c)
            c->o.ref.ratio);
     if (st->left_ratio)
         printf(" (%zu next to small input angles, %zu given up elsewhere (their splits "
-               "refused), %zu degenerate (flat: no circumcentre in conflict), %zu hidden "
+               "refused), %zu degenerate (flat: no usable circumcentre), %zu hidden "
                "(circumcentre's cavity not made), %zu other)",
                st->left_ratio_angle, st->left_ratio_refused, st->left_ratio_degenerate,
                st->left_ratio_hidden,

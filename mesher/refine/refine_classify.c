@@ -462,9 +462,12 @@ static int count_share_run(void *arg)
                              isfinite(cc[2]);
                 if (m->flags[t] & REF_F_DEGENERATE) {
                     /* split_tet's test of a flat tetrahedron: no
-                     * circumcentre in conflict with it. Otherwise that
-                     * point was usable and its cavity was not. */
-                    if (finite && dt_conflict(m, t, cc) > 0)
+                     * circumcentre in conflict with it; or flat on a
+                     * facet (why 3), left once its splits were spent,
+                     * whose circumcentre is finite but ill-conditioned.
+                     * Otherwise that point was usable and its cavity
+                     * was not. */
+                    if (why != 3 && finite && dt_conflict(m, t, cc) > 0)
                         c->hidden++;
                     else
                         c->degenerate++;
