@@ -78,14 +78,21 @@ EOF
 grep -q '^input preparation: 80 segments along thin facets cut' "$tmp/pipe.out" ||
     fail "pipe: no line for the segments cut along thin facets"
 
-# The summary's kinds add up, each labelled; joint's given up elsewhere
-# are gone, and what it leaves for want of a usable circumcentre is
-# hidden, not degenerate (no flat one).
-line=$(grep '^left above the bound:' "$tmp/joint.out")
-kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no usable circumcentre), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
-[ -n "$kinds" ] || fail "joint: no labelled kinds in '$line'"
+# The labelled kinds of $1's "left above the bound" line into $kinds
+# ("total angle refused degenerate hidden other") and $line, checked to
+# add up.
+kinds_of() {
+    line=$(grep '^left above the bound:' "$tmp/$1.out")
+    kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no usable circumcentre), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
+    [ -n "$kinds" ] || fail "$1: no labelled kinds in '$line'"
+    set -- $kinds
+    [ "$1" -eq $(($2 + $3 + $4 + $5 + $6)) ] || fail "the kinds do not add up: $line"
+}
+
+# joint's given up elsewhere are gone, and what it leaves for want of a
+# usable circumcentre is hidden, not degenerate (no flat one).
+kinds_of joint
 set -- $kinds
-[ "$1" -eq $(($2 + $3 + $4 + $5 + $6)) ] || fail "joint: the kinds do not add up: $line"
 [ "$3" -le 4 ] || fail "joint: $3 given up elsewhere (44 before the leftover passes)"
 [ "$4" -eq 0 ] && [ "$5" -gt 0 ] || fail "joint: expected hidden ones and no degenerate: $line"
 echo "joint: $line"
@@ -93,11 +100,8 @@ echo "joint: $line"
 # rotor_small leaves tetrahedra flat on a facet once their facet's splits
 # are spent (refine_run.c, flat_spent): degenerate, not hidden (all 14
 # were counted hidden before; 11 degenerate and 3 hidden since).
-line=$(grep '^left above the bound:' "$tmp/rotor_small.out")
-kinds=$(printf '%s\n' "$line" | sed -n 's/^left above the bound: \([0-9]*\) tetrahedra with radius-edge >= 2 (\([0-9]*\) next to small input angles, \([0-9]*\) given up elsewhere (their splits refused), \([0-9]*\) degenerate (flat: no usable circumcentre), \([0-9]*\) hidden (circumcentre.s cavity not made), \([0-9]*\) other).*/\1 \2 \3 \4 \5 \6/p')
-[ -n "$kinds" ] || fail "rotor_small: no labelled kinds in '$line'"
+kinds_of rotor_small
 set -- $kinds
-[ "$1" -eq $(($2 + $3 + $4 + $5 + $6)) ] || fail "rotor_small: the kinds do not add up: $line"
 [ "$4" -gt 0 ] || fail "rotor_small: expected flat ones counted degenerate: $line"
 echo "rotor_small: $line"
 echo "ok"
