@@ -1721,7 +1721,14 @@ int main(int argc, char **argv)
                         "busy|flood|flood-pair|malformed|stranger|zap [ARGS]\n");
         rc = 2;
     }
+    double fin_start = now_s();
     int frc = am_finalize(&ctx);
+    if (!strcmp(mode, "idle")) {
+        /* How long am_finalize held this PE: what am-latency.sh bounds,
+         * apart from the time the job took to start. */
+        printf("PE %d finalize_s %.3f\n", g_rank, now_s() - fin_start);
+        fflush(stdout);
+    }
     if (frc) {
         fprintf(stderr, "am_mp: PE %d: am_finalize: %s\n", g_rank,
                 am_strerror(frc));
